@@ -1,0 +1,101 @@
+"""Command-line plumbing shared by ``turn-datasets`` and ``turn-eval``.
+
+stdout carries only the result; progress, warnings and "wrote ..." lines go to stderr.
+Exit codes: 0 ok, 2 bad input (a :class:`TurnbenchError` or a usage error), 3 failed gate.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Iterable, Iterator
+from pathlib import Path
+from typing import TypeVar
+
+import click
+
+from turn_datasets.errors import GateFailed, TurnbenchError
+
+__all__ = [
+    "EXIT_OK",
+    "EXIT_BAD_INPUT",
+    "EXIT_GATE",
+    "run_group",
+    "emit",
+    "info",
+    "warn",
+    "wrote",
+    "progress",
+    "format_option",
+]
+
+EXIT_OK = 0
+EXIT_BAD_INPUT = 2
+EXIT_GATE = 3
+
+T = TypeVar("T")
+
+
+def run_group(group: click.Group, prog_name: str, args: list[str] | None = None) -> int:
+    """Run a click group, mapping turnbench errors to one line on stderr and an exit code."""
+    try:
+        rv = group.main(args=args, prog_name=prog_name, standalone_mode=False)
+    except TurnbenchError as exc:
+        click.echo(f"{prog_name}: error: {exc}", err=True)
+        return EXIT_BAD_INPUT
+    except GateFailed as exc:
+        click.echo(f"{prog_name}: gate failed: {exc}", err=True)
+        return EXIT_GATE
+    except click.exceptions.Abort:
+        click.echo(f"{prog_name}: aborted", err=True)
+        return 130
+    except click.ClickException as exc:
+        exc.show()
+        return EXIT_BAD_INPUT if exc.exit_code not in (0, 1) else exc.exit_code
+    except click.exceptions.Exit as exc:
+        return exc.exit_code
+    except BrokenPipeError:
+        # `| head` closed stdout: not an error of ours
+        sys.stderr.close()
+        return EXIT_OK
+    return rv if isinstance(rv, int) else EXIT_OK
+
+
+def emit(text: str) -> None:
+    """Print the command's result on stdout (ends with exactly one newline)."""
+    click.echo(text.rstrip("\n"))
+
+
+def info(message: str) -> None:
+    """A line for the person at the terminal, on stderr."""
+    click.echo(message, err=True)
+
+
+def warn(message: str) -> None:
+    """A warning on stderr."""
+    click.echo(f"warning: {message}", err=True)
+
+
+def wrote(*paths: str | Path, what: str = "") -> None:
+    """The one-line summary of what a command wrote, on stderr."""
+    names = ", ".join(str(p) for p in paths)
+    info(f"wrote {what + ' ' if what else ''}{names}")
+
+
+def progress(items: Iterable[T], *, label: str, length: int | None = None) -> Iterator[T]:
+    """Iterate with a progress bar on stderr (only the label when stderr is not a terminal)."""
+    with click.progressbar(
+        items, label=label, length=length, file=sys.stderr, show_pos=True
+    ) as bar:
+        yield from bar
+
+
+def format_option(default: str = "md", choices: tuple[str, ...] = ("md", "json", "csv")):
+    """The ``--format`` option every result-printing command takes."""
+    return click.option(
+        "--format",
+        "fmt",
+        type=click.Choice(choices),
+        default=default,
+        show_default=True,
+        help="How to print the result on stdout.",
+    )

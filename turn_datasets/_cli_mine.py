@@ -1,0 +1,3 @@
+"""Commands of turn-datasets (registered on the groups in turn_datasets.cli)."""
+
+from __future__ import annotations

@@ -1,0 +1,63 @@
+"""``turn-datasets``: curate Turn-H3.6M (``h36m ...``) and Turn-REMAP (``remap ...``).
+
+This module only builds the command groups; each command lives in a ``_cli_*`` module that
+parses its options, calls the library and prints.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from turn_datasets import __version__
+from turn_datasets._cli import run_group
+
+CONTEXT_SETTINGS = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
+
+
+@click.group(context_settings=CONTEXT_SETTINGS)
+@click.version_option(__version__, prog_name="turn-datasets")
+def cli() -> None:
+    """Curate the Turn-H3.6M and Turn-REMAP turning benchmarks.
+
+    \b
+    Example:
+      turn-datasets h36m mine /data/human36m --out turn-h36m.csv
+      turn-datasets remap labels eaf/ --participants participants.csv --out labels.csv
+    """
+
+
+@cli.group(context_settings=CONTEXT_SETTINGS)
+def h36m() -> None:
+    """Turn-H3.6M: mine turning clips from motion capture, curate and summarise them.
+
+    \b
+    Example:
+      turn-datasets h36m mine /data/human36m --out turn-h36m.csv
+      turn-datasets h36m stats turn-h36m.csv
+    """
+
+
+@cli.group(context_settings=CONTEXT_SETTINGS)
+def remap() -> None:
+    """Turn-REMAP: labels from ELAN exports and the inter-rater agreement audit.
+
+    \b
+    Example:
+      turn-datasets remap inspect session01.eaf
+      turn-datasets remap agreement eaf/ --min-kappa 0.8
+    """
+
+
+# Commands register themselves on the groups above.
+from turn_datasets import _cli_agreement, _cli_export, _cli_labels, _cli_mine  # noqa: E402,F401
+
+
+def main(args: list[str] | None = None) -> None:
+    """Console-script entry point."""
+    sys.exit(run_group(cli, "turn-datasets", args))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,275 @@
+"""The turning-angle geometry of the paper, in one place.
+
+Cheng et al., "Your Turn: At Home Turning Angle Estimation for Parkinson's Disease Severity
+Assessment", Section 4:
+
+- Equations 1 and 2: the frontal vector of a joint pair, left minus right (hip, knee or
+  shoulder), projected on the ground plane.
+- Equation 3: the turning angle, the sum over consecutive frames of
+  ``arcsin(|a_t x a_{t+1}| / (|a_t| |a_{t+1}|))``, averaged over the chosen joint pairs.
+- Equation 4: the angular speed, the turning angle over the turn's duration.
+
+Two ways to add up a rotation are offered, because the paper's formula and the paper's
+claim about it differ:
+
+``method="paper"``
+    Equation 3 as printed. Every frame-to-frame rotation counts with its magnitude, so jitter
+    and a turn back add up instead of cancelling, and a rotation of more than 90° between two
+    frames is folded (arcsin cannot exceed 90°). On a noisy skeleton this grows with the
+    number of frames.
+``method="net"``
+    The signed net rotation: the unwrapped ``atan2`` yaw of the frontal vector at the last
+    frame minus the first. This is what the paper means when it says the frame-by-frame sum
+    equals using the first and last frames; jitter and a turn back cancel. It assumes less
+    than 180° between two usable frames (true of any real turn at 50 Hz).
+
+Positions are ``(n_frames, n_joints, 3)`` in the z-up frame of DESIGN.md (convert with
+:func:`turn_datasets.skeleton.to_z_up` first). Angles are in degrees, ``left`` is
+counter-clockwise seen from above (increasing yaw).
+
+Unusable frames
+    A frame whose needed joints are NaN, or whose left and right joints coincide on the
+    ground plane (frontal vector shorter than ``1e-3`` of the sequence's median, so its
+    direction means nothing), is skipped: the sums run over consecutive *usable* frames,
+    bridging the gap, and the number of skipped frames is reported in
+    :attr:`TurningAngle.n_skipped_frames`. With several joint pairs a frame is usable only if
+    all of them are. Fewer than two usable frames is an error, never a silent NaN.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from turn_datasets.errors import TurnbenchError
+from turn_datasets.skeleton import JOINT_PAIRS, Layout
+
+__all__ = [
+    "METHODS",
+    "TurningAngle",
+    "frontal_vectors",
+    "usable_frames",
+    "frame_yaw_deg",
+    "yaw_rate_deg_s",
+    "turning_angle",
+    "angular_speed_deg_s",
+    "direction_of",
+    "quantise_deg",
+    "parse_joints",
+]
+
+METHODS = ("paper", "net")
+#: A frontal vector shorter than this fraction of the sequence's median length is "coincident".
+COINCIDENT_FRACTION = 1e-3
+
+
+def parse_joints(joints: str | Sequence[str]) -> tuple[str, ...]:
+    """``"hip,knee"`` or ``["hip", "knee"]`` -> ``("hip", "knee")``, checked, duplicates dropped."""
+    items = joints.split(",") if isinstance(joints, str) else list(joints)
+    out: list[str] = []
+    for item in items:
+        name = item.strip().lower()
+        if name not in JOINT_PAIRS:
+            raise TurnbenchError(
+                f"unknown joint pair {item!r}; choose any of {', '.join(JOINT_PAIRS)}"
+            )
+        if name not in out:
+            out.append(name)
+    if not out:
+        raise TurnbenchError("no joint pair given; choose any of hip, knee, shoulder")
+    return tuple(out)
+
+
+def _check_positions(positions: np.ndarray, layout: Layout) -> np.ndarray:
+    p = np.asarray(positions, dtype=float)
+    if p.ndim != 3 or p.shape[2] != 3:
+        raise TurnbenchError(f"positions must have shape (frames, joints, 3), got {p.shape}")
+    if p.shape[1] != layout.n_joints:
+        raise TurnbenchError(
+            f"positions have {p.shape[1]} joints but layout {layout.name!r} has {layout.n_joints}"
+        )
+    return p
+
+
+def frontal_vectors(positions: np.ndarray, layout: Layout, joint: str = "hip") -> np.ndarray:
+    """Equations 1 and 2: left minus right joint, on the ground plane; shape ``(n_frames, 2)``."""
+    p = _check_positions(positions, layout)
+    left, right = JOINT_PAIRS[parse_joints(joint)[0]]
+    return p[:, layout.index(left), :2] - p[:, layout.index(right), :2]
+
+
+def _usable(vectors: np.ndarray) -> np.ndarray:
+    norms = np.hypot(vectors[:, 0], vectors[:, 1])
+    finite = np.isfinite(norms)
+    if not finite.any():
+        return finite
+    scale = np.median(norms[finite])
+    return finite & (norms > COINCIDENT_FRACTION * scale)
+
+
+def usable_frames(
+    positions: np.ndarray, layout: Layout, joints: str | Sequence[str] = ("hip",)
+) -> np.ndarray:
+    """Boolean mask of frames whose frontal vectors are usable for every chosen pair."""
+    mask = np.ones(np.asarray(positions).shape[0], dtype=bool)
+    for joint in parse_joints(joints):
+        mask &= _usable(frontal_vectors(positions, layout, joint))
+    return mask
+
+
+def _unwrapped_yaw_rad(vectors: np.ndarray) -> np.ndarray:
+    return np.unwrap(np.arctan2(vectors[:, 1], vectors[:, 0]))
+
+
+def frame_yaw_deg(
+    positions: np.ndarray, layout: Layout, joints: str | Sequence[str] = ("hip",)
+) -> np.ndarray:
+    """Yaw of the frontal vector per frame, unwrapped across usable frames, NaN elsewhere.
+
+    With several joint pairs, each pair's unwrapped yaw is put on the branch of the first
+    pair (a whole number of turns added) and the pairs are averaged, so the series turns as
+    the body does. Yaw is the direction of the left-minus-right vector: a person's heading is
+    this minus 90°; only differences of yaw matter here.
+    """
+    names = parse_joints(joints)
+    mask = usable_frames(positions, layout, names)
+    out = np.full(mask.shape[0], np.nan)
+    if not mask.any():
+        return out
+    series = []
+    for joint in names:
+        yaw = _unwrapped_yaw_rad(frontal_vectors(positions, layout, joint)[mask])
+        if series:
+            yaw = yaw - 2 * np.pi * np.round((yaw[0] - series[0][0]) / (2 * np.pi))
+        series.append(yaw)
+    out[mask] = np.degrees(np.mean(series, axis=0))
+    return out
+
+
+def yaw_rate_deg_s(yaw_deg: np.ndarray, fps: float) -> np.ndarray:
+    """Per-frame yaw rate (degrees per second) by central differences; NaN stays NaN."""
+    if fps <= 0:
+        raise TurnbenchError(f"fps must be positive, got {fps}")
+    yaw = np.asarray(yaw_deg, dtype=float)
+    if yaw.shape[0] < 2:
+        return np.full(yaw.shape, np.nan)
+    return np.gradient(yaw) * fps
+
+
+@dataclass(frozen=True)
+class TurningAngle:
+    """The result of :func:`turning_angle`.
+
+    ``angle_deg`` is the magnitude by the chosen method; ``net_deg`` the signed net rotation
+    (positive = left), which gives ``direction`` whatever the method.
+    """
+
+    angle_deg: float
+    net_deg: float
+    direction: str
+    method: str
+    joints: tuple[str, ...]
+    n_frames: int
+    n_skipped_frames: int
+
+
+def _paper_sum_deg(v: np.ndarray) -> float:
+    a, b = v[:-1], v[1:]
+    cross = np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
+    norms = np.hypot(a[:, 0], a[:, 1]) * np.hypot(b[:, 0], b[:, 1])
+    return float(np.degrees(np.arcsin(np.clip(cross / norms, 0.0, 1.0))).sum())
+
+
+def turning_angle(
+    positions: np.ndarray,
+    layout: Layout,
+    *,
+    joints: str | Sequence[str] = ("hip",),
+    method: str = "net",
+) -> TurningAngle:
+    """Turning angle of a sequence (equation 3), averaged over the chosen joint pairs.
+
+    Parameters
+    ----------
+    positions
+        ``(n_frames, n_joints, 3)``, z up.
+    layout
+        The joint layout of ``positions``.
+    joints
+        Any of ``hip``, ``knee``, ``shoulder`` (the paper's Table 7 ablation); the paper's
+        default is the hip.
+    method
+        ``paper`` (equation 3 as printed) or ``net`` (signed net rotation); see the module
+        docstring for where they differ.
+
+    Raises
+    ------
+    TurnbenchError
+        Fewer than two usable frames, an unknown method or joint, a wrong shape.
+    """
+    if method not in METHODS:
+        raise TurnbenchError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+    names = parse_joints(joints)
+    p = _check_positions(positions, layout)
+    mask = usable_frames(p, layout, names)
+    n_usable = int(mask.sum())
+    if n_usable < 2:
+        raise TurnbenchError(
+            f"fewer than two usable frames ({n_usable} of {p.shape[0]}): the "
+            f"{'/'.join(names)} joints are missing or coincide"
+        )
+    magnitudes, nets = [], []
+    for joint in names:
+        v = frontal_vectors(p, layout, joint)[mask]
+        yaw = _unwrapped_yaw_rad(v)
+        net = float(np.degrees(yaw[-1] - yaw[0]))
+        nets.append(net)
+        magnitudes.append(_paper_sum_deg(v) if method == "paper" else abs(net))
+    net_deg = float(np.mean(nets))
+    return TurningAngle(
+        angle_deg=float(np.mean(magnitudes)),
+        net_deg=net_deg,
+        direction=direction_of(net_deg),
+        method=method,
+        joints=names,
+        n_frames=int(p.shape[0]),
+        n_skipped_frames=int(p.shape[0] - n_usable),
+    )
+
+
+def angular_speed_deg_s(angle_deg: float | np.ndarray, duration_s: float | np.ndarray):
+    """Equation 4: mean angular speed, the turning angle over the turn's duration.
+
+    Where a duration is not positive the speed is NaN (a table may lack durations).
+    """
+    angle = np.asarray(angle_deg, dtype=float)
+    duration = np.asarray(duration_s, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        speed = np.where(duration > 0, angle / np.where(duration > 0, duration, 1.0), np.nan)
+    return float(speed) if speed.ndim == 0 else speed
+
+
+def direction_of(net_deg: float) -> str:
+    """``left`` for a counter-clockwise (positive) net rotation seen from above, else ``right``.
+
+    Exactly zero rotation is ``none``.
+    """
+    if net_deg > 0:
+        return "left"
+    if net_deg < 0:
+        return "right"
+    return "none"
+
+
+def quantise_deg(angle_deg, bin_width_deg: float = 45.0):
+    """Nearest multiple of the bin width: ``45 * floor(angle / 45 + 0.5)`` (DESIGN.md).
+
+    Halves round up (22.5 -> 45), as the floor formula does; works on scalars and arrays.
+    """
+    if bin_width_deg <= 0:
+        raise TurnbenchError(f"bin width must be positive, got {bin_width_deg}")
+    a = np.asarray(angle_deg, dtype=float)
+    out = bin_width_deg * np.floor(a / bin_width_deg + 0.5)
+    return float(out) if out.ndim == 0 else out

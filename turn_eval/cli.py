@@ -1,0 +1,41 @@
+"""``turn-eval``: score, compare and produce turning-angle predictions.
+
+This module only builds the command group; each command lives in a ``_cli_*`` module.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from turn_datasets import __version__
+from turn_datasets._cli import run_group
+
+CONTEXT_SETTINGS = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
+
+
+@click.group(context_settings=CONTEXT_SETTINGS)
+@click.version_option(__version__, prog_name="turn-eval")
+def cli() -> None:
+    """Score turning-angle predictions against Turn-H3.6M or Turn-REMAP.
+
+    \b
+    Example:
+      turn-eval score predictions.csv --reference turn-h36m.csv --format md
+      turn-eval compare a.csv b.csv --reference turn-h36m.csv
+      turn-eval predict skeletons.npz --layout h36m17 --out predictions.csv
+    """
+
+
+# Commands register themselves on the group above.
+from turn_eval import _cli_compare, _cli_predict, _cli_score  # noqa: E402,F401
+
+
+def main(args: list[str] | None = None) -> None:
+    """Console-script entry point."""
+    sys.exit(run_group(cli, "turn-eval", args))
+
+
+if __name__ == "__main__":
+    main()
