@@ -1,0 +1,180 @@
+"""Run every benchmark in ``benchmarks/`` and print one table (``make bench``).
+
+Each ``benchmarks/bench_*.py`` defines ``run() -> dict`` with
+
+``what``
+    What was timed, in a few words ("mine a synthetic H3.6M corpus").
+``size``
+    On how much ("210 sequences, 840,000 frames").
+``ratio``
+    The measured time divided by the time of the benchmark's own baseline (``np.load`` of
+    the same arrays, one pass of scikit-learn's ``precision_score``, ...): a ratio, not
+    seconds, so the figure means the same on a laptop and on a CI runner.
+``target``
+    The largest acceptable ratio, as a number (``1.5``) or as text with a comparison
+    (``"<= 1.5"``, ``"< 200"``, ``">= 2"``).
+
+Optional keys ``baseline`` (what the ratio divides by) and ``seconds`` (the measured time)
+are printed when given. The table goes to stdout as Markdown; a benchmark that raises is
+listed as ``error`` with its message and does not stop the others. The exit code is 0 once
+the table is printed (timings vary between machines; the table is the result), or 1 with
+``--strict`` when any benchmark failed its target or raised.
+
+Example::
+
+    python benchmarks/run.py
+    python benchmarks/run.py --only miner --strict
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import math
+import operator
+import re
+import sys
+import time
+import traceback
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from types import ModuleType
+
+BENCH_DIR = Path(__file__).resolve().parent
+COLUMNS = ("benchmark", "what", "size", "baseline", "ratio", "target", "result", "wall_s")
+
+_COMPARISONS: dict[str, Callable[[float, float], bool]] = {
+    "<=": operator.le,
+    "<": operator.lt,
+    ">=": operator.ge,
+    ">": operator.gt,
+}
+_TARGET_RE = re.compile(r"^\s*(<=|>=|<|>)?\s*([-+]?\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)\s*x?\s*$")
+
+
+@dataclass
+class Row:
+    """One line of the table."""
+
+    benchmark: str
+    what: str = ""
+    size: str = ""
+    baseline: str = ""
+    ratio: float = math.nan
+    target: str = ""
+    result: str = "error"
+    wall_s: float = math.nan
+
+
+def discover(bench_dir: Path = BENCH_DIR, only: Sequence[str] = ()) -> list[Path]:
+    """``bench_*.py`` files of ``bench_dir`` in name order, filtered by ``only`` substrings."""
+    paths = sorted(bench_dir.glob("bench_*.py"))
+    if only:
+        paths = [p for p in paths if any(o in p.stem for o in only)]
+    return paths
+
+
+def _load(path: Path) -> ModuleType:
+    # Loaded by path, not by import name: benchmarks/ is not a package and must not become one.
+    spec = importlib.util.spec_from_file_location(f"turnbench_bench_{path.stem}", path)
+    if spec is None or spec.loader is None:
+        raise ImportError(f"cannot load {path}")
+    module = importlib.util.module_from_spec(spec)
+    # Registered before running, as an import would be: dataclasses and pickling look it up.
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def parse_target(target: object) -> tuple[Callable[[float, float], bool], float, str]:
+    """``1.5`` or ``"<= 1.5"`` -> (comparison, bound, display text); a bare number means ``<=``."""
+    if isinstance(target, bool):
+        raise ValueError(f"target must be a number or a comparison, got {target!r}")
+    if isinstance(target, (int, float)):
+        return operator.le, float(target), f"<= {target:g}"
+    match = _TARGET_RE.match(str(target))
+    if match is None:
+        raise ValueError(f"target must be a number or a comparison like '<= 1.5', got {target!r}")
+    op = match.group(1) or "<="
+    bound = float(match.group(2))
+    return _COMPARISONS[op], bound, f"{op} {bound:g}"
+
+
+def run_one(path: Path) -> Row:
+    """Import one benchmark file, call its ``run()`` and judge the ratio against its target."""
+    name = path.stem.removeprefix("bench_")
+    row = Row(benchmark=name)
+    start = time.perf_counter()
+    try:
+        result = _load(path).run()
+        row.wall_s = time.perf_counter() - start
+        if not isinstance(result, dict):
+            raise TypeError(f"run() returned {type(result).__name__}, expected a dict")
+        missing = [k for k in ("what", "size", "ratio", "target") if k not in result]
+        if missing:
+            raise KeyError(f"run() result lacks {', '.join(missing)}")
+        row.what = str(result["what"])
+        row.size = str(result["size"])
+        row.baseline = str(result.get("baseline", ""))
+        row.ratio = float(result["ratio"])
+        compare, bound, row.target = parse_target(result["target"])
+        row.result = "pass" if math.isfinite(row.ratio) and compare(row.ratio, bound) else "FAIL"
+    except Exception as exc:  # noqa: BLE001 - one broken benchmark must not hide the others
+        row.wall_s = time.perf_counter() - start
+        row.what = row.what or f"{type(exc).__name__}: {exc}"
+        row.result = "error"
+        traceback.print_exc(file=sys.stderr)
+    return row
+
+
+def _cell(value: object) -> str:
+    if isinstance(value, float):
+        return "" if not math.isfinite(value) else f"{value:.2f}"
+    # A pipe inside a cell would break the Markdown table.
+    return str(value).replace("|", "\\|").replace("\n", " ")
+
+
+def format_table(rows: Sequence[Row]) -> str:
+    """The rows as one Markdown table, columns in :data:`COLUMNS` order."""
+    lines = [
+        "| " + " | ".join(COLUMNS) + " |",
+        "|" + "|".join(["---"] * 4 + ["---:", "---", "---", "---:"]) + "|",
+    ]
+    for row in rows:
+        lines.append("| " + " | ".join(_cell(getattr(row, c)) for c in COLUMNS) + " |")
+    return "\n".join(lines)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="benchmarks/run.py",
+        description="Run benchmarks/bench_*.py and print one table of ratios to their baselines.",
+        epilog="Example: python benchmarks/run.py --only score",
+    )
+    parser.add_argument(
+        "--only", action="append", default=[], help="Run only benchmarks whose name contains this."
+    )
+    parser.add_argument(
+        "--strict", action="store_true", help="Exit 1 if any benchmark fails its target or errors."
+    )
+    parser.add_argument(
+        "--dir", type=Path, default=BENCH_DIR, help="Folder holding the bench_*.py files."
+    )
+    args = parser.parse_args(argv)
+    paths = discover(args.dir, args.only)
+    if not paths:
+        print(f"no bench_*.py in {args.dir}", file=sys.stderr)
+        return 1 if args.strict else 0
+    rows = []
+    for path in paths:
+        print(f"running {path.name} ...", file=sys.stderr, flush=True)
+        rows.append(run_one(path))
+    print(format_table(rows))
+    if args.strict and any(r.result != "pass" for r in rows):
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

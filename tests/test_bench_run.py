@@ -1,0 +1,124 @@
+"""``benchmarks/run.py``: discovery, judging against targets, the one table, exit codes.
+
+The benchmarks here are fakes written into a temporary folder (nothing is timed).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _runner():
+    spec = importlib.util.spec_from_file_location("bench_runner", REPO / "benchmarks" / "run.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+run = _runner()
+
+
+def _bench(folder: Path, name: str, body: str) -> Path:
+    path = folder / f"bench_{name}.py"
+    path.write_text(body, encoding="utf-8")
+    return path
+
+
+@pytest.fixture()
+def bench_dir(tmp_path: Path) -> Path:
+    _bench(
+        tmp_path,
+        "fast",
+        "def run():\n"
+        "    return {'what': 'add numbers', 'size': '10 rows', 'ratio': 1.2, 'target': 1.5,\n"
+        "            'baseline': 'np.sum'}\n",
+    )
+    _bench(
+        tmp_path,
+        "slow",
+        "def run():\n"
+        "    return {'what': 'score | rows', 'size': '100,000 rows', 'ratio': 250.0,\n"
+        "            'target': '< 200'}\n",
+    )
+    _bench(tmp_path, "broken", "def run():\n    raise RuntimeError('no data')\n")
+    (tmp_path / "helper.py").write_text("raise SystemExit('must not be imported')\n")
+    return tmp_path
+
+
+def test_discover_finds_only_bench_files_in_name_order(bench_dir: Path) -> None:
+    assert [p.name for p in run.discover(bench_dir)] == [
+        "bench_broken.py",
+        "bench_fast.py",
+        "bench_slow.py",
+    ]
+    assert [p.name for p in run.discover(bench_dir, ["slo"])] == ["bench_slow.py"]
+
+
+@pytest.mark.parametrize(
+    ("target", "ratio", "ok", "text"),
+    [
+        (1.5, 1.5, True, "<= 1.5"),  # a bare number is an upper bound, inclusive
+        (1.5, 1.51, False, "<= 1.5"),
+        ("< 200", 199.9, True, "< 200"),
+        ("< 200", 200.0, False, "< 200"),
+        (">= 2", 2.0, True, ">= 2"),
+        ("1.5x", 1.0, True, "<= 1.5"),
+    ],
+)
+def test_parse_target(target, ratio, ok, text) -> None:
+    compare, bound, shown = run.parse_target(target)
+    assert compare(ratio, bound) is ok
+    assert shown == text
+
+
+@pytest.mark.parametrize("bad", ["fast", "", True, "<= x"])
+def test_parse_target_rejects_nonsense(bad) -> None:
+    with pytest.raises(ValueError):
+        run.parse_target(bad)
+
+
+def test_one_table_with_pass_fail_and_error(bench_dir: Path, capsys) -> None:
+    assert run.main(["--dir", str(bench_dir)]) == 0
+    out = capsys.readouterr().out.strip().splitlines()
+    assert out[0] == "| benchmark | what | size | baseline | ratio | target | result | wall_s |"
+    body = {line.split("|")[1].strip(): [c.strip() for c in line.split("|")[1:-1]] for line in out[2:]}
+    assert len(out) == 2 + 3
+    assert body["fast"][1:7] == ["add numbers", "10 rows", "np.sum", "1.20", "<= 1.5", "pass"]
+    # the pipe inside "what" is escaped, so the row still has its eight cells
+    slow_line = next(line for line in out if line.startswith("| slow "))
+    assert "score \\| rows" in slow_line
+    assert slow_line.split(" | ")[-2] == "FAIL"
+    assert body["broken"][6] == "error"
+    assert "RuntimeError: no data" in body["broken"][1]
+
+
+def test_strict_exit_code(bench_dir: Path, tmp_path: Path) -> None:
+    assert run.main(["--dir", str(bench_dir), "--strict"]) == 1
+    assert run.main(["--dir", str(bench_dir), "--only", "fast", "--strict"]) == 0
+
+
+def test_missing_keys_is_an_error_row(tmp_path: Path) -> None:
+    path = _bench(tmp_path, "partial", "def run():\n    return {'what': 'x', 'ratio': 1}\n")
+    row = run.run_one(path)
+    assert row.result == "error"
+    assert "size, target" in row.what
+
+
+def test_command_line_prints_only_the_table_on_stdout(bench_dir: Path) -> None:
+    proc = subprocess.run(
+        [sys.executable, str(REPO / "benchmarks" / "run.py"), "--dir", str(bench_dir)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert proc.returncode == 0
+    assert all(line.startswith("|") for line in proc.stdout.strip().splitlines())
+    assert "running bench_fast.py" in proc.stderr
