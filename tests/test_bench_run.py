@@ -89,7 +89,9 @@ def test_one_table_with_pass_fail_and_error(bench_dir: Path, capsys) -> None:
     assert run.main(["--dir", str(bench_dir)]) == 0
     out = capsys.readouterr().out.strip().splitlines()
     assert out[0] == "| benchmark | what | size | baseline | ratio | target | result | wall_s |"
-    body = {line.split("|")[1].strip(): [c.strip() for c in line.split("|")[1:-1]] for line in out[2:]}
+    body = {
+        line.split("|")[1].strip(): [c.strip() for c in line.split("|")[1:-1]] for line in out[2:]
+    }
     assert len(out) == 2 + 3
     assert body["fast"][1:7] == ["add numbers", "10 rows", "np.sum", "1.20", "<= 1.5", "pass"]
     # the pipe inside "what" is escaped, so the row still has its eight cells
