@@ -1,0 +1,147 @@
+"""The paper's turning-angle estimator as a plug-in for any 3D pose estimator's output.
+
+Cheng et al. estimate a turn's angle from 3D skeletons: the frontal vector of a left/right
+joint pair (equations 1 and 2), its rotation about the vertical axis summed over the clip
+(equation 3), and the angular speed as that angle over the clip's duration (equation 4).
+This module applies that estimator, clip by clip, to whatever skeletons a submitter's pose
+estimator produced, and returns a predictions table that ``turn-eval score`` reads.
+
+All of the geometry is :mod:`turn_datasets.geometry` (``turning_angle``,
+``angular_speed_deg_s``) and :func:`turn_datasets.skeleton.to_z_up`; nothing here re-derives
+an angle, so the miner that built Turn-H3.6M and this estimator cannot drift apart.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+
+import numpy as np
+import pandas as pd
+
+from turn_datasets._io import typed_frame
+from turn_datasets.errors import TurnbenchError
+from turn_datasets.geometry import METHODS, angular_speed_deg_s, parse_joints, turning_angle
+from turn_datasets.skeleton import UP_AXES, Layout, get_layout, to_z_up
+
+__all__ = ["PREDICTION_DTYPES", "SPEED_DTYPES", "predict_angle", "predict_angles"]
+
+#: Columns and dtypes of :func:`predict_angles` without ``fps_hz``.
+PREDICTION_DTYPES: dict[str, str] = {
+    "clip_id": "str",
+    "angle_deg": "float64",
+    "direction": "str",
+}
+#: Columns and dtypes of :func:`predict_angles` with ``fps_hz``.
+SPEED_DTYPES: dict[str, str] = {**PREDICTION_DTYPES, "speed_deg_s": "float64"}
+
+
+def _resolve_layout(layout: str | Layout) -> Layout:
+    return layout if isinstance(layout, Layout) else get_layout(layout)
+
+
+def predict_angle(
+    positions: np.ndarray,
+    *,
+    layout: str | Layout,
+    up_axis: str = "z",
+    joints: str | Sequence[str] = ("hip",),
+    method: str = "net",
+    fps_hz: float | None = None,
+) -> dict[str, float | str]:
+    """Turning angle (equation 3), direction and, given a frame rate, speed (equation 4) of one clip.
+
+    Parameters
+    ----------
+    positions
+        ``(n_frames, n_joints, 3)`` joint positions of one clip, in any unit (angles do not
+        depend on it), with ``up_axis`` vertical.
+    layout
+        ``"h36m17"``, ``"h36m32"`` or a :class:`~turn_datasets.skeleton.Layout`.
+    up_axis
+        ``z``, ``y`` or ``-y`` (see :func:`turn_datasets.skeleton.to_z_up`).
+    joints
+        Any of ``hip``, ``knee``, ``shoulder`` (Table 7's ablation); the paper uses the hip.
+    method
+        ``net`` (signed net rotation, the paper's stated intent) or ``paper`` (equation 3 as
+        printed); see :mod:`turn_datasets.geometry`.
+    fps_hz
+        Frame rate of the skeletons. When given, ``speed_deg_s`` is the angle over the
+        clip's duration ``n_frames / fps_hz``: the same duration the clip index records
+        (``(end_frame - start_frame) / fps``), so a predicted speed compares like with like.
+
+    Returns
+    -------
+    dict
+        ``angle_deg``, ``direction`` (``left``, ``right`` or ``none``) and, with ``fps_hz``,
+        ``speed_deg_s``.
+    """
+    lay = _resolve_layout(layout)
+    result = turning_angle(
+        to_z_up(np.asarray(positions, dtype=float), up_axis), lay, joints=joints, method=method
+    )
+    out: dict[str, float | str] = {"angle_deg": result.angle_deg, "direction": result.direction}
+    if fps_hz is not None:
+        duration_s = result.n_frames / fps_hz
+        out["speed_deg_s"] = float(angular_speed_deg_s(result.angle_deg, duration_s))
+    return out
+
+
+def predict_angles(
+    arrays: Iterable[tuple[str, np.ndarray]],
+    *,
+    layout: str | Layout,
+    up_axis: str = "z",
+    joints: str | Sequence[str] = ("hip",),
+    method: str = "net",
+    fps_hz: float | None = None,
+) -> pd.DataFrame:
+    """A predictions table from skeletons, one row per clip, in the order given.
+
+    Parameters
+    ----------
+    arrays
+        ``(clip_id, positions)`` pairs, positions ``(n_frames, n_joints, 3)``; for example
+        :func:`turn_datasets.readers.iter_arrays` of a file.
+    layout, up_axis, joints, method, fps_hz
+        As in :func:`predict_angle`; checked once, before any clip is read.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``clip_id, angle_deg, direction`` and, with ``fps_hz``, ``speed_deg_s``
+        (:data:`PREDICTION_DTYPES`, :data:`SPEED_DTYPES`): a valid predictions file once
+        written as CSV.
+
+    Raises
+    ------
+    TurnbenchError
+        A bad option, a duplicate clip id, or a clip the estimator cannot handle (wrong joint
+        count for the layout, fewer than two usable frames); the error's ``item`` names the
+        clip.
+    """
+    lay = _resolve_layout(layout)
+    if up_axis not in UP_AXES:
+        raise TurnbenchError(f"unknown up axis {up_axis!r}; choose one of {', '.join(UP_AXES)}")
+    if method not in METHODS:
+        raise TurnbenchError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+    names = parse_joints(joints)
+    if fps_hz is not None and not (np.isfinite(fps_hz) and fps_hz > 0):
+        raise TurnbenchError(f"the frame rate must be a positive number of Hz, got {fps_hz}")
+
+    rows: list[dict[str, float | str]] = []
+    seen: set[str] = set()
+    for clip_id, positions in arrays:
+        clip_id = str(clip_id)
+        if clip_id in seen:
+            raise TurnbenchError("duplicate clip id", item=clip_id)
+        seen.add(clip_id)
+        try:
+            row = predict_angle(
+                positions, layout=lay, up_axis=up_axis, joints=names, method=method, fps_hz=fps_hz
+            )
+        except TurnbenchError as exc:
+            # The geometry does not know which clip it is looking at; say it here.
+            raise TurnbenchError(exc.message, item=clip_id, hint=exc.hint) from None
+        rows.append({"clip_id": clip_id, **row})
+    dtypes = SPEED_DTYPES if fps_hz is not None else PREDICTION_DTYPES
+    return typed_frame(pd.DataFrame(rows, columns=list(dtypes)), dtypes)
