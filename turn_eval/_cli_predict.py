@@ -1,3 +1,136 @@
-"""Commands of turn-eval (registered on the group in turn_eval.cli)."""
+"""``turn-eval predict``: the paper's angle estimator on any 3D pose estimator's skeletons."""
 
 from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import click
+import numpy as np
+import pandas as pd
+
+from turn_datasets._cli import progress, wrote
+from turn_datasets._io import check_not_input, write_csv
+from turn_datasets.errors import TurnbenchError
+from turn_datasets.geometry import METHODS, parse_joints
+from turn_datasets.readers import iter_arrays
+from turn_datasets.skeleton import LAYOUTS, UP_AXES, get_layout
+from turn_eval.cli import CONTEXT_SETTINGS, cli
+from turn_eval.predict import predict_angles
+
+
+def _arrays_of(path: Path, n_joints: int, layout_name: str) -> Iterator[tuple[str, np.ndarray]]:
+    """The file's arrays, refusing one whose joint count does not fit the layout."""
+    for key, array in iter_arrays(path):
+        if array.shape[1] != n_joints:
+            raise TurnbenchError(
+                f"array has {array.shape[1]} joints but layout {layout_name!r} has {n_joints}",
+                file=path,
+                item=key,
+                hint="choose the layout with --layout",
+            )
+        yield key, array
+
+
+@cli.command("predict", context_settings=CONTEXT_SETTINGS)
+@click.argument(
+    "skeletons", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path)
+)
+@click.option(
+    "--out",
+    required=True,
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="Predictions CSV to write: clip_id, angle_deg, direction[, speed_deg_s].",
+)
+@click.option(
+    "--layout",
+    "layout_name",
+    type=click.Choice(sorted(LAYOUTS)),
+    required=True,
+    help="Joint layout of the skeletons (Human3.6M's 17- or 32-joint order).",
+)
+@click.option(
+    "--up-axis",
+    type=click.Choice(UP_AXES),
+    default="z",
+    show_default=True,
+    help="The vertical axis: z (Human3.6M world), y (y up), -y (camera: y down).",
+)
+@click.option(
+    "--joints",
+    default="hip",
+    show_default=True,
+    help="Joint pairs whose frontal vectors are averaged: any of hip, knee, shoulder.",
+)
+@click.option(
+    "--method",
+    type=click.Choice(METHODS),
+    default="net",
+    show_default=True,
+    help="net: signed net rotation; paper: equation 3 as printed (sums every wiggle).",
+)
+@click.option(
+    "--fps",
+    "fps_hz",
+    type=click.FloatRange(min=0, min_open=True),
+    default=None,
+    help="Frame rate in Hz; adds speed_deg_s = angle / (frames / fps) (equation 4).",
+)
+def predict_command(
+    skeletons: tuple[Path, ...],
+    out: Path,
+    layout_name: str,
+    up_axis: str,
+    joints: str,
+    method: str,
+    fps_hz: float | None,
+) -> None:
+    """Predict turning angles from 3D skeletons with the paper's estimator (equations 1-4).
+
+    SKELETONS are .npy (one (frames, joints, 3) array, clip id = file stem), .npz (one array
+    per clip id) or .h5 (one dataset per clip id). Clip ids must be unique across all
+    inputs. The output is a predictions file that `turn-eval score` reads, with the
+    direction of each turn (left = counter-clockwise seen from above).
+
+    \b
+    Example:
+      turn-eval predict poses.npz --layout h36m17 --up-axis y --out predictions.csv
+      turn-eval predict S9_*.npy --layout h36m32 --joints hip,knee --fps 50 --out pred.csv
+      turn-eval score pred.csv --reference turn-h36m.csv
+    """
+    layout = get_layout(layout_name)
+    names = parse_joints(joints)
+    check_not_input(out, skeletons)
+    frames: list[pd.DataFrame] = []
+    first_file: dict[str, Path] = {}
+    for path in progress(skeletons, label="predicting", length=len(skeletons)):
+        try:
+            table = predict_angles(
+                _arrays_of(path, layout.n_joints, layout.name),
+                layout=layout,
+                up_axis=up_axis,
+                joints=names,
+                method=method,
+                fps_hz=fps_hz,
+            )
+        except TurnbenchError as exc:
+            if exc.where.file is not None:
+                raise
+            # predict_angles names the clip; the file is known only here.
+            raise TurnbenchError(
+                exc.message, file=path, item=exc.where.item, hint=exc.hint
+            ) from None
+        for clip_id in table["clip_id"]:
+            if clip_id in first_file:
+                raise TurnbenchError(
+                    f"duplicate clip id: also in {first_file[clip_id]}",
+                    file=path,
+                    item=clip_id,
+                    hint="clip ids (file stems, .npz keys, .h5 dataset paths) must be unique",
+                )
+            first_file[clip_id] = path
+        frames.append(table)
+    result = pd.concat(frames, ignore_index=True)
+    write_csv(result, out)
+    n = len(result)
+    wrote(out, what=f"predictions for {n} clip{'' if n == 1 else 's'} to")
