@@ -1,0 +1,714 @@
+"""Reading ELAN (``.eaf``) files safely: turn annotations of every rater, and what a file holds.
+
+In the paper (Cheng et al., Section 3.2) clinicians labelled each turn of the Turn-REMAP
+videos in ELAN with its start, end and angle. :func:`read_annotations` turns such files into
+one table with a row per annotation of every rater; :func:`inspect_eaf` lists what any ELAN
+file holds, so a clinician can see why a file yields no turns.
+
+EAF files are XML written by other people's tools. Before pympi-ling sees a file, it is
+parsed with ``defusedxml`` and refused if it declares a DOCTYPE or an entity (billion laughs,
+external entities); ELAN never writes either. pympi-ling is then used only through what it
+stores (tiers, time slots, vocabularies), never through the accessors that fail on real
+exports: ``get_annotation_data_for_tier`` raises ``KeyError`` on a symbolic child of a
+time-aligned child tier, and time slots without a value come back as ``None``. Times of
+reference annotations are resolved here through their parents, and a tier that is not
+needed can never stop the parse.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+from os import PathLike
+from pathlib import Path
+from typing import Any
+from xml.etree.ElementTree import Element, ParseError
+
+import defusedxml.ElementTree as safe_et
+import pandas as pd
+import pympi.Elan
+from defusedxml.common import DTDForbidden, EntitiesForbidden, ExternalReferenceForbidden
+
+from turn_datasets._io import typed_frame
+from turn_datasets.errors import TurnbenchError
+from turn_datasets.schema import Schema, Vocabulary, load_schema
+
+__all__ = [
+    "ANNOTATION_COLUMNS",
+    "KNOWN_VERSIONS",
+    "expand_eaf_paths",
+    "inspect_eaf",
+    "load_eaf",
+    "read_annotations",
+]
+
+#: Column contract of :func:`read_annotations` (``annotations.csv``).
+ANNOTATION_COLUMNS = {
+    "session": "object",
+    "file": "object",
+    "tier": "object",
+    "annotator": "object",
+    "participant": "object",
+    "start_s": "float64",
+    "end_s": "float64",
+    "angle_deg": "float64",
+    "scenario": "object",
+    "location": "object",
+    "value": "object",
+}
+
+#: EAF format versions pympi-ling 1.71 knows; others are read, with a note in ``inspect``.
+KNOWN_VERSIONS = ("2.7", "2.8", "3.0")
+
+
+
+# ---------------------------------------------------------------------------------------
+# Loading
+
+
+@dataclass
+class _Document:
+    """A loaded file: pympi's object plus what pympi drops (CVE_REF links, the version)."""
+
+    path: Path
+    eaf: pympi.Elan.Eaf
+    cve_refs: dict[str, str]
+    version: str
+
+
+def _safe_root(path: Path) -> Element:
+    """Parse ``path`` with defusedxml, refusing DOCTYPE and entity declarations."""
+    name = str(path)
+    try:
+        tree = safe_et.parse(name, forbid_dtd=True, forbid_entities=True, forbid_external=True)
+    except DTDForbidden:
+        raise TurnbenchError(
+            "refused: the file declares a DOCTYPE (its entities could expand without bound "
+            "or read other files); ELAN never writes one",
+            file=name,
+        ) from None
+    except EntitiesForbidden:
+        raise TurnbenchError(
+            "refused: the file declares XML entities (billion laughs); ELAN never writes them",
+            file=name,
+        ) from None
+    except ExternalReferenceForbidden:
+        raise TurnbenchError(
+            "refused: the file refers to an external XML entity or DTD", file=name
+        ) from None
+    except ParseError as exc:
+        raise TurnbenchError(f"not well-formed XML ({exc})", file=name) from None
+    except FileNotFoundError:
+        raise TurnbenchError("file not found", file=name) from None
+    except IsADirectoryError:
+        raise TurnbenchError("is a folder, not an .eaf file", file=name) from None
+    except OSError as exc:
+        raise TurnbenchError(f"cannot read the file: {exc.strerror or exc}", file=name) from None
+    root = tree.getroot()
+    if root.tag != "ANNOTATION_DOCUMENT":
+        raise TurnbenchError(
+            f"not an ELAN annotation document (root element <{root.tag}>)", file=name
+        )
+    return root
+
+
+def _load(path: str | PathLike[str]) -> _Document:
+    p = Path(path)
+    root = _safe_root(p)
+    cve_refs: dict[str, str] = {}
+    for tag in ("ALIGNABLE_ANNOTATION", "REF_ANNOTATION"):
+        for el in root.iter(tag):
+            ref = el.get("CVE_REF")
+            if ref and el.get("ANNOTATION_ID"):
+                cve_refs[el.get("ANNOTATION_ID")] = ref
+    try:
+        with warnings.catch_warnings():
+            # The version is reported by `inspect`; pympi's generic warning adds nothing.
+            warnings.simplefilter("ignore")
+            eaf = pympi.Elan.Eaf(str(p), suppress_version_warning=True)
+    except Exception as exc:  # pympi raises bare Exception/KeyError/IndexError on odd files
+        raise TurnbenchError(
+            f"pympi-ling could not read this ELAN file ({type(exc).__name__}: {exc})",
+            file=str(p),
+        ) from None
+    return _Document(path=p, eaf=eaf, cve_refs=cve_refs, version=str(root.get("VERSION", "")))
+
+
+def load_eaf(path: str | PathLike[str]) -> pympi.Elan.Eaf:
+    """Read an ELAN file with pympi-ling after checking that its XML is safe.
+
+    Parameters
+    ----------
+    path
+        The ``.eaf`` (or ``.etf`` template) file.
+
+    Returns
+    -------
+    pympi.Elan.Eaf
+        The parsed file. Use it through its stored attributes (``tiers``, ``timeslots``,
+        ``controlled_vocabularies``); see :func:`read_annotations` for turn rows.
+
+    Raises
+    ------
+    TurnbenchError
+        Naming the file: it declares a DOCTYPE or entities (refused before pympi sees it),
+        is not well-formed XML, is not an ELAN document, or pympi-ling cannot read it.
+    """
+    return _load(path).eaf
+
+
+def expand_eaf_paths(paths_or_dirs: str | PathLike[str] | Iterable[str | PathLike[str]]) -> list[Path]:
+    """Files given, and the ``.eaf`` files directly inside folders given (sorted by name).
+
+    Raises
+    ------
+    TurnbenchError
+        A path does not exist, a folder holds no ``.eaf`` file, or nothing was given.
+    """
+    if isinstance(paths_or_dirs, (str, os.PathLike)):
+        items: list[str | PathLike[str]] = [paths_or_dirs]
+    else:
+        items = list(paths_or_dirs)
+    if not items:
+        raise TurnbenchError("no .eaf file or folder given")
+    out: list[Path] = []
+    for item in items:
+        p = Path(item)
+        if p.is_dir():
+            found = sorted(
+                (c for c in p.iterdir() if c.is_file() and c.suffix.lower() == ".eaf"),
+                key=lambda c: c.name,
+            )
+            if not found:
+                raise TurnbenchError("folder holds no .eaf file", file=str(p))
+            out.extend(found)
+        elif p.exists():
+            out.append(p)
+        else:
+            raise TurnbenchError("file not found", file=str(p))
+    return out
+
+
+# ---------------------------------------------------------------------------------------
+# Tiers, times and vocabularies as stored by pympi
+
+
+def _tier_attrs(eaf: pympi.Elan.Eaf, tier_id: str) -> dict[str, Any]:
+    return eaf.tiers[tier_id][2]
+
+
+def _tiers_in_order(eaf: pympi.Elan.Eaf) -> list[str]:
+    return [t for t, _ in sorted(eaf.tiers.items(), key=lambda kv: kv[1][3])]
+
+
+def _attr(attrs: dict[str, Any], key: str) -> str:
+    value = attrs.get(key)
+    return "" if value is None else str(value).strip()
+
+
+def _annotation_times_ms(eaf: pympi.Elan.Eaf) -> dict[str, tuple[int | None, int | None]]:
+    """Start and end (ms, ``None`` when unaligned) of every annotation, symbolic ones included.
+
+    A reference annotation takes the times of the aligned annotation it hangs from, followed
+    up the chain of ``ANNOTATION_REF`` (pympi's own accessor fails on such chains).
+    """
+    times: dict[str, tuple[int | None, int | None]] = {}
+    parent: dict[str, str] = {}
+    for aligned, refs, _attrs, _ord in eaf.tiers.values():
+        for aid, (ts1, ts2, _value, _svg) in aligned.items():
+            times[aid] = (eaf.timeslots.get(ts1), eaf.timeslots.get(ts2))
+        for aid, (ref, _value, _prev, _svg) in refs.items():
+            parent[aid] = ref
+    for aid in parent:
+        chain = [aid]
+        cur = aid
+        # Follow the chain to an aligned annotation; a broken or cyclic chain has no time.
+        while cur in parent and cur not in times and len(chain) <= len(parent) + 1:
+            cur = parent[cur]
+            chain.append(cur)
+        found = times.get(cur, (None, None))
+        for c in chain:
+            times.setdefault(c, found)
+    return times
+
+
+@dataclass(frozen=True)
+class _Ann:
+    aid: str
+    start_ms: int | None
+    end_ms: int | None
+    value: str
+
+
+def _tier_annotations(
+    eaf: pympi.Elan.Eaf, tier_id: str, times: dict[str, tuple[int | None, int | None]]
+) -> list[_Ann]:
+    aligned, refs, _attrs, _ord = eaf.tiers[tier_id]
+    anns = [
+        _Ann(aid, *times.get(aid, (None, None)), value="" if v[2] is None else str(v[2]))
+        for aid, v in aligned.items()
+    ]
+    anns += [
+        _Ann(aid, *times.get(aid, (None, None)), value="" if v[1] is None else str(v[1]))
+        for aid, v in refs.items()
+    ]
+
+    def key(a: _Ann) -> tuple[int, int, str]:
+        big = 1 << 62
+        return (
+            big if a.start_ms is None else a.start_ms,
+            big if a.end_ms is None else a.end_ms,
+            a.aid,
+        )
+
+    return sorted(anns, key=key)
+
+
+def _linguistic_type(eaf: pympi.Elan.Eaf, tier_id: str) -> dict[str, Any]:
+    lt = _attr(_tier_attrs(eaf, tier_id), "LINGUISTIC_TYPE_REF")
+    return eaf.linguistic_types.get(lt, {}) or {}
+
+
+def _tier_cv(eaf: pympi.Elan.Eaf, tier_id: str) -> str:
+    return _attr(_linguistic_type(eaf, tier_id), "CONTROLLED_VOCABULARY_REF")
+
+
+def _cve_texts(eaf: pympi.Elan.Eaf, cv_id: str, cve_id: str) -> list[str]:
+    """The texts (every language) of vocabulary entry ``cve_id`` of ``cv_id``; [] if unknown."""
+    cv = eaf.controlled_vocabularies.get(cv_id)
+    if not cv:
+        return []
+    entry = cv[1].get(cve_id)
+    if not entry:
+        return []
+    return [str(text) for text, _lang, _desc in entry[0] if text is not None and str(text).strip()]
+
+
+# ---------------------------------------------------------------------------------------
+# Which tiers the schema takes
+
+
+@dataclass(frozen=True)
+class _TierRole:
+    tier: str
+    role: str  # "turn", "location", "scenario"
+    annotator: str
+    participant: str
+
+
+def _classify(eaf: pympi.Elan.Eaf, schema: Schema) -> list[_TierRole]:
+    roles: list[_TierRole] = []
+    for tier_id in _tiers_in_order(eaf):
+        attrs = _tier_attrs(eaf, tier_id)
+        m = schema.turn_tier_regex.search(tier_id)
+        if m:
+            groups = m.groupdict()
+            annotator = (groups.get("annotator") or "").strip() or _attr(
+                attrs, schema.annotator_attribute
+            )
+            participant = (
+                (groups.get("participant") or "").strip()
+                or _attr(attrs, schema.participant_attribute)
+                or schema.default_participant
+            )
+            if schema.is_consensus(annotator):
+                annotator = schema.consensus_annotator
+            roles.append(_TierRole(tier_id, "turn", annotator, participant))
+            continue
+        for role, regex in (
+            ("location", schema.location_tier_regex),
+            ("scenario", schema.scenario_tier_regex),
+        ):
+            m = regex.search(tier_id)
+            if m:
+                participant = (m.groupdict().get("participant") or "").strip() or _attr(
+                    attrs, schema.participant_attribute
+                )
+                roles.append(_TierRole(tier_id, role, "", participant))
+                break
+    return roles
+
+
+# ---------------------------------------------------------------------------------------
+# Turn annotations
+
+
+def _fmt_s(ms: int | None) -> str:
+    return "?" if ms is None else f"{ms / 1000:.3f} s"
+
+
+def _checked_intervals(
+    doc: _Document,
+    tier: str,
+    anns: list[_Ann],
+    *,
+    allow_overlap: bool,
+) -> list[_Ann]:
+    """Aligned, positive-length annotations of one tier, in time order (errors otherwise)."""
+    file = str(doc.path)
+    prev: _Ann | None = None
+    for a in anns:
+        if a.start_ms is None or a.end_ms is None:
+            known = a.start_ms if a.start_ms is not None else a.end_ms
+            raise TurnbenchError(
+                f"annotation {a.value.strip()!r} has an unaligned time slot "
+                f"(start {_fmt_s(a.start_ms)}, end {_fmt_s(a.end_ms)}); align it in ELAN",
+                file=file,
+                tier=tier,
+                time_s=None if known is None else known / 1000,
+            )
+        if a.end_ms <= a.start_ms:
+            raise TurnbenchError(
+                f"annotation {a.value.strip()!r} ends ({a.end_ms / 1000:.3f} s) "
+                "not after it starts",
+                file=file,
+                tier=tier,
+                time_s=a.start_ms / 1000,
+            )
+        if not allow_overlap and prev is not None and a.start_ms < prev.end_ms:  # type: ignore[operator]
+            raise TurnbenchError(
+                f"turn {a.value.strip()!r} overlaps the previous turn on this tier "
+                f"({prev.start_ms / 1000:.3f} to {prev.end_ms / 1000:.3f} s)",  # type: ignore[operator]
+                file=file,
+                tier=tier,
+                time_s=a.start_ms / 1000,
+            )
+        prev = a
+    return anns
+
+
+def _parse_value(doc: _Document, tier: str, a: _Ann, vocab: Vocabulary) -> str | float:
+    """The canonical value of annotation ``a`` (CVE_REF first, then its text), or an error."""
+    candidates: list[str] = []
+    ref = doc.cve_refs.get(a.aid)
+    if ref:
+        # ELAN 3.0 links a value to its vocabulary entry; the entry is the truth (the text
+        # may be another language's, or stale after the vocabulary was edited).
+        candidates += _cve_texts(doc.eaf, _tier_cv(doc.eaf, tier), ref)
+    candidates.append(a.value)
+    for text in candidates:
+        parsed = vocab.parse(text)
+        if parsed is not None:
+            return parsed
+    raise TurnbenchError(
+        f"value {a.value!r} is not in the {vocab.name} vocabulary ({vocab.describe()})",
+        file=str(doc.path),
+        tier=tier,
+        time_s=None if a.start_ms is None else a.start_ms / 1000,
+        hint="fix it in ELAN, or add an alias to the schema (--schema)",
+    )
+
+
+@dataclass(frozen=True)
+class _Context:
+    participant: str
+    start_ms: int
+    end_ms: int
+    value: str
+
+
+def _context_value(contexts: list[_Context], participant: str, start_ms: int, end_ms: int) -> str:
+    """The context value overlapping the turn most; a subject's own tiers before shared ones."""
+    for pool in (
+        [c for c in contexts if c.participant and c.participant == participant],
+        [c for c in contexts if not c.participant],
+    ):
+        best, best_overlap = "", 0
+        for c in pool:  # in time order, so a tie goes to the earlier annotation
+            overlap = min(end_ms, c.end_ms) - max(start_ms, c.start_ms)
+            if overlap > best_overlap:
+                best, best_overlap = c.value, overlap
+        if best_overlap > 0:
+            return best
+    return ""
+
+
+def _file_rows(doc: _Document, schema: Schema) -> list[dict[str, Any]]:
+    eaf = doc.eaf
+    file = str(doc.path)
+    roles = _classify(eaf, schema)
+    times = _annotation_times_ms(eaf)
+
+    contexts: dict[str, list[_Context]] = {"location": [], "scenario": []}
+    for r in roles:
+        if r.role == "turn":
+            continue
+        vocab = schema.vocabulary(r.role)
+        anns = _checked_intervals(
+            doc, r.tier, _tier_annotations(eaf, r.tier, times), allow_overlap=True
+        )
+        for a in anns:
+            if not a.value.strip() and a.aid not in doc.cve_refs:
+                continue  # an empty context annotation says nothing
+            contexts[r.role].append(
+                _Context(r.participant, a.start_ms, a.end_ms, str(_parse_value(doc, r.tier, a, vocab)))  # type: ignore[arg-type]
+            )
+    for pool in contexts.values():
+        pool.sort(key=lambda c: (c.start_ms, c.end_ms))
+
+    rows: list[dict[str, Any]] = []
+    seen: dict[tuple[str, str], str] = {}
+    for r in roles:
+        if r.role != "turn":
+            continue
+        if not r.annotator:
+            raise TurnbenchError(
+                "turn tier names no rater",
+                file=file,
+                tier=r.tier,
+                hint=f"set the tier's {schema.annotator_attribute} attribute in ELAN "
+                "(Tier > Change Tier Attributes)",
+            )
+        if not r.participant:
+            raise TurnbenchError(
+                "turn tier names no participant",
+                file=file,
+                tier=r.tier,
+                hint=f"set the tier's {schema.participant_attribute} attribute in ELAN, or "
+                "turn.default_participant in the schema",
+            )
+        key = (r.annotator.casefold(), r.participant)
+        if key in seen:
+            raise TurnbenchError(
+                f"a second turn tier for rater {r.annotator!r} and participant "
+                f"{r.participant!r} (the first is {seen[key]!r})",
+                file=file,
+                tier=r.tier,
+            )
+        seen[key] = r.tier
+        anns = _checked_intervals(
+            doc, r.tier, _tier_annotations(eaf, r.tier, times), allow_overlap=False
+        )
+        for a in anns:
+            angle = _parse_value(doc, r.tier, a, schema.turn_angle)
+            rows.append(
+                {
+                    "session": doc.path.stem,
+                    "file": file,
+                    "tier": r.tier,
+                    "annotator": r.annotator,
+                    "participant": r.participant,
+                    "start_s": a.start_ms / 1000,  # type: ignore[operator]
+                    "end_s": a.end_ms / 1000,  # type: ignore[operator]
+                    "angle_deg": float(angle),
+                    "scenario": _context_value(contexts["scenario"], r.participant, a.start_ms, a.end_ms),  # type: ignore[arg-type]
+                    "location": _context_value(contexts["location"], r.participant, a.start_ms, a.end_ms),  # type: ignore[arg-type]
+                    "value": a.value,
+                }
+            )
+    return rows
+
+
+def read_annotations(
+    paths_or_dirs: str | PathLike[str] | Iterable[str | PathLike[str]],
+    *,
+    schema: Schema | None = None,
+) -> pd.DataFrame:
+    """Every turn annotation of every rater in ELAN files, one row each.
+
+    Parameters
+    ----------
+    paths_or_dirs
+        ``.eaf`` files, or folders whose ``.eaf`` files are read (not recursively). One file
+        is one recording session; its stem is the session id and must be unique.
+    schema
+        Which tiers hold turns and context, and the vocabularies (default:
+        :func:`turn_datasets.schema.load_schema`).
+
+    Returns
+    -------
+    pandas.DataFrame
+        :data:`ANNOTATION_COLUMNS`: ``session, file, tier, annotator, participant, start_s,
+        end_s, angle_deg, scenario, location, value`` in file, tier and time order.
+        ``angle_deg`` is the vocabulary angle (the paper's 90° to 360° in 45° steps),
+        ``scenario`` and ``location`` come from the context annotation overlapping the turn
+        most (a participant's own context tiers before shared ones; empty if none overlaps),
+        ``value`` is the annotation's text as written. A file without turn tiers adds no rows.
+
+    Raises
+    ------
+    TurnbenchError
+        Naming the file, tier and time: a value outside the vocabulary, overlapping turns on
+        one tier, an end not after its start, an unaligned turn, a turn tier without rater or
+        participant, two tiers of one rater for one participant, two files of one session;
+        and the refusals of :func:`load_eaf`.
+    """
+    schema = schema if schema is not None else load_schema()
+    rows: list[dict[str, Any]] = []
+    sessions: dict[str, Path] = {}
+    for path in expand_eaf_paths(paths_or_dirs):
+        if path.stem in sessions:
+            raise TurnbenchError(
+                f"session {path.stem!r} comes from two files (the other is {sessions[path.stem]})",
+                file=str(path),
+                hint="one .eaf per session: the file stem is the session id",
+            )
+        sessions[path.stem] = path
+        rows.extend(_file_rows(_load(path), schema))
+    frame = pd.DataFrame(rows, columns=list(ANNOTATION_COLUMNS))
+    return typed_frame(frame, ANNOTATION_COLUMNS)
+
+
+# ---------------------------------------------------------------------------------------
+# Inspect
+
+
+def _vocabularies(eaf: pympi.Elan.Eaf) -> list[dict[str, Any]]:
+    out: list[dict[str, Any]] = []
+    for cv_id, (descriptions, entries, ext_ref) in eaf.controlled_vocabularies.items():
+        description = next((str(d[1]).strip() for d in descriptions if d[1]), "")
+        item: dict[str, Any] = {"id": cv_id, "description": description}
+        if ext_ref:
+            ref = eaf.external_refs.get(ext_ref)
+            item.update(external=True, url=None if ref is None else ref[1], entries=[])
+        else:
+            texts = []
+            for values, _ext in entries.values():
+                text = next((str(v[0]).strip() for v in values if v[0] is not None), "")
+                texts.append(text)
+            item.update(external=False, url=None, entries=texts)
+        out.append(item)
+    return out
+
+
+def _header(eaf: pympi.Elan.Eaf) -> dict[str, Any]:
+    """Header fields that may identify people or places: only with ``keep_media_paths``."""
+    return {
+        "author": eaf.adocument.get("AUTHOR", ""),
+        "date": eaf.adocument.get("DATE", ""),
+        "media": [
+            {k: v for k, v in m.items() if k in ("MEDIA_URL", "RELATIVE_MEDIA_URL", "MIME_TYPE")}
+            for m in eaf.media_descriptors
+        ],
+        "linked_files": [
+            {k: v for k, v in m.items() if k in ("LINK_URL", "RELATIVE_LINK_URL", "MIME_TYPE")}
+            for m in eaf.linked_file_descriptors
+        ],
+    }
+
+
+def inspect_eaf(
+    path: str | PathLike[str], *, schema: Schema | None = None, keep_media_paths: bool = False
+) -> dict[str, Any]:
+    """What an ELAN file holds, and what the schema takes from it.
+
+    Never fails on a readable file: tiers, time slots and vocabularies are listed as they
+    are, however unusual (symbolic children of time-aligned children, unaligned slots,
+    external vocabularies, unknown format versions).
+
+    Parameters
+    ----------
+    path
+        The ELAN file.
+    schema
+        The convention used to name turn and context tiers (default schema if ``None``).
+    keep_media_paths
+        Also report the header (author, date, media and linked file paths). Off by default:
+        outputs carry subject ids, never paths that may name people or places.
+
+    Returns
+    -------
+    dict
+        ``file, session, format, tiers`` (each ``tier, type, constraint, time_alignable,
+        parent, annotator, participant, vocabulary, annotations, unaligned, start_s, end_s,
+        role``), ``vocabularies`` (``id, description, external, url, entries``),
+        ``turn_tiers``, ``context_tiers`` (``location``, ``scenario``), ``notes``, and
+        ``header`` with ``keep_media_paths``.
+    """
+    schema = schema if schema is not None else load_schema()
+    doc = _load(path)
+    eaf = doc.eaf
+    roles = {r.tier: r for r in _classify(eaf, schema)}
+    times = _annotation_times_ms(eaf)
+    notes: list[str] = []
+    if doc.version not in KNOWN_VERSIONS:
+        notes.append(
+            f"EAF format {doc.version or '(none)'} is not one pympi-ling knows "
+            f"({', '.join(KNOWN_VERSIONS)}); read anyway"
+        )
+
+    tiers: list[dict[str, Any]] = []
+    for tier_id in _tiers_in_order(eaf):
+        attrs = _tier_attrs(eaf, tier_id)
+        lt = _linguistic_type(eaf, tier_id)
+        anns = _tier_annotations(eaf, tier_id, times)
+        starts = [a.start_ms for a in anns if a.start_ms is not None]
+        ends = [a.end_ms for a in anns if a.end_ms is not None]
+        unaligned = sum(1 for a in anns if a.start_ms is None or a.end_ms is None)
+        role = roles.get(tier_id)
+        if unaligned:
+            notes.append(
+                f"tier {tier_id!r}: {unaligned} of {len(anns)} annotations have an unaligned "
+                "time slot (ELAN interpolates them)"
+            )
+        alignable = _attr(lt, "TIME_ALIGNABLE")
+        tiers.append(
+            {
+                "tier": tier_id,
+                "type": _attr(attrs, "LINGUISTIC_TYPE_REF"),
+                "constraint": _attr(lt, "CONSTRAINTS") or None,
+                "time_alignable": None if not alignable else alignable.lower() == "true",
+                "parent": _attr(attrs, "PARENT_REF") or None,
+                "annotator": _attr(attrs, "ANNOTATOR") or None,
+                "participant": _attr(attrs, "PARTICIPANT") or None,
+                "vocabulary": _attr(lt, "CONTROLLED_VOCABULARY_REF") or None,
+                "annotations": len(anns),
+                "unaligned": unaligned,
+                "start_s": min(starts) / 1000 if starts else None,
+                "end_s": max(ends) / 1000 if ends else None,
+                "role": None if role is None else role.role,
+            }
+        )
+
+    turn_tiers = [
+        {"tier": r.tier, "annotator": r.annotator or None, "participant": r.participant or None}
+        for r in roles.values()
+        if r.role == "turn"
+    ]
+    for t in turn_tiers:
+        if not t["annotator"]:
+            notes.append(f"turn tier {t['tier']!r} names no rater ({schema.annotator_attribute})")
+        if not t["participant"]:
+            notes.append(
+                f"turn tier {t['tier']!r} names no participant ({schema.participant_attribute})"
+            )
+    if not turn_tiers:
+        notes.append(
+            f"no turn tiers: no TIER_ID matches {schema.turn_tier_regex.pattern!r} "
+            f"(schema {schema.source}); this file yields no turns"
+        )
+    context = {
+        kind: [
+            {"tier": r.tier, "participant": r.participant or None}
+            for r in roles.values()
+            if r.role == kind
+        ]
+        for kind in ("location", "scenario")
+    }
+    result: dict[str, Any] = {
+        "file": str(doc.path),
+        "session": doc.path.stem,
+        "format": doc.version or None,
+        "tiers": tiers,
+        "vocabularies": _vocabularies(eaf),
+        "turn_tiers": turn_tiers,
+        "context_tiers": context,
+        "notes": notes,
+    }
+    if keep_media_paths:
+        result["header"] = _header(eaf)
+    return result
+
+
+def iter_inspect(
+    paths_or_dirs: str | PathLike[str] | Iterable[str | PathLike[str]],
+    *,
+    schema: Schema | None = None,
+    keep_media_paths: bool = False,
+) -> Iterator[dict[str, Any]]:
+    """:func:`inspect_eaf` for each file of :func:`expand_eaf_paths`."""
+    schema = schema if schema is not None else load_schema()
+    for path in expand_eaf_paths(paths_or_dirs):
+        yield inspect_eaf(path, schema=schema, keep_media_paths=keep_media_paths)
