@@ -1,0 +1,535 @@
+"""Read a reference table and a submission, validate the submission, join them per clip.
+
+The reference is any CSV with ``clip_id, angle_deg`` and, optionally, ``duration_s`` and
+group columns (``scenario, location, cohort, subject, action, split``, or any other): the
+Turn-H3.6M clip index and the Turn-REMAP labels both qualify as they are (DESIGN.md).
+A submission is ``clip_id, angle_deg`` and, optionally, ``speed_deg_s``; extra columns are
+kept and ignored.
+
+Both are read the same forgiving way, because submissions come out of spreadsheets and
+notebooks: header names match ignoring case and surrounding spaces; a UTF-8 byte-order mark is
+dropped; the delimiter is a comma, a semicolon or a tab, whichever the header uses; with a
+semicolon or tab delimiter a decimal comma (``12,5``) is read as a decimal point, as a
+spreadsheet in a European locale exports it. Blank lines are skipped.
+
+What the scoring is strict about, each found problem one :class:`TurnbenchError` naming the
+file and the file's own line number (line 1 is the header): an empty file, a missing column,
+a row with the wrong number of fields, an empty clip id, a non-numeric, NaN or infinite angle,
+a negative angle (angles are magnitudes; ``abs_angles=True`` takes them as such), duplicate
+clip ids, ids not in the reference, and reference ids missing from the submission (the first
+ten and the count; ``allow_missing=True`` scores the rest and reports ``n_missing``). All
+predicted angles below 2π while the reference's are not is only a warning: radians, perhaps.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+import re
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from turn_datasets._io import typed_frame
+from turn_datasets.errors import TurnbenchError
+from turn_datasets.geometry import quantise_deg
+
+__all__ = [
+    "GROUP_COLUMNS",
+    "BIN_COLUMN",
+    "JOINED_COLUMNS",
+    "Joined",
+    "read_reference",
+    "read_predictions",
+    "group_label",
+]
+
+#: The default groupings, in this order, when the reference has them (issue 5). ``bin_deg``
+#: is the reference angle's 45° bin, which every reference has.
+GROUP_COLUMNS = ("scenario", "location", "cohort", "subject", "bin_deg", "action", "split")
+#: The reference bin column: always recomputed from the reference angle.
+BIN_COLUMN = "bin_deg"
+#: The per-clip columns of a joined table, before the reference's other columns.
+JOINED_COLUMNS = {
+    "clip_id": "str",
+    "ref_angle_deg": "float64",
+    "pred_angle_deg": "float64",
+    "ref_duration_s": "float64",
+    "pred_speed_deg_s": "float64",
+    "bin_deg": "float64",
+}
+_MAX_LISTED = 10
+_TWO_PI = 2 * math.pi
+
+
+@dataclass(frozen=True)
+class _Table:
+    """A CSV as read: normalised header, cells as strings, each row's line number."""
+
+    path: str
+    header: tuple[str, ...]
+    columns: dict[str, np.ndarray]
+    lines: np.ndarray
+    delimiter: str
+    header_line: int
+
+    @property
+    def n_rows(self) -> int:
+        return int(self.lines.shape[0])
+
+
+def _sniff_delimiter(header_line: str) -> str:
+    # The header decides: a spreadsheet's export puts its delimiter between the column names.
+    counts = {d: header_line.count(d) for d in (";", "\t", ",")}
+    best = max(counts, key=lambda d: counts[d])
+    return best if counts[best] > 0 else ","
+
+
+def _read_table(path: str | os.PathLike[str], *, what: str) -> _Table:
+    name = os.fspath(path)
+    try:
+        with open(name, encoding="utf-8-sig", newline="") as fh:
+            text = fh.read()
+    except FileNotFoundError:
+        raise TurnbenchError(f"{what} file not found", file=name) from None
+    except UnicodeDecodeError as exc:
+        raise TurnbenchError(f"{what} file is not UTF-8 text ({exc.reason})", file=name) from None
+    except OSError as exc:
+        raise TurnbenchError(f"cannot read the {what} file: {exc.strerror}", file=name) from None
+    if not text.strip():
+        raise TurnbenchError(f"empty {what} file: no header and no rows", file=name)
+
+    first_line = next(line for line in text.splitlines() if line.strip())
+    delimiter = _sniff_delimiter(first_line)
+    reader = csv.reader(io.StringIO(text), delimiter=delimiter)
+    header: list[str] | None = None
+    header_line = 0
+    rows: list[list[str]] = []
+    lines: list[int] = []
+    start = 0
+    for record in reader:
+        # reader.line_num is the line the record ends on; a record starts after the previous.
+        line = start + 1
+        start = reader.line_num
+        if not record or all(not cell.strip() for cell in record):
+            continue
+        if header is None:
+            header = [cell.strip().lower() for cell in record]
+            header_line = line
+            seen: dict[str, int] = {}
+            for i, col in enumerate(header):
+                if col in seen and col:
+                    raise TurnbenchError(
+                        f"column {col!r} appears twice in the header (columns "
+                        f"{seen[col] + 1} and {i + 1})",
+                        file=name,
+                        row=line,
+                    )
+                seen[col] = i
+            continue
+        if len(record) != len(header):
+            raise TurnbenchError(
+                f"row has {len(record)} fields but the header has {len(header)} "
+                f"(delimiter {delimiter!r})",
+                file=name,
+                row=line,
+            )
+        rows.append(record)
+        lines.append(line)
+    assert header is not None  # text has a non-blank line
+    if not rows:
+        raise TurnbenchError(
+            f"empty {what} file: a header on line {header_line} and no rows", file=name
+        )
+    cells = np.array(rows, dtype=object)
+    columns = {col: cells[:, i] for i, col in enumerate(header) if col}
+    return _Table(
+        path=name,
+        header=tuple(header),
+        columns=columns,
+        lines=np.asarray(lines, dtype=np.int64),
+        delimiter=delimiter,
+        header_line=header_line,
+    )
+
+
+def _require(table: _Table, required: Sequence[str], *, what: str) -> None:
+    missing = [c for c in required if c not in table.columns]
+    if missing:
+        raise TurnbenchError(
+            f"{what} lacks column{'s' if len(missing) > 1 else ''} "
+            f"{', '.join(repr(c) for c in missing)}; its header has "
+            f"{', '.join(repr(c) for c in table.header)} (matched ignoring case and spaces)",
+            file=table.path,
+            row=table.header_line,
+        )
+
+
+def _strings(table: _Table, column: str) -> np.ndarray:
+    return np.array([cell.strip() for cell in table.columns[column]], dtype=object)
+
+
+_NUMBER_RE = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$")
+
+
+def _first_and_count(table: _Table, bad: np.ndarray) -> tuple[int, int, int]:
+    where = np.flatnonzero(bad)
+    return int(where[0]), int(table.lines[where[0]]), int(where.size)
+
+
+def _and_more(count: int) -> str:
+    return f" ({count - 1} more row{'s' if count > 2 else ''} like it)" if count > 1 else ""
+
+
+def _numbers(
+    table: _Table,
+    column: str,
+    *,
+    allow_empty: bool,
+    allow_negative: bool,
+    negative_hint: str | None,
+) -> np.ndarray:
+    """Parse a numeric column strictly; empty cells are NaN only when ``allow_empty``."""
+    text = _strings(table, column)
+    if table.delimiter != ",":
+        # A decimal comma only makes sense when the comma is not the delimiter.
+        text = np.array([t.replace(",", ".") for t in text], dtype=object)
+    empty = text == ""
+    lowered = np.array([t.lower() for t in text], dtype=object)
+    is_nan = np.isin(lowered, ["nan", "+nan", "-nan", "na", "n/a", "null", "none"])
+    is_inf = np.isin(lowered, ["inf", "+inf", "-inf", "infinity", "+infinity", "-infinity"])
+    ok = np.array([bool(_NUMBER_RE.match(t)) for t in text], dtype=bool)
+    bad = ~(ok | empty | is_nan | is_inf)
+    if bad.any():
+        i, line, count = _first_and_count(table, bad)
+        raise TurnbenchError(
+            f"{column} {table.columns[column][i].strip()!r} is not a number{_and_more(count)}",
+            file=table.path,
+            row=line,
+        )
+    if not allow_empty and empty.any():
+        i, line, count = _first_and_count(table, empty)
+        raise TurnbenchError(
+            f"{column} is empty{_and_more(count)}", file=table.path, row=line
+        )
+    if is_nan.any():
+        i, line, count = _first_and_count(table, is_nan)
+        raise TurnbenchError(
+            f"{column} is NaN ({table.columns[column][i].strip()!r}){_and_more(count)}",
+            file=table.path,
+            row=line,
+        )
+    if is_inf.any():
+        i, line, count = _first_and_count(table, is_inf)
+        raise TurnbenchError(
+            f"{column} is infinite ({table.columns[column][i].strip()!r}){_and_more(count)}",
+            file=table.path,
+            row=line,
+        )
+    values = np.full(text.shape[0], np.nan)
+    values[ok] = np.array(text[ok], dtype=np.float64)
+    if not np.isfinite(values[ok]).all():
+        # A literal too large for a double (1e999) overflows to infinity.
+        i, line, count = _first_and_count(table, ok & ~np.isfinite(values))
+        raise TurnbenchError(
+            f"{column} {table.columns[column][i].strip()!r} overflows to infinity"
+            f"{_and_more(count)}",
+            file=table.path,
+            row=line,
+        )
+    if not allow_negative:
+        negative = values < 0
+        if negative.any():
+            i, line, count = _first_and_count(table, negative)
+            raise TurnbenchError(
+                f"{column} is negative ({table.columns[column][i].strip()}){_and_more(count)}",
+                file=table.path,
+                row=line,
+                hint=negative_hint,
+            )
+    return values
+
+
+def _clip_ids(table: _Table) -> np.ndarray:
+    ids = _strings(table, "clip_id")
+    empty = ids == ""
+    if empty.any():
+        _, line, count = _first_and_count(table, empty)
+        raise TurnbenchError(f"clip_id is empty{_and_more(count)}", file=table.path, row=line)
+    # The first occurrence of every repeated id, to name both lines.
+    _, first_index, inverse = np.unique(ids.astype(str), return_index=True, return_inverse=True)
+    first_of_row = first_index[inverse]
+    duplicate = first_of_row != np.arange(ids.shape[0])
+    if duplicate.any():
+        i, line, count = _first_and_count(table, duplicate)
+        raise TurnbenchError(
+            f"duplicate clip_id {ids[i]!r}, first on line {int(table.lines[first_of_row[i]])}"
+            f"{_and_more(count)}",
+            file=table.path,
+            row=line,
+        )
+    return ids
+
+
+def _list_ids(ids: Sequence[str]) -> str:
+    shown = ", ".join(repr(str(i)) for i in ids[:_MAX_LISTED])
+    return shown + (", ..." if len(ids) > _MAX_LISTED else "")
+
+
+def group_label(value: object) -> str:
+    """The label of a group as the scores print it: bins as ``45``, text as it is."""
+    if isinstance(value, (float, np.floating)):
+        return f"{float(value):g}"
+    return str(value)
+
+
+def read_reference(
+    path: str | os.PathLike[str], *, bin_width_deg: float = 45.0
+) -> pd.DataFrame:
+    """Read a reference table: clip index, labels, or any CSV with ``clip_id, angle_deg``.
+
+    Parameters
+    ----------
+    path
+        The reference CSV.
+    bin_width_deg
+        Width of the angle bins; ``bin_deg`` is recomputed from ``angle_deg`` with
+        :func:`turn_datasets.geometry.quantise_deg` so that it always agrees with the metrics.
+
+    Returns
+    -------
+    DataFrame
+        ``clip_id`` (str), ``angle_deg`` (float64), ``duration_s`` (float64, only when the
+        reference has it; an empty cell is NaN), ``bin_deg`` (float64), then every other
+        column of the file as stripped strings, in file order. ``attrs["path"]`` is the file
+        and ``attrs["lines"]`` each row's line number.
+
+    Raises
+    ------
+    TurnbenchError
+        The same problems as a submission (see the module docstring), each with its line.
+    """
+    table = _read_table(path, what="reference")
+    _require(table, ("clip_id", "angle_deg"), what="the reference")
+    ids = _clip_ids(table)
+    angle = _numbers(
+        table,
+        "angle_deg",
+        allow_empty=False,
+        allow_negative=False,
+        negative_hint="reference angles are magnitudes in degrees",
+    )
+    data: dict[str, object] = {"clip_id": ids.astype(str), "angle_deg": angle}
+    dtypes: dict[str, str] = {"clip_id": "str", "angle_deg": "float64"}
+    if "duration_s" in table.columns:
+        data["duration_s"] = _numbers(
+            table,
+            "duration_s",
+            allow_empty=True,
+            allow_negative=False,
+            negative_hint="durations are end minus start, in seconds",
+        )
+        dtypes["duration_s"] = "float64"
+    data[BIN_COLUMN] = np.asarray(quantise_deg(angle, bin_width_deg), dtype=np.float64)
+    dtypes[BIN_COLUMN] = "float64"
+    for col in table.header:
+        if col and col not in dtypes:
+            data[col] = _strings(table, col).astype(str)
+            dtypes[col] = "str"
+    frame = typed_frame(pd.DataFrame(data), dtypes)
+    frame.attrs["path"] = table.path
+    frame.attrs["lines"] = table.lines
+    frame.attrs["bin_width_deg"] = float(bin_width_deg)
+    return frame
+
+
+@dataclass(frozen=True)
+class Joined:
+    """A submission joined to its reference, one row per scored clip, in reference order.
+
+    Attributes
+    ----------
+    table
+        ``clip_id, ref_angle_deg, pred_angle_deg, ref_duration_s, pred_speed_deg_s, bin_deg``
+        and then the reference's other columns (strings), usable as groupings.
+        ``ref_duration_s`` is NaN where the reference has no duration, ``pred_speed_deg_s``
+        NaN where the submission gives no speed.
+    n_missing
+        Reference clips the submission left out (only non-zero with ``allow_missing``).
+    missing_ids
+        Those clips' ids, in reference order.
+    has_durations
+        Whether the reference has a ``duration_s`` column (else no speed metric).
+    predictions_path, reference_path
+        The files read.
+    bin_width_deg
+        The bin width ``bin_deg`` was computed with.
+    """
+
+    table: pd.DataFrame
+    n_missing: int
+    missing_ids: tuple[str, ...] = field(repr=False)
+    has_durations: bool
+    predictions_path: str
+    reference_path: str
+    bin_width_deg: float = 45.0
+
+    @property
+    def group_columns(self) -> tuple[str, ...]:
+        """Columns a ``--by`` may name: ``bin_deg`` and the reference's other columns."""
+        return tuple(self.table.columns[len(JOINED_COLUMNS) - 1 :])
+
+    @property
+    def default_groupings(self) -> tuple[str, ...]:
+        """:data:`GROUP_COLUMNS` the reference has with at least one non-empty value."""
+        out = []
+        for col in GROUP_COLUMNS:
+            if col == BIN_COLUMN:
+                out.append(col)
+            elif col in self.table.columns and (self.table[col] != "").any():
+                out.append(col)
+        return tuple(out)
+
+    def __len__(self) -> int:
+        return int(self.table.shape[0])
+
+
+def read_predictions(
+    path: str | os.PathLike[str],
+    reference: pd.DataFrame | str | os.PathLike[str],
+    *,
+    allow_missing: bool = False,
+    abs_angles: bool = False,
+    warn: Callable[[str], None] | None = None,
+    bin_width_deg: float = 45.0,
+) -> Joined:
+    """Read and validate a submission and join it to the reference per clip.
+
+    Parameters
+    ----------
+    path
+        The predictions CSV: ``clip_id, angle_deg`` and optionally ``speed_deg_s``.
+    reference
+        A frame from :func:`read_reference`, or a reference CSV to read with it.
+    allow_missing
+        Score the clips the submission has and report how many it left out, instead of
+        refusing a submission that misses reference clips.
+    abs_angles
+        Take negative angles (and speeds) as their magnitudes (a signed-rotation submission),
+        instead of refusing them.
+    warn
+        Called with a one-line message for what is suspicious but scoreable (radians,
+        missing clips under ``allow_missing``); ignored when None.
+    bin_width_deg
+        Used only when ``reference`` is a path.
+
+    Returns
+    -------
+    Joined
+        See :class:`Joined`.
+
+    Raises
+    ------
+    TurnbenchError
+        Every problem listed in the module docstring, with the file and line.
+    """
+    say = warn if warn is not None else (lambda message: None)
+    ref = (
+        reference
+        if isinstance(reference, pd.DataFrame)
+        else read_reference(reference, bin_width_deg=bin_width_deg)
+    )
+    ref_path = str(ref.attrs.get("path", "reference"))
+    table = _read_table(path, what="predictions")
+    _require(table, ("clip_id", "angle_deg"), what="the predictions")
+    ids = _clip_ids(table)
+    hint = "angles are magnitudes; pass --abs to take the absolute value"
+    angle = _numbers(
+        table, "angle_deg", allow_empty=False, allow_negative=abs_angles, negative_hint=hint
+    )
+    speed = None
+    if "speed_deg_s" in table.columns:
+        # An empty speed means "not given": the metric falls back to angle / duration.
+        speed = _numbers(
+            table, "speed_deg_s", allow_empty=True, allow_negative=abs_angles, negative_hint=hint
+        )
+    if abs_angles:
+        angle = np.abs(angle)
+        speed = None if speed is None else np.abs(speed)
+
+    ref_ids = ref["clip_id"].to_numpy(dtype=object)
+    position = pd.Index(ref_ids).get_indexer(ids)
+    unknown = position < 0
+    if unknown.any():
+        _, line, count = _first_and_count(table, unknown)
+        listed = _list_ids(list(ids[unknown]))
+        raise TurnbenchError(
+            f"{count} clip id{'s are' if count > 1 else ' is'} not in the reference "
+            f"{ref_path}: {listed}",
+            file=table.path,
+            row=line,
+        )
+    covered = np.zeros(ref.shape[0], dtype=bool)
+    covered[position] = True
+    missing_ids = tuple(str(i) for i in ref_ids[~covered])
+    if missing_ids:
+        message = (
+            f"{len(missing_ids)} of the reference's {ref.shape[0]} clips "
+            f"{'are' if len(missing_ids) > 1 else 'is'} missing from the predictions: "
+            f"{_list_ids(missing_ids)}"
+        )
+        if not allow_missing:
+            raise TurnbenchError(
+                message,
+                file=table.path,
+                hint="pass --allow-missing to score the clips that are there",
+            )
+        say(f"{table.path}: {message}; scoring the other {int(covered.sum())}")
+
+    ref_angle = ref["angle_deg"].to_numpy(dtype=np.float64)
+    if angle.size and float(np.max(angle)) < _TWO_PI and float(np.max(ref_angle)) >= _TWO_PI:
+        say(
+            f"{table.path}: every predicted angle is below 2π (the largest is "
+            f"{float(np.max(angle)):.4g}) while the reference's reach "
+            f"{float(np.max(ref_angle)):.4g}: are they in radians? turnbench expects degrees"
+        )
+
+    # Reference order, so the output does not depend on the submission's row order.
+    pred_angle = np.full(ref.shape[0], np.nan)
+    pred_angle[position] = angle
+    pred_speed = np.full(ref.shape[0], np.nan)
+    if speed is not None:
+        pred_speed[position] = speed
+    has_durations = "duration_s" in ref.columns
+    duration = (
+        ref["duration_s"].to_numpy(dtype=np.float64)
+        if has_durations
+        else np.full(ref.shape[0], np.nan)
+    )
+    data: dict[str, object] = {
+        "clip_id": ref["clip_id"].to_numpy(dtype=object)[covered].astype(str),
+        "ref_angle_deg": ref_angle[covered],
+        "pred_angle_deg": pred_angle[covered],
+        "ref_duration_s": duration[covered],
+        "pred_speed_deg_s": pred_speed[covered],
+        BIN_COLUMN: ref[BIN_COLUMN].to_numpy(dtype=np.float64)[covered],
+    }
+    dtypes = dict(JOINED_COLUMNS)
+    for col in ref.columns:
+        if col not in ("clip_id", "angle_deg", "duration_s", BIN_COLUMN):
+            data[col] = ref[col].to_numpy(dtype=object)[covered].astype(str)
+            dtypes[col] = "str"
+    joined = typed_frame(pd.DataFrame(data), dtypes)
+    return Joined(
+        table=joined,
+        n_missing=len(missing_ids),
+        missing_ids=missing_ids,
+        has_durations=has_durations,
+        predictions_path=table.path,
+        reference_path=ref_path,
+        bin_width_deg=float(ref.attrs.get("bin_width_deg", bin_width_deg)),
+    )
