@@ -46,17 +46,17 @@ __all__ = [
 
 #: Column contract of :func:`read_annotations` (``annotations.csv``).
 ANNOTATION_COLUMNS = {
-    "session": "object",
-    "file": "object",
-    "tier": "object",
-    "annotator": "object",
-    "participant": "object",
+    "session": "str",
+    "file": "str",
+    "tier": "str",
+    "annotator": "str",
+    "participant": "str",
     "start_s": "float64",
     "end_s": "float64",
     "angle_deg": "float64",
-    "scenario": "object",
-    "location": "object",
-    "value": "object",
+    "scenario": "str",
+    "location": "str",
+    "value": "str",
 }
 
 #: EAF format versions pympi-ling 1.71 knows; others are read, with a note in ``inspect``.

@@ -54,8 +54,8 @@ __all__ = [
 DEFAULT_SCHEMA_NAME = "schema-default.toml"
 
 _GROUPS = {"annotator", "participant"}
-# "90", "90.0", "90°", "90 deg", "90 degrees" (after normalise_value, so lower case).
-_ANGLE_RE = re.compile(r"^(\d+(?:\.\d+)?)\s*(?:°|º|deg|degs|degree|degrees)?$")
+# "90", "90.0", "90°", "90 deg", "90 degrees", "90-degree" (case-folded, single-spaced).
+_ANGLE_RE = re.compile(r"^(\d+(?:\.\d+)?)(?:\s*[°º]|\s*-?\s*(?:deg|degs|degree|degrees))?$")
 
 
 def normalise_value(text: str) -> str:
@@ -97,12 +97,15 @@ class Vocabulary:
         object.__setattr__(self, "_lookup", lookup)
 
     def _key(self, text: str) -> str:
+        if not self.numeric:
+            return normalise_value(text)
+        m = _ANGLE_RE.match(" ".join(str(text).casefold().split()))
+        if m:
+            return _format_angle(float(m.group(1)))
         key = normalise_value(text)
-        if self.numeric:
-            m = _ANGLE_RE.match(key)
-            if m:
-                return _format_angle(float(m.group(1)))
-        return key
+        # normalise_value turns "-90" into "90"; a number that only the normalisation made
+        # look like an angle is not one, so give it a key no value has.
+        return "\0" + key if _ANGLE_RE.match(key) else key
 
     def parse(self, raw: str | None) -> str | float | None:
         """The canonical value of ``raw``, or ``None`` when it is not in the vocabulary.
