@@ -412,7 +412,7 @@ def _checked_positions(
         raise TurnbenchError("positions hold infinite values (corrupt?)", file=path, item=item)
     hips = p[:, [layout.index("left_hip"), layout.index("right_hip")], :2]
     if not np.isfinite(hips).all(axis=(1, 2)).any():
-        raise TurnbenchError("the hips are NaN in every frame", file=path, item=item)
+        raise TurnbenchError("the left or right hip is NaN in every frame", file=path, item=item)
     n_usable = int(usable_frames(p, layout, "hip").sum())
     if n_usable < 2:
         raise TurnbenchError(
