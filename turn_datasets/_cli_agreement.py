@@ -1,3 +1,225 @@
-"""Commands of turn-datasets (registered on the groups in turn_datasets.cli)."""
+"""``turn-datasets remap agreement``: the inter-rater agreement audit of turn labels.
+
+Parses options, reads the annotations, calls :mod:`turn_datasets.agreement` and prints;
+every file of ``--out-dir`` is staged and moved in only when all are written.
+"""
 
 from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from turn_datasets import __version__
+from turn_datasets._cli import format_option, info, progress, wrote
+from turn_datasets._io import (
+    check_not_input,
+    staged_dir,
+    to_json_text,
+    write_csv,
+    write_json,
+    write_text,
+)
+from turn_datasets.agreement import (
+    AgreementAudit,
+    audit_agreement,
+    write_confusion_png,
+    write_review_eaf,
+)
+from turn_datasets.cli import CONTEXT_SETTINGS, remap
+from turn_datasets.eaf import expand_eaf_paths, read_annotations
+from turn_datasets.errors import GateFailed, TurnbenchError
+from turn_datasets.schema import load_schema
+
+#: Files written into --out-dir (review copies go to its ``review/`` folder).
+OUT_FILES = (
+    "agreement.json",
+    "agreement.md",
+    "pairs.csv",
+    "disagreements.csv",
+    "confusion.csv",
+    "confusion.png",
+    "by_session.csv",
+    "by_rater_pair.csv",
+)
+REVIEW_DIR = "review"
+
+
+@remap.command("agreement", context_settings=CONTEXT_SETTINGS)
+@click.argument("inputs", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.option(
+    "--schema",
+    "schema_path",
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="Annotation schema TOML for files in another convention (default: the shipped one).",
+)
+@click.option(
+    "--raters",
+    nargs=2,
+    type=str,
+    default=None,
+    metavar="A B",
+    help="The two raters to audit (default: the two present besides the consensus rater).",
+)
+@click.option(
+    "--min-overlap",
+    type=click.FloatRange(0.0, 1.0, min_open=True),
+    default=0.6,
+    show_default=True,
+    help="Link two turns when overlap / longer duration is at least this (as ELAN).",
+)
+@click.option(
+    "--min-kappa",
+    type=click.FloatRange(-1.0, 1.0),
+    default=None,
+    help="Gate: exit 3 after the report when Cohen's kappa is below this (or undefined).",
+)
+@format_option(default="md", choices=("md", "json"))
+@click.option(
+    "--out-dir",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=None,
+    help="Also write the report, pairs, disagreements, confusion matrix (CSV, PNG) here.",
+)
+@click.option(
+    "--review-eaf",
+    is_flag=True,
+    help="Write a copy of each session with disagreements, with a 'Disagreement' tier, "
+    "into OUT_DIR/review/ (needs --out-dir; the originals are never modified).",
+)
+@click.option(
+    "--keep-media-paths",
+    is_flag=True,
+    help="Keep media paths and author in the review copies (removed by default).",
+)
+@click.option(
+    "--bootstrap",
+    type=click.IntRange(min=0),
+    default=1000,
+    show_default=True,
+    help="Bootstrap resamples of the matched pairs for the 95% CI (0: no CI).",
+)
+@click.option("--seed", type=int, default=0, show_default=True, help="Bootstrap seed.")
+def agreement(
+    inputs: tuple[Path, ...],
+    schema_path: Path | None,
+    raters: tuple[str, str] | None,
+    min_overlap: float,
+    min_kappa: float | None,
+    fmt: str,
+    out_dir: Path | None,
+    review_eaf: bool,
+    keep_media_paths: bool,
+    bootstrap: int,
+    seed: int,
+) -> None:
+    """Audit inter-rater agreement of turn labels in ELAN files (EAF_OR_DIR...).
+
+    Two raters' turns of the same participant are linked when their overlap divided by the
+    longer duration is at least --min-overlap, greedily, highest first (as ELAN's own
+    reliability check). Reports annotations, matched and unmatched turns per rater, percent
+    agreement, Cohen's kappa (unweighted and linear, with a bootstrap 95% CI), kappa with
+    "unmatched" as a category, the confusion matrix and median boundary differences,
+    overall, per session and per pair of raters. Fractions in JSON, percentages in Markdown.
+
+    \b
+    Example:
+      turn-datasets remap agreement eaf/ --min-kappa 0.8
+      turn-datasets remap agreement eaf/ --format json > agreement.json
+      turn-datasets remap agreement eaf/ --out-dir audit/ --review-eaf
+      turn-datasets remap agreement other.eaf --schema mine.toml --raters Ann Bob
+    """
+    if review_eaf and out_dir is None:
+        raise click.UsageError("--review-eaf writes into --out-dir; give one")
+    schema = load_schema(schema_path)
+    paths = expand_eaf_paths(inputs)
+    annotations = read_annotations(
+        list(progress(paths, label="reading ELAN files")), schema=schema
+    )
+    if annotations.empty:
+        raise TurnbenchError(
+            f"no turn annotations in {len(paths)} file(s): no tier matches "
+            f"{schema.turn_tier_regex.pattern!r}",
+            hint="see `turn-datasets remap inspect`, or map the tiers with --schema",
+        )
+    audit = audit_agreement(
+        annotations,
+        raters=raters,
+        labels_deg=schema.angles_deg,
+        consensus_annotator=schema.consensus_annotator,
+        min_overlap=min_overlap,
+        n_bootstrap=bootstrap,
+        seed=seed,
+    )
+    document = audit.to_dict()
+    document["settings"]["version"] = __version__
+    passed: bool | None = None
+    if min_kappa is not None:
+        kappa = audit.overall.kappa
+        passed = kappa is not None and kappa >= min_kappa
+        document["gate"] = {"min_kappa": min_kappa, "passed": passed}
+
+    markdown = audit.to_markdown()
+    if passed is not None:
+        markdown += f"\nGate: kappa >= {min_kappa:g} {'passed' if passed else 'FAILED'}.\n"
+
+    if out_dir is not None:
+        participants = annotations.groupby("session")["participant"].nunique().to_dict()
+        _write_outputs(
+            out_dir, audit, document, markdown, paths=paths, review_eaf=review_eaf,
+            keep_media_paths=keep_media_paths, participants_per_session=participants,
+        )
+
+    click.echo(to_json_text(document) if fmt == "json" else markdown, nl=False)
+
+    if passed is False:
+        kappa = audit.overall.kappa
+        shown = "undefined" if kappa is None else f"{kappa:.3f}"
+        why = f" ({audit.overall.kappa_undefined_reason})" if kappa is None else ""
+        raise GateFailed(f"Cohen's kappa {shown}{why} is below --min-kappa {min_kappa:g}")
+
+
+def _write_outputs(
+    out_dir: Path,
+    audit: AgreementAudit,
+    document: dict,
+    markdown: str,
+    *,
+    paths: list[Path],
+    review_eaf: bool,
+    keep_media_paths: bool,
+    participants_per_session: dict,
+) -> None:
+    """Every file of --out-dir, staged; nothing lands unless all are written."""
+    targets = [out_dir / name for name in OUT_FILES]
+    sessions_to_review = sorted(audit.disagreements["session"].unique()) if review_eaf else []
+    files = dict(zip(audit.items["session"], audit.items["file"], strict=True))
+    review_targets = [out_dir / REVIEW_DIR / f"{s}.eaf" for s in sessions_to_review]
+    for target in (*targets, *review_targets):
+        check_not_input(target, paths)
+    with staged_dir(out_dir) as stage:
+        write_json(stage / "agreement.json", document)
+        write_text(stage / "agreement.md", markdown)
+        write_csv(audit.items, stage / "pairs.csv")
+        write_csv(audit.disagreements, stage / "disagreements.csv")
+        write_csv(audit.confusion_table(), stage / "confusion.csv")
+        write_confusion_png(audit, stage / "confusion.png")
+        write_csv(audit.summary_table("session"), stage / "by_session.csv")
+        write_csv(audit.summary_table("rater_pair"), stage / "by_rater_pair.csv")
+        for session in sessions_to_review:
+            rows = audit.disagreements[audit.disagreements["session"] == session]
+            write_review_eaf(
+                files[session],
+                stage / REVIEW_DIR / f"{session}.eaf",
+                rows,
+                rater_a=audit.raters[0],
+                rater_b=audit.raters[1],
+                tier_per_participant=participants_per_session.get(session, 1) > 1,
+                keep_media_paths=keep_media_paths,
+            )
+    what = f"agreement report ({len(targets)} files"
+    if review_eaf:
+        what += f", {len(review_targets)} review copies in {out_dir / REVIEW_DIR}"
+    wrote(out_dir, what=what + ") to")
+    if review_eaf and not review_targets:
+        info("no disagreements: no review copies written")

@@ -284,7 +284,7 @@ def write_sessions(
     double_annotated_fraction: float = 0.5,
     raters: Sequence[str] = ("clinician1", "clinician2"),
     consensus: str | None = "consensus",
-    disagreement_rate: float = 0.03,
+    disagreement_rate: float = 0.025,
     far_disagreement_fraction: float = 0.25,
     missed_rate: float = 0.03,
     shifted_rate: float = 0.0,
