@@ -12,13 +12,11 @@ from sklearn.metrics import accuracy_score, mean_absolute_error, precision_score
 from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.geometry import quantise_deg
-from turn_eval import significance
 from turn_eval.significance import (
     compare_predictions,
     mcnemar_exact,
     paired_bootstrap,
-    resample_indices,
-    resampled_metrics,
+    paired_differences,
 )
 
 
@@ -63,38 +61,54 @@ def test_mcnemar_b6_c0_and_balanced_and_no_discordance():
         mcnemar_exact([True, False], [True])
 
 
-# ---------------------------------------------------- vectorised metrics vs sklearn
+# ------------------------------------------- resampled differences vs sklearn
 
 
-def test_resampled_metrics_match_sklearn_on_resamples():
-    # Predictions land in bins the reference never has (0°, 270°) and the reference has a
-    # bin nobody predicts, so sklearn's zero_division=0 and zero-support cases both occur.
-    a, _, ref = two_systems(120, sd_a_deg=35.0, sd_b_deg=1.0)
+def test_paired_differences_are_sklearn_differences_on_scipys_resamples():
+    # Predictions land in bins the reference never has (0°, 270°) and the reference has bins
+    # a submission never predicts, so sklearn's zero_division=0 and zero-support cases occur.
+    a, b, ref = two_systems(120, sd_a_deg=35.0, sd_b_deg=20.0)
     a[:3] = [5.0, 280.0, 275.0]
-    idx = resample_indices(ref.size, n_resamples=6, seed=3)
-    got = resampled_metrics(a, ref, idx)
-    pred_bin, ref_bin = quantise_deg(a), quantise_deg(ref)
-    for r, rows in enumerate(idx):
-        y_true, y_pred = ref_bin[rows], pred_bin[rows]
-        assert got["accuracy"][r] == pytest.approx(accuracy_score(y_true, y_pred), abs=1e-12)
-        assert got["mae_deg"][r] == pytest.approx(mean_absolute_error(ref[rows], a[rows]))
-        expected = precision_score(y_true, y_pred, average="weighted", zero_division=0)
-        assert got["wprec"][r] == pytest.approx(expected, abs=1e-12)
+    n_resamples = 40
+    deltas = paired_differences(a, b, ref, n_resamples=n_resamples, seed=3)
+    assert set(deltas) == {"accuracy", "mae_deg", "wprec"}  # no durations, no speed
+    # The documented draws (scipy.stats.bootstrap's): one index matrix for both submissions.
+    idx = np.random.default_rng(3).integers(0, ref.size, (n_resamples, ref.size))
+    ref_bin = quantise_deg(ref)
+    for r in (0, 1, 17, 39):
+        rows = idx[r]
+        y_true = ref_bin[rows]
+        pa, pb = quantise_deg(a)[rows], quantise_deg(b)[rows]
+        expected = {
+            "accuracy": accuracy_score(y_true, pb) - accuracy_score(y_true, pa),
+            "mae_deg": mean_absolute_error(ref[rows], b[rows])
+            - mean_absolute_error(ref[rows], a[rows]),
+            "wprec": precision_score(y_true, pb, average="weighted", zero_division=0)
+            - precision_score(y_true, pa, average="weighted", zero_division=0),
+        }
+        for name, value in expected.items():
+            assert deltas[name][r] == pytest.approx(value, abs=1e-12), (name, r)
 
 
-def test_chunked_resampling_equals_one_index_matrix(monkeypatch):
-    a, b, ref = two_systems(50, sd_a_deg=30.0, sd_b_deg=20.0)
-    whole = paired_bootstrap(a, b, ref, n_resamples=200, seed=5)
-    # Chunks of 3 resamples must draw the very same rows as one (200, 50) matrix.
-    monkeypatch.setattr(significance, "_CHUNK_CELLS", 150)
-    chunked = paired_bootstrap(a, b, ref, n_resamples=200, seed=5)
-    assert chunked == whole
-    idx = resample_indices(ref.size, n_resamples=200, seed=5)
-    deltas = resampled_metrics(b, ref, idx)["accuracy"] - resampled_metrics(a, ref, idx)["accuracy"]
-    assert whole["accuracy"].mean_diff == pytest.approx(deltas.mean(), abs=1e-12)
-    assert [whole["accuracy"].ci_low, whole["accuracy"].ci_high] == pytest.approx(
-        np.percentile(deltas, [2.5, 97.5]), abs=1e-12
+def test_speed_difference_by_hand():
+    # Durations of 2 s: speed errors are angle errors / 2 (equation 4). A is off by 20° on
+    # every clip -> 10 °/s; B gives its own speeds, off by 4 °/s on every clip -> B - A = -6.
+    ref = np.array([90.0, 180.0, 45.0, 135.0])
+    a = ref + 20.0
+    b_speed = ref / 2.0 + 4.0
+    result = paired_bootstrap(
+        a,
+        ref,
+        ref,
+        ref_duration_s=np.full(4, 2.0),
+        pred_b_speed_deg_s=b_speed,
+        n_resamples=50,
+        seed=0,
     )
+    speed = result["mae_speed_deg_s"]
+    assert (speed.a, speed.b, speed.diff) == pytest.approx((10.0, 4.0, -6.0))
+    # Every clip has the same errors, so every resample has the same difference.
+    assert (speed.ci_low, speed.ci_high) == pytest.approx((-6.0, -6.0))
 
 
 # ------------------------------------------------------------- paired bootstrap
@@ -134,8 +148,10 @@ def test_accuracy_difference_ci_agrees_with_scipy_paired_percentile():
 
 def test_identical_submissions_give_zero_difference_and_p_one():
     a, _, ref = two_systems(80, sd_a_deg=30.0, sd_b_deg=1.0)
-    result = compare_predictions(a, a.copy(), ref, n_resamples=300, seed=0)
-    for metric in ("accuracy", "mae_deg", "wprec"):
+    duration = np.full(ref.size, 1.5)
+    result = compare_predictions(a, a.copy(), ref, ref_duration_s=duration, n_resamples=300, seed=0)
+    assert list(result.differences) == ["accuracy", "mae_deg", "wprec", "mae_speed_deg_s"]
+    for metric in result.differences:
         d = result.differences[metric]
         assert d.a == d.b
         assert (d.diff, d.mean_diff, d.ci_low, d.ci_high, d.p_value) == (0.0, 0.0, 0.0, 0.0, 1.0)

@@ -7,11 +7,15 @@ the numbers.
 
 Paired bootstrap (Koehn 2004, "Statistical significance tests for machine translation
 evaluation"; Efron and Tibshirani 1993, chapters 13 and 16)
-    Draw ``n_resamples`` resamples of the ``n`` clips with replacement (one index matrix,
-    seeded), compute each metric for A and for B on every resample, and take the differences
-    ``d*_r = metric_B(r) - metric_A(r)``. Reported: the observed difference ``d`` on all clips,
-    the mean of ``d*``, and the 95% percentile interval of ``d*`` (2.5th and 97.5th
-    percentiles, linear interpolation, as ``scipy.stats.bootstrap(method="percentile")``).
+    Draw ``n_resamples`` resamples of the ``n`` clips with replacement, compute each metric
+    for A and for B on every resample, and take the differences
+    ``d*_r = metric_B(r) - metric_A(r)``. The resamples are
+    ``numpy.random.default_rng(seed).integers(0, n, (n_resamples, n))``, the draws of
+    ``scipy.stats.bootstrap(paired=True)`` and of the confidence intervals of
+    ``turn-eval score`` (:func:`turn_eval.metrics.resample_indices`). Reported: the observed
+    difference ``d`` on all clips, the mean of ``d*``, and the 95% percentile interval of
+    ``d*`` (2.5th and 97.5th percentiles, linear interpolation, as
+    ``scipy.stats.bootstrap(method="percentile")``).
 
 Two-sided p-value
     The bootstrap distribution shifted to the null hypothesis of no difference (Efron and
@@ -34,9 +38,9 @@ Exact McNemar test
     fair coin, so ``p = binomtest(c, b + c, 0.5)`` two-sided (``scipy.stats.binomtest``);
     with no discordant clip, ``p = 1``.
 
-Metrics (paper Section 5; DESIGN.md): ``accuracy`` (predicted and reference angles in the
-same 45° bin), ``mae_deg`` and ``wprec`` (scikit-learn's weighted precision over bins with
-``zero_division=0``, computed here for every resample at once from per-bin counts).
+Metrics (paper Section 5; :mod:`turn_eval.metrics`, the same code as ``turn-eval score``):
+``accuracy``, ``mae_deg``, ``wprec`` and, when the reference has durations,
+``mae_speed_deg_s`` (equation 4).
 """
 
 from __future__ import annotations
@@ -49,48 +53,56 @@ from scipy.stats import binomtest
 
 from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.geometry import quantise_deg
+from turn_eval.metrics import (
+    CONFIDENCE,
+    ClipOutcomes,
+    clip_outcomes,
+    metrics_of,
+    percentile_interval,
+    resample_indices,
+    resampled_metrics,
+)
 
 __all__ = [
     "METRICS",
     "PairedDifference",
     "McNemarResult",
     "Comparison",
-    "per_clip_outcomes",
-    "resample_indices",
-    "resampled_metrics",
+    "paired_differences",
     "paired_bootstrap",
     "mcnemar_exact",
     "compare_predictions",
 ]
 
-#: The metrics compared, in the order they are reported.
-METRICS = ("accuracy", "mae_deg", "wprec")
-#: Index-matrix cells per chunk of resamples: bounds memory (a few arrays of this many
-#: int64, tens of MB) whatever the number of clips; 1000 resamples of 2000 clips is one chunk.
-_CHUNK_CELLS = 2_000_000
+#: The metrics compared, in the order they are reported (speed only with durations).
+METRICS = ("accuracy", "mae_deg", "wprec", "mae_speed_deg_s")
 
 
 @dataclass(frozen=True)
 class PairedDifference:
-    """One metric of a paired comparison: A, B, the difference B - A and its uncertainty."""
+    """One metric of a paired comparison: A, B, the difference B - A and its uncertainty.
+
+    ``ci_low``, ``ci_high`` and ``p_value`` are None when some resample leaves the metric
+    undefined (a speed metric on a resample without a clip that has a duration).
+    """
 
     metric: str
     a: float
     b: float
     diff: float
     mean_diff: float
-    ci_low: float
-    ci_high: float
-    p_value: float
+    ci_low: float | None
+    ci_high: float | None
+    p_value: float | None
 
     def as_dict(self) -> dict[str, object]:
+        ci = None if self.ci_low is None else [self.ci_low, self.ci_high]
         return {
             "a": self.a,
             "b": self.b,
             "diff": self.diff,
             "mean_diff": self.mean_diff,
-            "ci95": [self.ci_low, self.ci_high],
+            "ci95": ci,
             "p_value": self.p_value,
         }
 
@@ -137,142 +149,83 @@ class Comparison:
                 "bin_width_deg": self.bin_width_deg,
                 "bootstrap": self.n_resamples,
                 "seed": self.seed,
-                "confidence": 0.95,
+                "confidence": CONFIDENCE,
                 "version": self.version,
             },
             "signature": self.signature,
         }
 
 
-def _as_angles(values, name: str) -> np.ndarray:
-    arr = np.asarray(values, dtype=float)
-    if arr.ndim != 1:
-        raise TurnbenchError(f"{name} must be one angle per clip, got shape {arr.shape}")
-    if not np.isfinite(arr).all():
-        raise TurnbenchError(f"{name} holds NaN or infinite angles")
-    return arr
-
-
-@dataclass(frozen=True)
-class _Outcomes:
-    """Per-clip ingredients of every metric, for one submission against the reference."""
-
-    correct: np.ndarray  # bool, predicted bin == reference bin
-    abs_error_deg: np.ndarray  # |pred - ref|
-    pred_code: np.ndarray  # bin as an index into the shared label set
-    ref_code: np.ndarray
-    n_labels: int
-
-
-def per_clip_outcomes(pred_deg, ref_deg, *, bin_width_deg: float = 45.0) -> dict[str, np.ndarray]:
-    """Per-clip bin correctness and absolute error, the ingredients of accuracy and MAE.
-
-    Returns ``{"correct": bool array, "abs_error_deg": float array, "pred_bin_deg",
-    "ref_bin_deg"}``; bins are ``quantise_deg`` (nearest multiple of ``bin_width_deg``).
-    """
-    pred = _as_angles(pred_deg, "predicted angles")
-    ref = _as_angles(ref_deg, "reference angles")
-    if pred.shape != ref.shape:
-        raise TurnbenchError(f"{pred.size} predictions for {ref.size} reference clips")
-    pred_bin = quantise_deg(pred, bin_width_deg)
-    ref_bin = quantise_deg(ref, bin_width_deg)
-    return {
-        "correct": pred_bin == ref_bin,
-        "abs_error_deg": np.abs(pred - ref),
-        "pred_bin_deg": pred_bin,
-        "ref_bin_deg": ref_bin,
-    }
-
-
-def _outcomes(
-    pred: np.ndarray, ref_bin: np.ndarray, ref: np.ndarray, labels: np.ndarray, bin_width_deg: float
-) -> _Outcomes:
-    pred_bin = quantise_deg(pred, bin_width_deg)
-    return _Outcomes(
-        correct=pred_bin == ref_bin,
-        abs_error_deg=np.abs(pred - ref),
-        pred_code=np.searchsorted(labels, pred_bin),
-        ref_code=np.searchsorted(labels, ref_bin),
-        n_labels=labels.size,
+def _paired_outcomes(
+    pred_a_deg,
+    pred_b_deg,
+    ref_deg,
+    *,
+    ref_duration_s,
+    pred_a_speed_deg_s,
+    pred_b_speed_deg_s,
+    bin_width_deg: float,
+) -> tuple[ClipOutcomes, ClipOutcomes]:
+    sizes = [np.asarray(x).size for x in (pred_a_deg, pred_b_deg, ref_deg)]
+    if len(set(sizes)) != 1:
+        raise TurnbenchError(
+            f"A has {sizes[0]} angles, B {sizes[1]} and the reference {sizes[2]}: "
+            "a paired test needs the same clips"
+        )
+    if sizes[0] == 0:
+        raise TurnbenchError("no clips to compare")
+    common = {"ref_duration_s": ref_duration_s, "bin_width_deg": bin_width_deg}
+    return (
+        clip_outcomes(pred_a_deg, ref_deg, pred_speed_deg_s=pred_a_speed_deg_s, **common),
+        clip_outcomes(pred_b_deg, ref_deg, pred_speed_deg_s=pred_b_speed_deg_s, **common),
     )
 
 
-def resample_indices(n: int, *, n_resamples: int, seed: int) -> np.ndarray:
-    """The bootstrap index matrix ``(n_resamples, n)``: clips drawn with replacement.
-
-    Drawn as ``numpy.random.default_rng(seed).integers(0, n, (n_resamples, n))``, the same
-    call ``scipy.stats.bootstrap`` makes, so the resamples are documented and reproducible.
-    :func:`paired_bootstrap` draws the same rows in chunks (see :func:`_index_chunks`).
-    """
-    _check_resampling(n, n_resamples)
-    return np.random.default_rng(seed).integers(0, n, size=(n_resamples, n))
-
-
-def _check_resampling(n: int, n_resamples: int) -> None:
-    if n < 1:
-        raise TurnbenchError("no clips to compare")
+def _differences(
+    outcomes_a: ClipOutcomes, outcomes_b: ClipOutcomes, *, n_resamples: int, seed: int
+) -> dict[str, np.ndarray]:
     if n_resamples < 1:
         raise TurnbenchError(
             f"the number of bootstrap resamples must be positive, got {n_resamples}"
         )
+    parts: dict[str, list[np.ndarray]] = {}
+    # One index matrix (in chunks) for both submissions: this is what makes the test paired.
+    for idx in resample_indices(outcomes_a.n, n_resamples=n_resamples, seed=seed):
+        res_a = resampled_metrics(outcomes_a, idx)
+        res_b = resampled_metrics(outcomes_b, idx)
+        for name in METRICS:
+            if name in res_a:
+                parts.setdefault(name, []).append(res_b[name] - res_a[name])
+    return {name: np.concatenate(values) for name, values in parts.items()}
 
 
-def _metrics_on(idx: np.ndarray, out: _Outcomes) -> dict[str, np.ndarray]:
-    """Every metric on each row of an index matrix ``(r, n)``; arrays of length ``r``."""
-    r, n = idx.shape
-    k = out.n_labels
-    accuracy = out.correct[idx].mean(axis=1)
-    mae = out.abs_error_deg[idx].mean(axis=1)
-    # Weighted precision (sklearn, average="weighted", zero_division=0) is
-    # sum_l support_l / n * TP_l / predicted_l; labels never predicted count 0 and labels
-    # without support weigh 0, so one shared label set serves every resample. Per-resample
-    # counts come from one bincount over (row, label) cells.
-    offset = (np.arange(r) * k)[:, None]
-    ref_cells = out.ref_code[idx] + offset
-    pred_cells = out.pred_code[idx] + offset
-    support = np.bincount(ref_cells.ravel(), minlength=r * k).reshape(r, k)
-    predicted = np.bincount(pred_cells.ravel(), minlength=r * k).reshape(r, k)
-    hits = np.bincount(ref_cells[out.correct[idx]], minlength=r * k).reshape(r, k)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        precision = np.where(predicted > 0, hits / np.maximum(predicted, 1), 0.0)
-    wprec = (support * precision).sum(axis=1) / n
-    return {"accuracy": accuracy, "mae_deg": mae, "wprec": wprec}
-
-
-def _chunks(n_resamples: int, n: int):
-    step = max(1, _CHUNK_CELLS // max(n, 1))
-    for start in range(0, n_resamples, step):
-        yield start, min(start + step, n_resamples)
-
-
-def _index_chunks(n: int, *, n_resamples: int, seed: int):
-    """The rows of :func:`resample_indices`, drawn chunk by chunk from one generator.
-
-    NumPy draws bounded integers one after another from the stream, so consecutive chunks
-    are the rows of the whole matrix (tests check this), without holding it in memory.
-    """
-    _check_resampling(n, n_resamples)
-    rng = np.random.default_rng(seed)
-    for start, stop in _chunks(n_resamples, n):
-        yield start, stop, rng.integers(0, n, size=(stop - start, n))
-
-
-def resampled_metrics(
-    pred_deg, ref_deg, idx: np.ndarray, *, bin_width_deg: float = 45.0
+def paired_differences(
+    pred_a_deg,
+    pred_b_deg,
+    ref_deg,
+    *,
+    ref_duration_s=None,
+    pred_a_speed_deg_s=None,
+    pred_b_speed_deg_s=None,
+    n_resamples: int = 1000,
+    seed: int = 0,
+    bin_width_deg: float = 45.0,
 ) -> dict[str, np.ndarray]:
-    """Accuracy, MAE and WPrec of one submission on each resample (row) of ``idx``.
+    """The bootstrap distribution of B - A: each metric's difference on every resample.
 
-    ``idx`` of shape ``(r, n)`` indexes the clips; the identity row ``arange(n)`` gives the
-    metrics on the whole set.
+    Parameters are as in :func:`paired_bootstrap`. Returns metric name -> array of
+    ``n_resamples`` differences (``mae_speed_deg_s`` only with ``ref_duration_s``).
     """
-    pred = _as_angles(pred_deg, "predicted angles")
-    ref = _as_angles(ref_deg, "reference angles")
-    ref_bin = quantise_deg(ref, bin_width_deg)
-    labels = np.unique(np.concatenate([ref_bin, quantise_deg(pred, bin_width_deg)]))
-    out = _outcomes(pred, ref_bin, ref, labels, bin_width_deg)
-    idx = np.atleast_2d(np.asarray(idx))
-    parts = [_metrics_on(idx[a:b], out) for a, b in _chunks(idx.shape[0], idx.shape[1])]
-    return {m: np.concatenate([p[m] for p in parts]) for m in METRICS}
+    outcomes_a, outcomes_b = _paired_outcomes(
+        pred_a_deg,
+        pred_b_deg,
+        ref_deg,
+        ref_duration_s=ref_duration_s,
+        pred_a_speed_deg_s=pred_a_speed_deg_s,
+        pred_b_speed_deg_s=pred_b_speed_deg_s,
+        bin_width_deg=bin_width_deg,
+    )
+    return _differences(outcomes_a, outcomes_b, n_resamples=n_resamples, seed=seed)
 
 
 def _shift_p_value(deltas: np.ndarray, observed: float) -> float:
@@ -281,16 +234,45 @@ def _shift_p_value(deltas: np.ndarray, observed: float) -> float:
     return float((1 + np.count_nonzero(extreme)) / (deltas.size + 1))
 
 
+def _summarise(
+    outcomes_a: ClipOutcomes, outcomes_b: ClipOutcomes, *, n_resamples: int, seed: int
+) -> dict[str, PairedDifference]:
+    full_a, full_b = metrics_of(outcomes_a), metrics_of(outcomes_b)
+    deltas = _differences(outcomes_a, outcomes_b, n_resamples=n_resamples, seed=seed)
+    result: dict[str, PairedDifference] = {}
+    for name, d in deltas.items():
+        a, b = full_a[name], full_b[name]
+        if a is None or b is None:  # speed metric without any usable duration
+            continue
+        observed = float(b) - float(a)
+        interval = percentile_interval(d, confidence=CONFIDENCE)
+        defined = interval is not None
+        result[name] = PairedDifference(
+            metric=name,
+            a=float(a),
+            b=float(b),
+            diff=observed,
+            mean_diff=float(np.nanmean(d)) if np.isfinite(d).any() else float("nan"),
+            ci_low=interval[0] if defined else None,
+            ci_high=interval[1] if defined else None,
+            p_value=_shift_p_value(d, observed) if defined else None,
+        )
+    return result
+
+
 def paired_bootstrap(
     pred_a_deg,
     pred_b_deg,
     ref_deg,
     *,
+    ref_duration_s=None,
+    pred_a_speed_deg_s=None,
+    pred_b_speed_deg_s=None,
     n_resamples: int = 1000,
     seed: int = 0,
     bin_width_deg: float = 45.0,
 ) -> dict[str, PairedDifference]:
-    """Paired bootstrap of the differences B - A in accuracy, MAE and WPrec.
+    """Paired bootstrap of the differences B - A in every metric.
 
     Parameters
     ----------
@@ -298,6 +280,10 @@ def paired_bootstrap(
         Predicted angles (degrees) of submissions A and B, one per clip, same clip order.
     ref_deg
         Reference angles (degrees) of the same clips.
+    ref_duration_s
+        Reference durations (seconds), for the speed metric (equation 4); None: no speed.
+    pred_a_speed_deg_s, pred_b_speed_deg_s
+        Predicted speeds where the submissions give them (NaN or None: angle over duration).
     n_resamples
         Bootstrap resamples (sacrebleu's and this project's default: 1000).
     seed
@@ -308,54 +294,22 @@ def paired_bootstrap(
     Returns
     -------
     dict
-        Metric name -> :class:`PairedDifference` with A's and B's values on all clips, the
-        observed difference, the mean resampled difference, the 95% percentile interval and
-        the two-sided p-value (module docstring). For ``mae_deg`` a negative difference means
-        B is better; for the others a positive one.
+        Metric name -> :class:`PairedDifference` with A's and B's values on all clips (as
+        ``turn-eval score`` computes them), the observed difference, the mean resampled
+        difference, the 95% percentile interval and the two-sided p-value (module
+        docstring). For the MAEs a negative difference means B is better; for the others a
+        positive one.
     """
-    pred_a = _as_angles(pred_a_deg, "A's angles")
-    pred_b = _as_angles(pred_b_deg, "B's angles")
-    ref = _as_angles(ref_deg, "reference angles")
-    if not (pred_a.size == pred_b.size == ref.size):
-        raise TurnbenchError(
-            f"A has {pred_a.size} angles, B {pred_b.size} and the reference {ref.size}: "
-            "a paired test needs the same clips"
-        )
-    _check_resampling(ref.size, n_resamples)
-    ref_bin = quantise_deg(ref, bin_width_deg)
-    # One label set for A, B and the reference, so per-bin counts line up in every resample.
-    labels = np.unique(
-        np.concatenate(
-            [ref_bin, quantise_deg(pred_a, bin_width_deg), quantise_deg(pred_b, bin_width_deg)]
-        )
+    outcomes_a, outcomes_b = _paired_outcomes(
+        pred_a_deg,
+        pred_b_deg,
+        ref_deg,
+        ref_duration_s=ref_duration_s,
+        pred_a_speed_deg_s=pred_a_speed_deg_s,
+        pred_b_speed_deg_s=pred_b_speed_deg_s,
+        bin_width_deg=bin_width_deg,
     )
-    out_a = _outcomes(pred_a, ref_bin, ref, labels, bin_width_deg)
-    out_b = _outcomes(pred_b, ref_bin, ref, labels, bin_width_deg)
-    whole = np.arange(ref.size)[None, :]
-    full_a, full_b = _metrics_on(whole, out_a), _metrics_on(whole, out_b)
-
-    deltas = {m: np.empty(n_resamples) for m in METRICS}
-    for start, stop, idx in _index_chunks(ref.size, n_resamples=n_resamples, seed=seed):
-        res_a, res_b = _metrics_on(idx, out_a), _metrics_on(idx, out_b)
-        for m in METRICS:
-            deltas[m][start:stop] = res_b[m] - res_a[m]
-
-    result: dict[str, PairedDifference] = {}
-    for m in METRICS:
-        a, b = float(full_a[m][0]), float(full_b[m][0])
-        observed = b - a
-        low, high = np.percentile(deltas[m], [2.5, 97.5])
-        result[m] = PairedDifference(
-            metric=m,
-            a=a,
-            b=b,
-            diff=observed,
-            mean_diff=float(deltas[m].mean()),
-            ci_low=float(low),
-            ci_high=float(high),
-            p_value=_shift_p_value(deltas[m], observed),
-        )
-    return result
+    return _summarise(outcomes_a, outcomes_b, n_resamples=n_resamples, seed=seed)
 
 
 def mcnemar_exact(correct_a, correct_b) -> McNemarResult:
@@ -387,6 +341,9 @@ def compare_predictions(
     pred_b_deg,
     ref_deg,
     *,
+    ref_duration_s=None,
+    pred_a_speed_deg_s=None,
+    pred_b_speed_deg_s=None,
     n_resamples: int = 1000,
     seed: int = 0,
     bin_width_deg: float = 45.0,
@@ -394,23 +351,22 @@ def compare_predictions(
     """Paired bootstrap of every metric and the exact McNemar test, with a signature.
 
     Parameters are as in :func:`paired_bootstrap`; the clips must be in the same order in
-    all three arrays.
+    all arrays.
     """
-    differences = paired_bootstrap(
+    outcomes_a, outcomes_b = _paired_outcomes(
         pred_a_deg,
         pred_b_deg,
         ref_deg,
-        n_resamples=n_resamples,
-        seed=seed,
+        ref_duration_s=ref_duration_s,
+        pred_a_speed_deg_s=pred_a_speed_deg_s,
+        pred_b_speed_deg_s=pred_b_speed_deg_s,
         bin_width_deg=bin_width_deg,
     )
-    outcome_a = per_clip_outcomes(pred_a_deg, ref_deg, bin_width_deg=bin_width_deg)
-    outcome_b = per_clip_outcomes(pred_b_deg, ref_deg, bin_width_deg=bin_width_deg)
     return Comparison(
-        n=int(np.asarray(ref_deg).size),
+        n=outcomes_a.n,
         n_resamples=n_resamples,
         seed=seed,
         bin_width_deg=float(bin_width_deg),
-        differences=differences,
-        mcnemar=mcnemar_exact(outcome_a["correct"], outcome_b["correct"]),
+        differences=_summarise(outcomes_a, outcomes_b, n_resamples=n_resamples, seed=seed),
+        mcnemar=mcnemar_exact(outcomes_a.correct, outcomes_b.correct),
     )
