@@ -14,6 +14,7 @@ from test_predict import minus_y_up_copy, turning_skeleton, y_up_copy
 
 from turn_datasets._cli import EXIT_BAD_INPUT, run_group
 from turn_datasets.skeleton import H36M32
+from turn_eval import metrics, predictions
 from turn_eval.cli import cli
 
 CONVERT = {"z": lambda p: p, "y": y_up_copy, "-y": minus_y_up_copy}
@@ -97,25 +98,43 @@ def test_several_files_joints_option_and_h5_groups(tmp_path, capsys):
 
 
 def test_output_is_a_valid_predictions_file(tmp_path, capsys):
-    predictions = pytest.importorskip("turn_eval.predictions")
-    src = write_skeletons(tmp_path / "s.npz", {
-        "c1": turning_skeleton(np.linspace(0, 90, 30)),
-        "c2": turning_skeleton(np.linspace(0, -180, 30)),
-    })
+    src = write_skeletons(
+        tmp_path / "s.npz",
+        {
+            "c1": turning_skeleton(np.linspace(0, 90, 30)),
+            "c2": turning_skeleton(np.linspace(0, -180, 30)),
+        },
+    )
     out = tmp_path / "p.csv"
-    code, _, stderr = run(["predict", src, "--layout", "h36m17", "--fps", "50", "--out", out], capsys)
+    code, _, stderr = run(
+        ["predict", src, "--layout", "h36m17", "--fps", "50", "--out", out], capsys
+    )
     assert code == 0, stderr
     ref = tmp_path / "ref.csv"
     ref.write_text("clip_id,angle_deg,duration_s\nc1,90,0.6\nc2,180,0.6\n", encoding="utf-8")
-    joined = predictions.read_predictions(out, predictions.read_reference(ref))
-    assert len(joined) == 2
+    joined = predictions.read_predictions(out, predictions.read_reference(ref)).table
+    assert joined["clip_id"].tolist() == ["c1", "c2"]
+    assert joined["pred_angle_deg"].tolist() == pytest.approx([90.0, 180.0])
+    # 30 frames at 50 Hz = 0.6 s: 90 / 0.6 = 150 and 180 / 0.6 = 300 °/s, the reference's
+    # own speeds over its durations, so the scored speed error is zero.
+    assert joined["pred_speed_deg_s"].tolist() == pytest.approx([150.0, 300.0])
+    scored = metrics.compute_metrics(
+        joined["pred_angle_deg"],
+        joined["ref_angle_deg"],
+        ref_duration_s=joined["ref_duration_s"],
+        pred_speed_deg_s=joined["pred_speed_deg_s"],
+    )
+    assert scored["accuracy"] == 1.0
+    assert scored["mae_speed_deg_s"] == pytest.approx(0.0, abs=1e-9)
 
 
 def test_same_inputs_give_byte_identical_output(tmp_path, capsys):
     src = write_skeletons(tmp_path / "s.npz", {"c1": turning_skeleton(np.linspace(0, 77.7, 33))})
     outs = [tmp_path / "one.csv", tmp_path / "two.csv"]
     for out in outs:
-        code, _, _ = run(["predict", src, "--layout", "h36m17", "--fps", "25", "--out", out], capsys)
+        code, _, _ = run(
+            ["predict", src, "--layout", "h36m17", "--fps", "25", "--out", out], capsys
+        )
         assert code == 0
     assert outs[0].read_bytes() == outs[1].read_bytes()
 
