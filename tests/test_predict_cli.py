@@ -204,3 +204,53 @@ def test_help_has_an_example_and_console_script_exit_code(tmp_path):
     assert missing.returncode == EXIT_BAD_INPUT
     assert "Traceback" not in missing.stderr
     assert missing.stderr.strip().endswith("no such file")
+
+
+# CMU's own descriptions of the captures (DESCRIPTIONS.txt): name -> (description, direction).
+CMU_TRIALS = {
+    "16_18": ("walk, 90-degree left turn", "left"),
+    "69_25": ("walk forward 90 degree left turn", "left"),
+    "69_20": ("walk forward 90 degree right turn", "right"),
+    "16_21": ("walk", None),
+    "69_01": ("walk forward", None),
+}
+
+
+def test_real_cmu_captures_through_predict(cmu_dir, tmp_path, capsys):
+    # Real motion capture as a pose estimator's output would arrive: the joints the BVH
+    # reader names (pelvis, hips, knees, shoulders) placed in Human3.6M's 32-joint order,
+    # the rest NaN, y up, one .npz key per trial.
+    from turn_datasets.readers import read_source
+
+    clips = {}
+    for trial in CMU_TRIALS:
+        seq = next(read_source(cmu_dir / f"{trial}.bvh", skip_first_frame=True))
+        positions = np.full((seq.n_frames, H36M32.n_joints, 3), np.nan)
+        for name, index in H36M32.joints.items():
+            if name in seq.layout.joints:
+                positions[:, index] = seq.positions[:, seq.layout.index(name)]
+        clips[trial] = y_up_copy(positions)
+    src = write_skeletons(tmp_path / "cmu.npz", clips)
+    tables = {}
+    for method in ("net", "paper"):
+        out = tmp_path / f"{method}.csv"
+        args = ["predict", src, "--layout", "h36m32", "--up-axis", "y", "--method", method]
+        code, _, stderr = run([*args, "--fps", "120", "--out", out], capsys)
+        assert code == 0, stderr
+        tables[method] = pd.read_csv(out).set_index("clip_id")
+    net, paper = tables["net"], tables["paper"]
+    for trial, (description, direction) in CMU_TRIALS.items():
+        angle = net.loc[trial, "angle_deg"]
+        if direction is None:
+            # A straight walk: the hips end facing as they started, up to the gait's sway.
+            assert angle < 15.0, (trial, description, angle)
+        else:
+            # "90 degree" as CMU describes it; the first and last frames catch the pelvis at
+            # some phase of its gait rotation, so allow 30° either side.
+            assert 60.0 < angle < 120.0, (trial, description, angle)
+            assert net.loc[trial, "direction"] == direction, (trial, description)
+        # Equation 3 as printed adds |step| where the net rotation adds signed steps, so it
+        # can never be smaller (triangle inequality); on a real walk the sway adds up.
+        assert paper.loc[trial, "angle_deg"] >= angle - 1e-9
+    # On the straight walk the printed equation reports a sizeable "turn" made of sway alone.
+    assert paper.loc["16_21", "angle_deg"] > 40.0
