@@ -1,3 +1,226 @@
-"""Commands of turn-datasets (registered on the groups in turn_datasets.cli)."""
+"""``turn-datasets remap inspect | labels | stats``: ELAN files to Turn-REMAP labels.
+
+Parses options, calls :mod:`turn_datasets.eaf` and :mod:`turn_datasets.labels`, prints.
+"""
 
 from __future__ import annotations
+
+from pathlib import Path
+
+import click
+import pandas as pd
+
+from turn_datasets._cli import emit, format_option, info, progress, wrote
+from turn_datasets._io import check_not_input, staged_dir, to_json_text, write_csv
+from turn_datasets.cli import CONTEXT_SETTINGS, remap
+from turn_datasets.eaf import expand_eaf_paths, inspect_eaf, inspect_markdown, read_annotations
+from turn_datasets.errors import TurnbenchError
+from turn_datasets.labels import (
+    RESOLVE_CHOICES,
+    make_labels,
+    read_labels,
+    read_participants,
+    stats_csv,
+    stats_dict,
+    stats_markdown,
+    table1,
+    table2,
+    turns_per_location,
+)
+from turn_datasets.schema import load_schema
+
+#: The raw per-rater rows are written beside the labels under this name (DESIGN.md).
+ANNOTATIONS_NAME = "annotations.csv"
+
+_schema_option = click.option(
+    "--schema",
+    "schema_path",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="Annotation schema TOML for files in another convention (default: the shipped one).",
+)
+
+
+@remap.command("inspect", context_settings=CONTEXT_SETTINGS)
+@click.argument("files", nargs=-1, required=True, metavar="FILE...", type=click.Path(path_type=Path))
+@_schema_option
+@format_option(default="md", choices=("md", "json"))
+@click.option(
+    "--keep-media-paths",
+    is_flag=True,
+    help="Also show the header: author, date, media and linked file paths (may identify "
+    "people or places; off by default).",
+)
+def inspect_cmd(
+    files: tuple[Path, ...], schema_path: Path | None, fmt: str, keep_media_paths: bool
+) -> None:
+    """List what ELAN files hold and which tiers the schema takes as turn and context tiers.
+
+    Per file: each tier with its linguistic type and constraint, parent, annotator,
+    participant, vocabulary, annotation count and time range; the controlled vocabularies
+    (external ones with their URL); the turn and context tiers, or a clear note that there
+    are none. FILES may be .eaf files or folders of them. Any readable ELAN file works,
+    whatever its version or tier structure; files declaring XML entities are refused.
+
+    \b
+    Example:
+      turn-datasets remap inspect session01.eaf
+      turn-datasets remap inspect eaf/ --format json > inventory.json
+      turn-datasets remap inspect other.eaf --schema mine.toml
+    """
+    schema = load_schema(schema_path)
+    paths = expand_eaf_paths(files)
+    results = [
+        inspect_eaf(p, schema=schema, keep_media_paths=keep_media_paths)
+        for p in progress(paths, label="reading ELAN files")
+    ]
+    if fmt == "json":
+        emit(to_json_text({"schema": schema.source, "files": results}))
+    else:
+        emit(inspect_markdown(results))
+
+
+@remap.command("labels", context_settings=CONTEXT_SETTINGS)
+@click.argument("inputs", nargs=-1, required=True, metavar="EAF_OR_DIR...", type=click.Path(path_type=Path))
+@click.option(
+    "--participants",
+    "participants_path",
+    required=True,
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="CSV: subject, cohort (PD or HC), pair, sex, age, years_since_diagnosis.",
+)
+@_schema_option
+@click.option(
+    "--min-overlap",
+    type=click.FloatRange(0.0, 1.0, min_open=True),
+    default=0.6,
+    show_default=True,
+    help="Two raters' turns are one when overlap / longer duration is at least this (as ELAN).",
+)
+@click.option(
+    "--resolve",
+    type=click.Choice(RESOLVE_CHOICES),
+    default="consensus",
+    show_default=True,
+    help="Who decides where two raters disagree: the consensus tier (else exit 2), or the "
+    "rater whose tier comes first in the file.",
+)
+@click.option(
+    "--out",
+    required=True,
+    type=click.Path(dir_okay=False, path_type=Path),
+    help=f"Labels CSV to write; {ANNOTATIONS_NAME} (every rater's raw rows) goes beside it.",
+)
+def labels_cmd(
+    inputs: tuple[Path, ...],
+    participants_path: Path,
+    schema_path: Path | None,
+    min_overlap: float,
+    resolve: str,
+    out: Path,
+) -> None:
+    """Write the Turn-REMAP labels: one row per turn after adjudication.
+
+    Reads every turn annotation of every rater from the ELAN files (EAF_OR_DIR: files or
+    folders of .eaf files), makes one turn of two raters' matched annotations, lets the
+    consensus rater decide where they disagree, and adds each subject's cohort from the
+    participants table. Columns: clip_id, session, subject, cohort, annotator, start_s,
+    end_s, duration_s, angle_deg, scenario, location, double_annotated, source; clip_id is
+    {session}_{subject}_{start_ms}-{end_ms}. annotations.csv beside --out holds every raw
+    row. Both files are written together or not at all.
+
+    Exit 2, naming file, tier and time: a value outside the vocabulary, overlapping turns on
+    one tier, an end not after its start, a participant missing from the table, or
+    disagreements without consensus (all listed first; --resolve first-rater takes the
+    first rater's label instead).
+
+    \b
+    Example:
+      turn-datasets remap labels eaf/ --participants participants.csv --out labels/labels.csv
+      turn-datasets remap labels eaf/ --participants participants.csv \\
+          --resolve first-rater --out labels.csv
+    """
+    out_annotations = out.parent / ANNOTATIONS_NAME
+    if out.name == ANNOTATIONS_NAME:
+        raise click.UsageError(f"--out must not be named {ANNOTATIONS_NAME}: that file goes beside it")
+    schema = load_schema(schema_path)
+    paths = expand_eaf_paths(inputs)
+    inputs_all = [*paths, participants_path, *([schema_path] if schema_path else [])]
+    check_not_input(out, inputs_all)
+    check_not_input(out_annotations, inputs_all)
+
+    participants = read_participants(participants_path)
+    annotations = read_annotations(
+        paths, schema=schema, iterate=lambda ps: progress(ps, label="reading ELAN files")
+    )
+    if annotations.empty:
+        raise TurnbenchError(
+            f"no turn annotations in {len(paths)} file(s): no tier matches "
+            f"{schema.turn_tier_regex.pattern!r}",
+            file=str(paths[0]) if len(paths) == 1 else None,
+            hint="see `turn-datasets remap inspect`, or map the tiers with --schema",
+        )
+
+    def list_unresolved(pending: pd.DataFrame) -> None:
+        # Every disagreement before the one-line error, so one review pass can fix them all.
+        for r in pending.itertuples(index=False):
+            info(
+                f"unresolved: {r.file}, tier {r.tier!r}, participant {r.participant}, "
+                f"{r.start_s:.3f}-{r.end_s:.3f} s: {r.values}"
+            )
+
+    labels = make_labels(
+        annotations,
+        participants,
+        consensus_annotator=schema.consensus_annotator,
+        min_overlap=min_overlap,
+        resolve=resolve,
+        on_unresolved=list_unresolved,
+    )
+    with staged_dir(out.parent) as stage:
+        write_csv(labels, stage / out.name)
+        write_csv(annotations, stage / ANNOTATIONS_NAME)
+    n_double = int(labels["double_annotated"].sum())
+    wrote(
+        out,
+        out_annotations,
+        what=f"{len(labels)} turns ({n_double} double-annotated) from {len(annotations)} "
+        "annotations:",
+    )
+
+
+@remap.command("stats", context_settings=CONTEXT_SETTINGS)
+@click.argument("labels_csv", type=click.Path(dir_okay=False, path_type=Path))
+@click.option(
+    "--participants",
+    "participants_path",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="Participants table, for mean ages and years since diagnosis.",
+)
+@click.option("--csv", "as_csv", is_flag=True, help="Same as --format csv.")
+@format_option(default="md", choices=("md", "csv", "json"))
+def stats_cmd(labels_csv: Path, participants_path: Path | None, as_csv: bool, fmt: str) -> None:
+    """Summarise a label set as the paper's Table 1 and Table 2.
+
+    Table 1: subjects, turns, mean age and years since diagnosis per cohort (PD, HC, all).
+    Table 2: turns per scenario and angle, with totals. Then turns per location and cohort.
+    Markdown by default; --csv prints one long CSV (table, row, column, value).
+
+    \b
+    Example:
+      turn-datasets remap stats labels.csv --participants participants.csv
+      turn-datasets remap stats labels.csv --csv > stats.csv
+    """
+    labels = read_labels(labels_csv)
+    participants = read_participants(participants_path) if participants_path else None
+    t1 = table1(labels, participants)
+    t2 = table2(labels)
+    locations = turns_per_location(labels)
+    fmt = "csv" if as_csv else fmt
+    if fmt == "csv":
+        emit(stats_csv(t1, t2, locations))
+    elif fmt == "json":
+        emit(to_json_text(stats_dict(t1, t2, locations)))
+    else:
+        emit(stats_markdown(t1, t2, locations))

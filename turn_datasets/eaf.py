@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import os
 import warnings
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from os import PathLike
 from pathlib import Path
@@ -40,6 +40,8 @@ __all__ = [
     "KNOWN_VERSIONS",
     "expand_eaf_paths",
     "inspect_eaf",
+    "inspect_markdown",
+    "iter_inspect",
     "load_eaf",
     "read_annotations",
 ]
@@ -505,6 +507,7 @@ def read_annotations(
     paths_or_dirs: str | PathLike[str] | Iterable[str | PathLike[str]],
     *,
     schema: Schema | None = None,
+    iterate: Callable[[list[Path]], Iterable[Path]] | None = None,
 ) -> pd.DataFrame:
     """Every turn annotation of every rater in ELAN files, one row each.
 
@@ -516,6 +519,8 @@ def read_annotations(
     schema
         Which tiers hold turns and context, and the vocabularies (default:
         :func:`turn_datasets.schema.load_schema`).
+    iterate
+        Wraps the list of files while they are read (the command line passes a progress bar).
 
     Returns
     -------
@@ -538,7 +543,8 @@ def read_annotations(
     schema = schema if schema is not None else load_schema()
     rows: list[dict[str, Any]] = []
     sessions: dict[str, Path] = {}
-    for path in expand_eaf_paths(paths_or_dirs):
+    paths = expand_eaf_paths(paths_or_dirs)
+    for path in iterate(paths) if iterate is not None else paths:
         if path.stem in sessions:
             raise TurnbenchError(
                 f"session {path.stem!r} comes from two files (the other is {sessions[path.stem]})",
@@ -712,3 +718,92 @@ def iter_inspect(
     schema = schema if schema is not None else load_schema()
     for path in expand_eaf_paths(paths_or_dirs):
         yield inspect_eaf(path, schema=schema, keep_media_paths=keep_media_paths)
+
+
+def _cell(value: Any) -> str:
+    if value is None or value == "":
+        return "–"
+    if isinstance(value, float):
+        return f"{value:.3f}"
+    # A "|" would end the Markdown cell; line breaks would end the row.
+    return " ".join(str(value).split()).replace("|", "\\|")
+
+
+def _md_table(header: list[str], rows: list[list[Any]]) -> list[str]:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(_cell(v) for v in row) + " |" for row in rows]
+    return lines
+
+
+def inspect_markdown(results: Iterable[dict[str, Any]]) -> str:
+    """Markdown of :func:`inspect_eaf` results, one section per file."""
+    out: list[str] = []
+    for r in results:
+        out += [f"## {Path(r['file']).name}", ""]
+        out += [f"Session `{r['session']}`, EAF format {r['format'] or 'unknown'}, "
+                f"{len(r['tiers'])} tier(s).", ""]
+        out += _md_table(
+            ["tier", "type", "parent", "annotator", "participant", "vocabulary",
+             "annotations", "from (s)", "to (s)", "role"],
+            [
+                [
+                    t["tier"],
+                    t["type"] + (f" ({t['constraint']})" if t["constraint"] else ""),
+                    t["parent"],
+                    t["annotator"],
+                    t["participant"],
+                    t["vocabulary"],
+                    str(t["annotations"]),
+                    t["start_s"],
+                    t["end_s"],
+                    t["role"],
+                ]
+                for t in r["tiers"]
+            ],
+        )
+        out.append("")
+        if r["vocabularies"]:
+            out += _md_table(
+                ["vocabulary", "entries"],
+                [
+                    [
+                        v["id"],
+                        f"external: {v['url'] or '(no URL)'}"
+                        if v["external"]
+                        else ", ".join(v["entries"]) or "(empty)",
+                    ]
+                    for v in r["vocabularies"]
+                ],
+            )
+        else:
+            out.append("No controlled vocabularies.")
+        out.append("")
+        if r["turn_tiers"]:
+            out.append(
+                "Turn tiers: "
+                + "; ".join(
+                    f"`{t['tier']}` (rater {t['annotator'] or '?'}, "
+                    f"participant {t['participant'] or '?'})"
+                    for t in r["turn_tiers"]
+                )
+            )
+        else:
+            out.append("Turn tiers: **none**.")
+        context = [
+            f"{kind}: "
+            + ", ".join(
+                f"`{c['tier']}`" + (f" (participant {c['participant']})" if c["participant"] else "")
+                for c in tiers
+            )
+            for kind, tiers in r["context_tiers"].items()
+            if tiers
+        ]
+        out.append("Context tiers: " + ("; ".join(context) if context else "none") + ".")
+        if "header" in r:
+            h = r["header"]
+            media = ", ".join(m.get("MEDIA_URL", "") for m in h["media"]) or "none"
+            out.append(f"Header: author {h['author'] or '–'}, date {h['date'] or '–'}, media {media}.")
+        if r["notes"]:
+            out += ["", "Notes:"] + [f"- {n}" for n in r["notes"]]
+        out.append("")
+    return "\n".join(out).rstrip("\n") + "\n"
