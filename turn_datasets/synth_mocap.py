@@ -264,6 +264,7 @@ def generate_sequence(
     noise_mm: float = 10.0,
     sway_deg: float = 4.5,
     dropouts: Sequence[Dropout] = (),
+    wander_deg: float = POSTURAL_WANDER_DEG,
     start_heading_deg: float | None = None,
 ) -> SyntheticSequence:
     """Build a Human3.6M-like 32-joint sequence from segments, with its planted turns.
@@ -286,6 +287,9 @@ def generate_sequence(
         about the heading once per stride. Healthy adults show about 3° to 10°.
     dropouts
         Frame runs to set to NaN (all joints), as capture dropouts.
+    wander_deg
+        Standard deviation of the slow postural yaw wander of the whole body (low-passed
+        over one second), in degrees; 0 for none.
     start_heading_deg
         The walking direction at the first frame (degrees from +x); drawn when None.
 
@@ -337,7 +341,7 @@ def generate_sequence(
     # Postural wander: slow, small yaw drift of the whole body (low-passed Gaussian noise).
     wander_n = max(int(round(1.0 * fps_hz)), 1)
     wander = _smooth(rng.normal(size=n_frames), wander_n)
-    wander *= np.radians(POSTURAL_WANDER_DEG) / max(float(np.std(wander)), 1e-12)
+    wander *= np.radians(wander_deg) / max(float(np.std(wander)), 1e-12)
 
     sway = 0.5 * np.radians(sway_deg) * sway_amp * np.sin(phase)
     pelvis_yaw = heading + sway + wander  # facing direction of the pelvis
@@ -374,7 +378,7 @@ def generate_sequence(
             "start_frame": bounds[:-1],
             "end_frame": bounds[1:],
             "kind": kinds,
-            "heading_deg": np.degrees(heading_change),
+            "heading_deg": np.array([sg.heading_deg for sg in segments], dtype=float),
             "speed_m_s": speed,
         }
     )
@@ -558,7 +562,7 @@ def random_segments(
                 else Segment.walk(0.5, turn.speed_m_s)
             )
             segs.append(gap)
-            second = draw_turn(-np.sign(turn.heading_deg))
+            second = draw_turn(-1.0 if turn.heading_deg > 0 else 1.0)
             if turn.kind == "walking_turn" and second.kind == "pivot_turn":
                 second = Segment.walking_turn(second.heading_deg, second.duration_s, turn.speed_m_s)
             elif turn.kind == "pivot_turn" and second.kind == "walking_turn":
