@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -108,3 +109,327 @@ def test_match_empty_and_bad_arguments():
         match_annotations(empty, empty, min_overlap=0.0)
     with pytest.raises(ValueError):
         match_annotations(empty.drop(columns="participant"), empty)
+
+
+# ---------------------------------------------------------------------------------------
+# Kappa, by hand
+
+
+def _annotations(rows):
+    """rows: (annotator, session, participant, start_s, end_s, angle_deg)."""
+    df = pd.DataFrame(
+        rows, columns=["annotator", "session", "participant", "start_s", "end_s", "angle_deg"]
+    )
+    df["file"] = df["session"] + ".eaf"
+    return df
+
+
+# Five matched turns (A, B) = (90, 90), (90, 135), (180, 180), (180, 180), (135, 135), then
+# one turn only A labelled (180) and one only B labelled (90).
+HAND = _annotations(
+    [
+        ("ann", "s1", "P1", 10.0, 12.0, 90),
+        ("bob", "s1", "P1", 10.2, 12.0, 90),  # start diff +0.2, end diff 0
+        ("ann", "s1", "P1", 20.0, 22.0, 90),
+        ("bob", "s1", "P1", 20.0, 22.4, 135),  # start 0, end +0.4
+        ("ann", "s1", "P1", 30.0, 33.0, 180),
+        ("bob", "s1", "P1", 29.7, 33.0, 180),  # start -0.3, end 0
+        ("ann", "s2", "P1", 40.0, 43.0, 180),
+        ("bob", "s2", "P1", 40.1, 43.1, 180),  # start +0.1, end +0.1
+        ("ann", "s2", "P1", 50.0, 52.0, 135),
+        ("bob", "s2", "P1", 50.0, 51.8, 135),  # start 0, end -0.2
+        ("ann", "s2", "P1", 60.0, 62.0, 180),  # A only
+        ("bob", "s2", "P1", 70.0, 72.0, 90),  # B only
+    ]
+)
+
+
+def test_pair_stats_by_hand():
+    from turn_datasets.agreement import audit_agreement
+
+    audit = audit_agreement(HAND, n_bootstrap=200, seed=1)
+    st = audit.overall
+    assert st.raters == ("ann", "bob")
+    assert st.matched == 5
+    assert st.unmatched == {"ann": 1, "bob": 1}
+    assert st.annotations == {"ann": 6, "bob": 6}
+    assert st.percent_agreement == pytest.approx(4 / 5)
+    # p_o = 4/5; A's marginals 90:2, 135:1, 180:2, B's 90:1, 135:2, 180:2;
+    # p_e = (2*1 + 1*2 + 2*2) / 25 = 8/25; kappa = (0.8 - 0.32) / 0.68.
+    assert st.kappa == pytest.approx((0.8 - 0.32) / 0.68)
+    # Linear weights |i - j| over the bins 90 (0), 135 (1), 180 (2), ...: the one
+    # disagreement costs 1; expected cost = sum |i-j| rowA_i colB_j / n
+    #   = (2*(0*1 + 1*2 + 2*2) + 1*(1*1 + 0*2 + 1*2) + 2*(2*1 + 1*2 + 0*2)) / 5 = 23/5.
+    assert st.kappa_linear == pytest.approx(1 - 1 / (23 / 5))
+    # With "unmatched" as a category, 7 items: p_o = 4/7; A: 90:2, 135:1, 180:3, U:1;
+    # B: 90:2, 135:2, 180:2, U:1; p_e = (4 + 2 + 6 + 1) / 49 = 13/49; kappa = 15/36.
+    assert st.kappa_with_unmatched == pytest.approx(15 / 36)
+    # B minus A over matched pairs: starts +0.2, 0, -0.3, +0.1, 0 -> median 0;
+    # ends 0, +0.4, 0, +0.1, -0.2 -> median 0; absolute starts .2 0 .3 .1 0 -> 0.1.
+    assert st.median_start_diff_s == pytest.approx(0.0)
+    assert st.median_end_diff_s == pytest.approx(0.0)
+    assert st.median_abs_start_diff_s == pytest.approx(0.1)
+    assert st.median_abs_end_diff_s == pytest.approx(0.1)
+    assert st.kappa_undefined_reason is None
+    lo, hi = st.kappa_ci95
+    assert lo <= st.kappa <= hi
+    # confusion: rows A, columns B, bins in angle order
+    assert st.confusion[:3, :3].tolist() == [[1, 1, 0], [0, 1, 0], [0, 0, 2]]
+    assert st.confusion.sum() == 5
+    # per session: s1 has 3 matched pairs (2 agree), s2 has 2 matched + 2 unmatched
+    assert audit.by_session["s1"].matched == 3
+    assert audit.by_session["s1"].percent_agreement == pytest.approx(2 / 3)
+    assert audit.by_session["s2"].unmatched == {"ann": 1, "bob": 1}
+    # s2's matched pairs (180, 180), (135, 135): p_o = 1, p_e = 1/2 -> kappa 1
+    assert audit.by_session["s2"].kappa == pytest.approx(1.0)
+
+
+def test_disagreements_list_angles_and_unmatched():
+    from turn_datasets.agreement import DISAGREEMENT_COLUMNS, audit_agreement
+
+    d = audit_agreement(HAND, n_bootstrap=0).disagreements
+    assert list(d.columns) == list(DISAGREEMENT_COLUMNS)
+    assert d["kind"].tolist() == ["angle", "unmatched", "unmatched"]
+    assert d[["start_a_s", "angle_a_deg", "angle_b_deg"]].iloc[0].tolist() == [20.0, 90.0, 135.0]
+    assert d["angle_a_deg"].iloc[1] == 180.0 and np.isnan(d["angle_b_deg"].iloc[1])
+    assert np.isnan(d["angle_a_deg"].iloc[2]) and d["angle_b_deg"].iloc[2] == 90.0
+    assert set(d["rater_a"]) == {"ann"} and set(d["rater_b"]) == {"bob"}
+
+
+def test_units_labelled_by_one_rater_are_left_out():
+    from turn_datasets.agreement import pair_items
+
+    extra = _annotations(
+        [
+            ("ann", "s3", "P1", 1.0, 2.0, 90),  # session s3: ann only
+            ("bob", "s1", "P2", 1.0, 2.0, 90),  # participant P2 of s1: bob only
+            ("bob", "s1", "P2", 5.0, 6.0, 180),
+        ]
+    )
+    items, single = pair_items(pd.concat([HAND, extra], ignore_index=True),
+                               rater_a="ann", rater_b="bob")
+    assert single == {"ann": 1, "bob": 2}
+    assert len(items) == 7  # HAND's 5 matched + 2 unmatched only
+    assert set(items["session"]) == {"s1", "s2"}
+
+
+def test_kappa_undefined_is_null_with_a_reason():
+    from turn_datasets.agreement import audit_agreement
+
+    same = _annotations(
+        [("ann", "s", "P", 0.0, 2.0, 90), ("bob", "s", "P", 0.0, 2.0, 90),
+         ("ann", "s", "P", 5.0, 7.0, 90), ("bob", "s", "P", 5.0, 7.0, 90)]
+    )
+    st = audit_agreement(same, n_bootstrap=100).overall
+    assert st.matched == 2 and st.percent_agreement == 1.0
+    assert st.kappa is None and st.kappa_linear is None and st.kappa_ci95 is None
+    assert "90" in st.kappa_undefined_reason and "chance" in st.kappa_undefined_reason
+
+    apart = _annotations([("ann", "s", "P", 0.0, 2.0, 90), ("bob", "s", "P", 5.0, 7.0, 90)])
+    st = audit_agreement(apart, n_bootstrap=100).overall
+    assert st.matched == 0 and st.percent_agreement is None
+    assert st.kappa is None and st.kappa_undefined_reason == "no matched pairs"
+    # items (90, U) and (U, 90): p_o = 0, p_e = 1/2 -> kappa -1
+    assert st.kappa_with_unmatched == pytest.approx(-1.0)
+
+
+def test_rater_choice():
+    from turn_datasets.agreement import audit_agreement, default_raters
+    from turn_datasets.errors import TurnbenchError
+
+    cons = _annotations([("Consensus", "s1", "P1", 20.0, 22.0, 135)])
+    with_cons = pd.concat([HAND, cons], ignore_index=True)
+    assert default_raters(with_cons) == ("ann", "bob")
+    third = _annotations([("cy", "s1", "P1", 10.0, 12.0, 90)])
+    three = pd.concat([HAND, third], ignore_index=True)
+    with pytest.raises(TurnbenchError, match="found 3"):
+        default_raters(three)
+    with pytest.raises(TurnbenchError, match="'zed' has no annotations"):
+        audit_agreement(HAND, raters=["ann", "zed"])
+    with pytest.raises(TurnbenchError, match="same"):
+        audit_agreement(HAND, raters=["ann", "ann"])
+    audit = audit_agreement(three, raters=["bob", "ann"], n_bootstrap=0)
+    assert audit.raters == ("bob", "ann")
+    assert audit.overall.unmatched == {"bob": 1, "ann": 1}
+    # every pair of raters: (ann, bob) is the audited one, in the order asked for
+    pairs = [st.raters for st in audit.by_rater_pair]
+    assert pairs == [("bob", "ann"), ("ann", "cy"), ("bob", "cy")]
+    ann_cy = audit.by_rater_pair[1]
+    # cy's one turn [10, 12] 90 matches ann's [10, 12] 90; only s1/P1 is shared: ann has 3
+    # turns there, so 2 unmatched.
+    assert ann_cy.matched == 1 and ann_cy.unmatched == {"ann": 2, "cy": 0}
+    assert ann_cy.single_annotated == {"ann": 3, "cy": 0}
+
+
+def test_vectorised_kappa_equals_scikit_learn():
+    from sklearn.metrics import cohen_kappa_score
+
+    from turn_datasets.agreement import _kappa_from_counts, _weights
+
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        k = int(rng.integers(2, 8))
+        a = rng.integers(0, k, size=60)
+        b = np.where(rng.random(60) < 0.7, a, rng.integers(0, k, size=60))
+        counts = np.zeros((k, k))
+        np.add.at(counts, (a, b), 1)
+        for w in (None, "linear"):
+            want = cohen_kappa_score(a, b, labels=list(range(k)), weights=w)
+            assert _kappa_from_counts(counts, _weights(k, w)) == pytest.approx(want)
+
+
+def test_bootstrap_ci_is_seeded_and_agrees_with_scipy():
+    from scipy.stats import bootstrap
+    from sklearn.metrics import cohen_kappa_score
+
+    from turn_datasets.agreement import bootstrap_kappa_ci
+
+    rng = np.random.default_rng(0)
+    a = rng.integers(0, 4, size=300)
+    b = np.where(rng.random(300) < 0.8, a, rng.integers(0, 4, size=300))
+    ci1, bad = bootstrap_kappa_ci(a, b, n_labels=4, n_bootstrap=2000, seed=5)
+    ci2, _ = bootstrap_kappa_ci(a, b, n_labels=4, n_bootstrap=2000, seed=5)
+    ci3, _ = bootstrap_kappa_ci(a, b, n_labels=4, n_bootstrap=2000, seed=6)
+    assert ci1 == ci2 and ci1 != ci3 and bad == 0
+    # scipy's percentile bootstrap of scikit-learn's kappa, another resampling stream:
+    # the intervals agree to Monte Carlo error.
+    ref = bootstrap(
+        (a, b),
+        lambda x, y: cohen_kappa_score(x, y, labels=[0, 1, 2, 3]),
+        paired=True, vectorized=False, n_resamples=2000, method="percentile",
+        rng=np.random.default_rng(1),
+    ).confidence_interval
+    assert ci1[0] == pytest.approx(ref.low, abs=0.02)
+    assert ci1[1] == pytest.approx(ref.high, abs=0.02)
+    assert bootstrap_kappa_ci(a[:0], b[:0], n_labels=4)[0] is None
+    assert bootstrap_kappa_ci(a, b, n_labels=4, n_bootstrap=0)[0] is None
+
+
+def test_bootstrap_drops_resamples_with_undefined_kappa():
+    from turn_datasets.agreement import bootstrap_kappa_ci
+
+    # 9 pairs (0, 0) and one (1, 1): a resample without the (1, 1) pair has one category,
+    # probability (9/10)^10 = 0.35; those are counted and left out.
+    a = np.array([0] * 9 + [1])
+    ci, bad = bootstrap_kappa_ci(a, a.copy(), n_labels=2, n_bootstrap=1000, seed=0)
+    assert ci == (1.0, 1.0)
+    assert 0.30 * 1000 < bad < 0.40 * 1000
+
+
+# ---------------------------------------------------------------------------------------
+# Synthetic sessions: the expected kappa from the generator's truth, worked out here
+
+
+@pytest.fixture(scope="module")
+def synth(tmp_path_factory):
+    from turn_datasets.synth_eaf import write_sessions
+
+    return write_sessions(
+        tmp_path_factory.mktemp("synth"), seed=11, n_pairs=4, turns_per_subject=40,
+        disagreement_rate=0.08, far_disagreement_fraction=0.4, missed_rate=0.05,
+        shifted_rate=0.04,
+    )
+
+
+def _kappa_by_hand(a_deg, b_deg, *, linear=False):
+    bins = [90, 135, 180, 225, 270, 315, 360]
+    i = np.array([bins.index(int(x)) for x in a_deg])
+    j = np.array([bins.index(int(x)) for x in b_deg])
+    n = len(i)
+    obs = np.zeros((7, 7))
+    np.add.at(obs, (i, j), 1.0)
+    obs /= n
+    exp = np.outer(obs.sum(axis=1), obs.sum(axis=0))
+    w = np.abs(np.subtract.outer(np.arange(7), np.arange(7))) if linear else 1 - np.eye(7)
+    # kappa = 1 - observed disagreement / expected disagreement (= (p_o - p_e)/(1 - p_e)
+    # for the unweighted case)
+    return 1 - (w * obs).sum() / (w * exp).sum()
+
+
+def test_synthetic_audit_matches_the_truth(synth):
+    from turn_datasets.agreement import audit_agreement
+    from turn_datasets.eaf import read_annotations
+
+    t = synth.truth
+    both = t[t["a_angle_deg"].notna() & t["b_angle_deg"].notna()]
+    matched = both[both["ratio_ab"] >= 0.6]  # agree + disagree; shifted pairs are below 0.5
+    assert set(matched["kind"]) == {"agree", "disagree"}
+    a, b = synth.raters
+    double = t[t["double_annotated"]]
+    want_unmatched = {
+        a: int(double["a_angle_deg"].notna().sum() - len(matched)),
+        b: int(double["b_angle_deg"].notna().sum() - len(matched)),
+    }
+    # p_o and p_e by hand from the planted angles
+    p_o = float((matched["a_angle_deg"] == matched["b_angle_deg"]).mean())
+    pa = matched["a_angle_deg"].value_counts(normalize=True)
+    pb = matched["b_angle_deg"].value_counts(normalize=True)
+    p_e = float(sum(pa.get(x, 0.0) * pb.get(x, 0.0) for x in set(pa.index) | set(pb.index)))
+    want_kappa = (p_o - p_e) / (1 - p_e)
+
+    audit = audit_agreement(read_annotations(synth.paths), n_bootstrap=500, seed=0)
+    st = audit.overall
+    assert st.raters == (a, b)
+    assert st.matched == len(matched)
+    assert st.unmatched == want_unmatched
+    assert st.single_annotated == {
+        a: int((~t["double_annotated"] & t["a_angle_deg"].notna()).sum()),
+        b: int((~t["double_annotated"] & t["b_angle_deg"].notna()).sum()),
+    }
+    assert st.percent_agreement == pytest.approx(p_o)
+    assert st.kappa == pytest.approx(want_kappa)
+    assert st.kappa == pytest.approx(_kappa_by_hand(matched["a_angle_deg"], matched["b_angle_deg"]))
+    assert st.kappa_linear == pytest.approx(
+        _kappa_by_hand(matched["a_angle_deg"], matched["b_angle_deg"], linear=True)
+    )
+    # far disagreements (two bins) were planted, so linear weighting forgives less than
+    # it would with one-bin slips only, but still more than unweighted
+    assert st.kappa_linear > st.kappa
+    assert st.kappa_ci95[0] < st.kappa < st.kappa_ci95[1]
+
+    # kappa with "unmatched" as a category: every double-annotated planted turn is an item,
+    # a shifted pair counting twice (A's with U, U with B's)
+    ya, yb = [], []
+    for r in double.itertuples():
+        if r.kind == "shifted":
+            ya += [str(int(r.a_angle_deg)), "U"]
+            yb += ["U", str(int(r.b_angle_deg))]
+        else:
+            ya.append("U" if np.isnan(r.a_angle_deg) else str(int(r.a_angle_deg)))
+            yb.append("U" if np.isnan(r.b_angle_deg) else str(int(r.b_angle_deg)))
+    ya, yb = np.array(ya), np.array(yb)
+    p_o_u = float((ya == yb).mean())
+    cats = sorted(set(ya) | set(yb))
+    p_e_u = sum(float((ya == c).mean()) * float((yb == c).mean()) for c in cats)
+    assert st.kappa_with_unmatched == pytest.approx((p_o_u - p_e_u) / (1 - p_e_u))
+
+    # disagreements: the planted angle disagreements, then every unmatched annotation
+    d = audit.disagreements
+    assert (d["kind"] == "angle").sum() == (matched["kind"] == "disagree").sum()
+    assert (d["kind"] == "unmatched").sum() == sum(want_unmatched.values())
+
+    # per session, one of them by hand
+    session = sorted(double["session"].unique())[0]
+    ms = matched[matched["session"] == session]
+    assert audit.by_session[session].matched == len(ms)
+    assert audit.by_session[session].percent_agreement == pytest.approx(
+        float((ms["a_angle_deg"] == ms["b_angle_deg"]).mean())
+    )
+    assert audit.by_session[session].kappa == pytest.approx(
+        _kappa_by_hand(ms["a_angle_deg"], ms["b_angle_deg"])
+    )
+    assert set(audit.by_session) == set(double["session"])
+
+
+def test_synthetic_lower_min_overlap_matches_the_shifted_pairs(synth):
+    from turn_datasets.agreement import audit_agreement
+    from turn_datasets.eaf import read_annotations
+
+    t = synth.truth
+    both = t[t["a_angle_deg"].notna() & t["b_angle_deg"].notna()]
+    n_shifted = int((both["kind"] == "shifted").sum())
+    assert n_shifted > 0
+    ann = read_annotations(synth.paths)
+    at_06 = audit_agreement(ann, n_bootstrap=0).overall.matched
+    at_02 = audit_agreement(ann, min_overlap=0.25, n_bootstrap=0).overall.matched
+    assert at_02 == at_06 + n_shifted == len(both)
