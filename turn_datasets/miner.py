@@ -1,0 +1,546 @@
+"""Mine turning clips from motion capture: the Turn-H3.6M rule, automatic and documented.
+
+The paper (Cheng et al., Section 3, "Turn-H3.6M") found its 619 clips (45.2° to 234.7°) by
+searching Human3.6M by hand for runs where the hip vector turns by 45° or more about the
+vertical axis. This module makes that search a rule that any motion capture can be run
+through, so that the clip index can be regenerated and audited.
+
+The rule, per sequence
+----------------------
+1. **Hip yaw.** The frontal vector of the hips (left minus right hip on the ground plane,
+   the paper's equation 1) gives a yaw per frame (:func:`turn_datasets.geometry.frame_yaw_deg`),
+   unwrapped, so a turn of 360° reads as 360°.
+2. **Dropouts.** Frames whose hip vector is unusable (NaN, or hips coinciding) are gaps. A
+   gap of at most ``max_gap_s`` inside the sequence is bridged by linear interpolation of the
+   hip positions; a longer gap cuts the sequence into pieces mined separately (a turn cannot
+   be followed through a long dropout). Leading and trailing gaps are dropped.
+3. **Noise.** The hip positions of each piece are low-passed with a zero-phase Butterworth
+   filter at ``position_cutoff_hz`` (6 Hz, the usual cut-off for marker trajectories of
+   gait, Winter 2009), so joint noise does not enter the yaw. Pelvic rotation in gait
+   (about 1 Hz) passes unchanged.
+4. **Yaw rate.** The yaw rate is the first derivative of a Savitzky-Golay fit (quadratic,
+   window ``smooth_s``) to the yaw. The window spans about one step: it averages out joint
+   noise and damps the back-and-forth pelvic rotation of every step, while keeping the start
+   and stop of a turn sharp. Walking's sway that survives is handled by the next two steps.
+5. **Runs of rotation (hysteresis).** A candidate is a maximal run of frames whose yaw rate
+   exceeds ``stop_speed_deg_s`` in one direction and, somewhere in the run, exceeds
+   ``start_speed_deg_s`` (a double threshold, as in El-Gohary et al. 2014, "Continuous
+   monitoring of turning in patients with movement disability", Sensors 14(1):356-369, and
+   mobgap's ``TdElGohary``). The run starts when the rotation starts (the rate rises past
+   the lower threshold) and ends when it stops (falls back below it). Two runs in the same
+   direction separated by at most ``merge_gap_s``, with no run the other way between them,
+   are one turn: a brief sway against the turn, or a hesitation, does not split it. A turn
+   the other way, however soon, is a new clip.
+6. **Angle.** A clip's ``angle_deg`` is the net rotation of the (filtered) hip vector from
+   its first frame to its last (``end_frame - 1``), by
+   :func:`turn_datasets.geometry.turning_angle` with ``method="net"``: the magnitude of the
+   signed net rotation, positive (``left``) counter-clockwise seen from above. A candidate
+   is kept when this is at least ``min_turn_deg`` and turns the way its run does.
+
+Sway of 3° to 6° per stride never reaches ``start_speed_deg_s`` after smoothing and never
+adds up to ``min_turn_deg``, so straight walking and standing give no clip (measured on the
+synthetic corpus of :mod:`turn_datasets.synth_mocap`; see ``tests/test_miner.py``).
+
+Departures from the paper: the paper's search was manual; its clip boundaries and angles
+are therefore not reproduced exactly, only its criterion (the hip vector turning by 45° or
+more). Angles use the net method, not equation 3's sum of absolute frame-to-frame angles,
+because the sum grows with jitter (see :mod:`turn_datasets.geometry`).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable, Iterator
+from dataclasses import asdict, dataclass
+from types import MappingProxyType
+
+import numpy as np
+import pandas as pd
+from scipy import signal
+
+from turn_datasets._io import typed_frame
+from turn_datasets.errors import TurnbenchError
+from turn_datasets.geometry import (
+    angular_speed_deg_s,
+    direction_of,
+    frame_yaw_deg,
+    quantise_deg,
+    turning_angle,
+    usable_frames,
+)
+from turn_datasets.skeleton import Layout, MocapSequence
+
+__all__ = [
+    "MinerParams",
+    "CLIP_INDEX_DTYPES",
+    "SEQUENCE_CLIP_DTYPES",
+    "CANDIDATE_DTYPES",
+    "TRAIN_SUBJECTS",
+    "TEST_SUBJECTS",
+    "split_of",
+    "clip_id_of",
+    "find_turns",
+    "mine_sequence",
+    "mine",
+    "iter_clips",
+]
+
+#: The clip index (DESIGN.md), column order and dtypes.
+CLIP_INDEX_DTYPES = MappingProxyType(
+    {
+        "clip_id": "str",
+        "subject": "str",
+        "action": "str",
+        "subaction": "str",
+        "split": "str",
+        "start_frame": "int64",
+        "end_frame": "int64",
+        "n_frames": "int64",
+        "fps": "float64",
+        "start_s": "float64",
+        "end_s": "float64",
+        "duration_s": "float64",
+        "angle_deg": "float64",
+        "direction": "str",
+        "bin_deg": "int64",
+        "speed_deg_s": "float64",
+        "source": "str",
+    }
+)
+#: The clips of one sequence, from :func:`mine_sequence`.
+SEQUENCE_CLIP_DTYPES = MappingProxyType(
+    {
+        "start_frame": "int64",
+        "end_frame": "int64",
+        "angle_deg": "float64",
+        "net_deg": "float64",
+        "direction": "str",
+    }
+)
+#: Runs of rotation from :func:`find_turns` (direction +1 left, -1 right).
+CANDIDATE_DTYPES = MappingProxyType({"start_frame": "int64", "end_frame": "int64", "sign": "int64"})
+
+#: Human3.6M's usual protocol: train on S1, S5, S6, S7, S8, test on S9 and S11.
+TRAIN_SUBJECTS = ("S1", "S5", "S6", "S7", "S8")
+TEST_SUBJECTS = ("S9", "S11")
+
+# Only the hips are needed: mining on a two-joint array keeps the work (and the float64
+# copy geometry makes) to 2 of Human3.6M's 32 joints.
+_HIPS = Layout("hips", 2, MappingProxyType({"left_hip": 0, "right_hip": 1}))
+_SG_POLYORDER = 2
+_BUTTER_ORDER = 2  # applied forwards and backwards: 4th-order magnitude, zero phase
+
+
+@dataclass(frozen=True)
+class MinerParams:
+    """Every parameter of the miner, with its default (see the module docstring for the rule).
+
+    Attributes
+    ----------
+    min_turn_deg
+        Smallest net hip rotation of a clip, degrees (the paper's 45).
+    max_gap_s
+        Longest dropout bridged by interpolation, seconds; longer ones cut the sequence.
+    smooth_s
+        Savitzky-Golay window of the yaw rate, seconds (about one step).
+    start_speed_deg_s
+        A turn must somewhere rotate faster than this, degrees per second.
+    stop_speed_deg_s
+        A turn lasts while it rotates faster than this, degrees per second (hysteresis).
+    merge_gap_s
+        Runs in the same direction this close (seconds) are one turn.
+    position_cutoff_hz
+        Low-pass cut-off of the hip positions, Hz (0 turns the filter off).
+    """
+
+    min_turn_deg: float = 45.0
+    max_gap_s: float = 0.25
+    smooth_s: float = 0.6
+    start_speed_deg_s: float = 20.0
+    stop_speed_deg_s: float = 10.0
+    merge_gap_s: float = 0.3
+    position_cutoff_hz: float = 6.0
+
+    def __post_init__(self) -> None:
+        positive = ("min_turn_deg", "smooth_s", "start_speed_deg_s")
+        for name, value in asdict(self).items():
+            ok = value > 0 if name in positive else value >= 0
+            if not (np.isfinite(value) and ok):
+                kind = "positive" if name in positive else "non-negative"
+                raise TurnbenchError(f"{name} must be a finite {kind} number, got {value}")
+        if self.stop_speed_deg_s > self.start_speed_deg_s:
+            raise TurnbenchError(
+                f"stop_speed_deg_s ({self.stop_speed_deg_s}) must not exceed "
+                f"start_speed_deg_s ({self.start_speed_deg_s}): the hysteresis needs a lower "
+                "threshold to end a turn than to start one"
+            )
+
+    def as_dict(self) -> dict[str, float]:
+        return {k: float(v) for k, v in asdict(self).items()}
+
+
+def split_of(subject: str) -> str:
+    """``train`` for S1, S5, S6, S7, S8; ``test`` for S9, S11; ``""`` for anything else."""
+    if subject in TRAIN_SUBJECTS:
+        return "train"
+    if subject in TEST_SUBJECTS:
+        return "test"
+    return ""
+
+
+def clip_id_of(subject: str, action: str, subaction: str, start_frame: int, end_frame: int) -> str:
+    """``{subject}_{action}_{start}-{end}`` (DESIGN.md), spaces in the action replaced by ``-``.
+
+    The action is written as on disk, trial included (``Walking 1`` -> ``Walking-1``), so
+    the two trials of an action never share an id.
+    """
+    name = f"{action} {subaction}" if subaction else action
+    name = re.sub(r"\s+", "-", name.strip())
+    return f"{subject}_{name}_{int(start_frame)}-{int(end_frame)}"
+
+
+def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Start and (exclusive) end indices of the runs of True in a boolean array."""
+    edges = np.diff(np.concatenate(([0], mask.view(np.int8), [0])))
+    return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+
+
+def _frames(seconds: float, fps_hz: float) -> int:
+    # a tolerance so that 0.3 s at 50 Hz is 15 frames, not 14 by rounding error
+    return int(np.floor(seconds * fps_hz + 1e-9))
+
+
+def _odd_window(seconds: float, fps_hz: float) -> int:
+    n = max(int(round(seconds * fps_hz)), _SG_POLYORDER + 1)
+    return n if n % 2 else n + 1
+
+
+def find_turns(
+    yaw_deg: np.ndarray,
+    *,
+    fps_hz: float,
+    smooth_s: float = MinerParams.smooth_s,
+    start_speed_deg_s: float = MinerParams.start_speed_deg_s,
+    stop_speed_deg_s: float = MinerParams.stop_speed_deg_s,
+    merge_gap_s: float = MinerParams.merge_gap_s,
+) -> pd.DataFrame:
+    """Runs of rotation in one direction in a continuous yaw series (steps 4 and 5 of the rule).
+
+    Parameters
+    ----------
+    yaw_deg
+        Unwrapped yaw per frame, degrees, without NaN (one piece of a sequence).
+    fps_hz
+        Frame rate.
+    smooth_s, start_speed_deg_s, stop_speed_deg_s, merge_gap_s
+        See :class:`MinerParams`.
+
+    Returns
+    -------
+    DataFrame
+        ``start_frame``, ``end_frame`` (exclusive) and ``sign`` (+1 left, -1 right) of each
+        candidate, in time order. The net-rotation test (``min_turn_deg``) is
+        :func:`mine_sequence`'s, which measures angles on positions. A series shorter than
+        the smoothing window has no candidate (too short to tell a turn from sway).
+    """
+    yaw = np.asarray(yaw_deg, dtype=float)
+    if yaw.ndim != 1:
+        raise TurnbenchError(f"yaw must be one-dimensional, got shape {yaw.shape}")
+    if not np.isfinite(yaw).all():
+        raise TurnbenchError("yaw holds NaN: bridge or split dropouts first (mine_sequence does)")
+    if not fps_hz > 0:
+        raise TurnbenchError(f"fps must be positive, got {fps_hz}")
+    window = _odd_window(smooth_s, fps_hz)
+    if yaw.shape[0] < window:
+        return typed_frame(pd.DataFrame({c: [] for c in CANDIDATE_DTYPES}), CANDIDATE_DTYPES)
+    rate = signal.savgol_filter(
+        yaw, window, _SG_POLYORDER, deriv=1, delta=1.0 / fps_hz, mode="interp"
+    )
+    starts, ends, signs = [], [], []
+    for sign in (1, -1):
+        signed = sign * rate
+        a, b = _runs(signed > stop_speed_deg_s)
+        if a.size == 0:
+            continue
+        # a run counts only if it somewhere reaches the start threshold (hysteresis)
+        peak = np.maximum.reduceat(signed, a)
+        keep = peak > start_speed_deg_s
+        starts.append(a[keep])
+        ends.append(b[keep])
+        signs.append(np.full(int(keep.sum()), sign))
+    start = np.concatenate([np.zeros(0, dtype=np.int64), *starts])
+    if start.size == 0:
+        return typed_frame(pd.DataFrame({c: [] for c in CANDIDATE_DTYPES}), CANDIDATE_DTYPES)
+    end = np.concatenate(ends)
+    sgn = np.concatenate(signs)
+    order = np.argsort(start, kind="stable")
+    start, end, sgn = start[order], end[order], sgn[order]
+    # Merge neighbours of the same sign closer than merge_gap_s; runs of the two signs never
+    # overlap, so "neighbours in time order" means no run the other way lies between them.
+    new_group = np.ones(start.shape[0], dtype=bool)
+    new_group[1:] = (sgn[1:] != sgn[:-1]) | (start[1:] - end[:-1] > _frames(merge_gap_s, fps_hz))
+    first = np.flatnonzero(new_group)
+    last = np.append(first[1:], start.shape[0]) - 1
+    return typed_frame(
+        pd.DataFrame({"start_frame": start[first], "end_frame": end[last], "sign": sgn[first]}),
+        CANDIDATE_DTYPES,
+    )
+
+
+def _pieces(usable: np.ndarray, max_gap_frames: int) -> list[tuple[int, int]]:
+    """Spans ``[a, b)`` of usable frames joined across interior gaps of at most ``max_gap_frames``."""
+    a, b = _runs(usable)
+    if a.size == 0:
+        return []
+    gap = a[1:] - b[:-1]
+    cut = np.flatnonzero(gap > max_gap_frames)
+    piece_starts = np.concatenate(([a[0]], a[cut + 1]))
+    piece_ends = np.concatenate((b[cut], [b[-1]]))
+    return list(zip(piece_starts.tolist(), piece_ends.tolist(), strict=True))
+
+
+def _prepare_piece(
+    hips: np.ndarray, usable: np.ndarray, fps_hz: float, cutoff_hz: float
+) -> np.ndarray:
+    """Bridge the gaps of one piece by linear interpolation, then low-pass the hip positions."""
+    out = hips.copy()
+    bad = ~usable
+    if bad.any():
+        idx = np.arange(hips.shape[0])
+        good = idx[usable]
+        flat = out.reshape(hips.shape[0], -1)
+        src = hips.reshape(hips.shape[0], -1)
+        for c in range(flat.shape[1]):
+            flat[bad, c] = np.interp(idx[bad], good, src[usable, c])
+    nyquist = 0.5 * fps_hz
+    if cutoff_hz > 0 and cutoff_hz < 0.9 * nyquist and hips.shape[0] > 3:
+        sos = signal.butter(_BUTTER_ORDER, cutoff_hz, fs=fps_hz, output="sos")
+        padlen = min(3 * (2 * sos.shape[0] + 1), hips.shape[0] - 1)
+        out = signal.sosfiltfilt(sos, out, axis=0, padlen=padlen)
+    return out
+
+
+def mine_sequence(
+    positions: np.ndarray,
+    *,
+    layout: Layout,
+    fps_hz: float,
+    min_turn_deg: float = MinerParams.min_turn_deg,
+    max_gap_s: float = MinerParams.max_gap_s,
+    smooth_s: float = MinerParams.smooth_s,
+    start_speed_deg_s: float = MinerParams.start_speed_deg_s,
+    stop_speed_deg_s: float = MinerParams.stop_speed_deg_s,
+    merge_gap_s: float = MinerParams.merge_gap_s,
+    position_cutoff_hz: float = MinerParams.position_cutoff_hz,
+) -> pd.DataFrame:
+    """The turning clips of one sequence (the whole rule; see the module docstring).
+
+    Parameters
+    ----------
+    positions
+        ``(n_frames, n_joints, 3)``, z up, any length unit; NaN frames are dropouts.
+    layout
+        The joint layout (it must name ``left_hip`` and ``right_hip``).
+    fps_hz
+        Frame rate of ``positions``.
+    min_turn_deg
+        Smallest net hip rotation of a clip, degrees (paper: 45).
+    max_gap_s
+        Dropouts up to this long (seconds) are bridged; longer ones cut the sequence.
+    smooth_s
+        Savitzky-Golay window of the yaw rate, seconds.
+    start_speed_deg_s
+        Yaw rate a turn must exceed somewhere, degrees per second.
+    stop_speed_deg_s
+        Yaw rate below which a turn has stopped, degrees per second.
+    merge_gap_s
+        Runs of rotation in the same direction at most this far apart (seconds) are merged.
+    position_cutoff_hz
+        Cut-off of the zero-phase low-pass on the hip positions, Hz; 0 disables it.
+
+    Returns
+    -------
+    DataFrame
+        ``start_frame``, ``end_frame`` (exclusive, 0-based in ``positions``), ``angle_deg``
+        (magnitude of the net hip rotation from ``start_frame`` to ``end_frame - 1``),
+        ``net_deg`` (signed, positive = left) and ``direction``, in time order.
+
+    Raises
+    ------
+    TurnbenchError
+        Positions of the wrong shape, a layout without hips, a bad parameter, or fewer than
+        two frames with a usable hip vector.
+    """
+    params = MinerParams(
+        min_turn_deg=min_turn_deg,
+        max_gap_s=max_gap_s,
+        smooth_s=smooth_s,
+        start_speed_deg_s=start_speed_deg_s,
+        stop_speed_deg_s=stop_speed_deg_s,
+        merge_gap_s=merge_gap_s,
+        position_cutoff_hz=position_cutoff_hz,
+    )
+    if not (np.isfinite(fps_hz) and fps_hz > 0):
+        raise TurnbenchError(f"fps must be positive, got {fps_hz}")
+    p = np.asarray(positions)
+    if p.ndim != 3 or p.shape[2] != 3 or p.shape[1] != layout.n_joints:
+        raise TurnbenchError(
+            f"positions must have shape (frames, {layout.n_joints}, 3) for layout "
+            f"{layout.name!r}, got {p.shape}"
+        )
+    hips = p[:, [layout.index("left_hip"), layout.index("right_hip")], :].astype(np.float64)
+    usable = usable_frames(hips, _HIPS)
+    if int(usable.sum()) < 2:
+        raise TurnbenchError(
+            "fewer than two frames with a usable hip vector (hips missing or coinciding)"
+        )
+    rows: list[tuple[int, int, float, float, str]] = []
+    for a, b in _pieces(usable, _frames(params.max_gap_s, fps_hz)):
+        piece = _prepare_piece(hips[a:b], usable[a:b], fps_hz, params.position_cutoff_hz)
+        yaw = frame_yaw_deg(piece, _HIPS)
+        if not np.isfinite(yaw).all():
+            # filtering cannot create NaN; interpolation fills every gap: keep the guard cheap
+            raise TurnbenchError("the hip yaw is not finite after bridging gaps")
+        cands = find_turns(
+            yaw,
+            fps_hz=fps_hz,
+            smooth_s=params.smooth_s,
+            start_speed_deg_s=params.start_speed_deg_s,
+            stop_speed_deg_s=params.stop_speed_deg_s,
+            merge_gap_s=params.merge_gap_s,
+        )
+        for s, e, sign in cands.itertuples(index=False):
+            if e - s < 2:
+                continue
+            turn = turning_angle(piece[s:e], _HIPS, method="net")
+            if turn.angle_deg >= params.min_turn_deg and np.sign(turn.net_deg) == sign:
+                rows.append((a + int(s), a + int(e), turn.angle_deg, turn.net_deg, turn.direction))
+    frame = pd.DataFrame(rows, columns=list(SEQUENCE_CLIP_DTYPES))
+    return typed_frame(frame, SEQUENCE_CLIP_DTYPES)
+
+
+def _natural_key(text: str) -> tuple:
+    return tuple((0, int(t), "") if t.isdigit() else (1, 0, t) for t in re.split(r"(\d+)", text))
+
+
+def iter_clips(
+    sequences: Iterable[MocapSequence], params: MinerParams | None = None
+) -> Iterator[tuple[MocapSequence, pd.DataFrame]]:
+    """Mine each sequence in turn, yielding it with its clips (for progress bars).
+
+    A sequence the miner cannot use raises :class:`TurnbenchError` naming its source file and
+    the sequence (``subject/action``).
+    """
+    params = params or MinerParams()
+    for seq in sequences:
+        try:
+            clips = mine_sequence(
+                seq.positions, layout=seq.layout, fps_hz=seq.fps, **params.as_dict()
+            )
+        except TurnbenchError as exc:
+            item = f"{seq.subject}/{seq.action}" + (f" {seq.subaction}" if seq.subaction else "")
+            raise TurnbenchError(exc.message, file=seq.source or None, item=item) from None
+        yield seq, clips
+
+
+def clip_rows(seq: MocapSequence, clips: pd.DataFrame) -> pd.DataFrame:
+    """The clip-index rows of one sequence's clips (DESIGN.md's columns, typed)."""
+    start = clips["start_frame"].to_numpy(dtype=np.int64)
+    end = clips["end_frame"].to_numpy(dtype=np.int64)
+    angle = clips["angle_deg"].to_numpy(dtype=float)
+    fps = float(seq.fps)
+    duration = (end - start) / fps
+    frame = pd.DataFrame(
+        {
+            "clip_id": [
+                clip_id_of(seq.subject, seq.action, seq.subaction, s, e)
+                for s, e in zip(start, end, strict=True)
+            ],
+            "subject": seq.subject,
+            "action": seq.action,
+            "subaction": seq.subaction,
+            "split": split_of(seq.subject),
+            "start_frame": start,
+            "end_frame": end,
+            "n_frames": end - start,
+            "fps": fps,
+            "start_s": start / fps,
+            "end_s": end / fps,
+            "duration_s": duration,
+            "angle_deg": angle,
+            "direction": [direction_of(v) for v in clips["net_deg"].to_numpy(dtype=float)],
+            "bin_deg": np.asarray(quantise_deg(angle), dtype=float).astype(np.int64).reshape(-1)
+            if len(angle)
+            else np.zeros(0, dtype=np.int64),
+            "speed_deg_s": np.asarray(angular_speed_deg_s(angle, duration), dtype=float).reshape(
+                -1
+            ),
+            "source": seq.source,
+        },
+        index=pd.RangeIndex(len(start)),
+    )
+    return typed_frame(frame, CLIP_INDEX_DTYPES)
+
+
+def build_index(parts: Iterable[pd.DataFrame]) -> pd.DataFrame:
+    """Concatenate clip rows into the clip index: sorted, ids checked unique.
+
+    Rows are ordered by subject (S2 before S11), action, subaction and start frame, so the
+    index does not depend on the order the sources were read in.
+
+    Raises
+    ------
+    TurnbenchError
+        Two clips with the same id (the same sequence read twice, for example from both a
+        CDF and an h5 copy), naming both sources.
+    """
+    frames = [p for p in parts if len(p)]
+    if not frames:
+        return typed_frame(pd.DataFrame({c: [] for c in CLIP_INDEX_DTYPES}), CLIP_INDEX_DTYPES)
+    index = pd.concat(frames, ignore_index=True)
+    keys = sorted(
+        range(len(index)),
+        key=lambda i: (
+            _natural_key(index.at[i, "subject"]),
+            index.at[i, "action"],
+            _natural_key(index.at[i, "subaction"]),
+            int(index.at[i, "start_frame"]),
+            index.at[i, "source"],
+        ),
+    )
+    index = index.iloc[keys].reset_index(drop=True)
+    dup = index["clip_id"].duplicated(keep=False)
+    if dup.any():
+        first = index.loc[dup, "clip_id"].iloc[0]
+        sources = sorted(set(index.loc[index["clip_id"] == first, "source"]))
+        raise TurnbenchError(
+            f"clip id {first!r} occurs twice: the same subject and action were read from "
+            f"{' and '.join(sources)}",
+            hint="give each sequence once (one copy of the dataset)",
+        )
+    return typed_frame(index, CLIP_INDEX_DTYPES)
+
+
+def mine(sequences: Iterable[MocapSequence], **params: float) -> pd.DataFrame:
+    """Mine every sequence into the clip index (DESIGN.md's columns, in order, typed).
+
+    Parameters
+    ----------
+    sequences
+        Sequences as the readers yield them (:func:`turn_datasets.readers.read_source`).
+    **params
+        Any of :class:`MinerParams`' fields (``min_turn_deg``, ``max_gap_s``, ...).
+
+    Returns
+    -------
+    DataFrame
+        One row per clip: ``clip_id`` (``{subject}_{action}_{start}-{end}``, unique),
+        ``subject``, ``action``, ``subaction``, ``split`` (train S1/S5/S6/S7/S8, test
+        S9/S11, else empty), ``start_frame``, ``end_frame`` (exclusive), ``n_frames``,
+        ``fps``, ``start_s``, ``end_s``, ``duration_s`` (= n_frames / fps), ``angle_deg``,
+        ``direction``, ``bin_deg`` (nearest multiple of 45,
+        :func:`turn_datasets.geometry.quantise_deg`), ``speed_deg_s`` (equation 4,
+        :func:`turn_datasets.geometry.angular_speed_deg_s`) and ``source``.
+    """
+    p = MinerParams(**params)
+    return build_index(clip_rows(seq, clips) for seq, clips in iter_clips(sequences, p))
