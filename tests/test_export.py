@@ -1,0 +1,268 @@
+"""``h36m export-clips``: frame-accurate cuts of videos the test writes with imageio's ffmpeg."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import imageio_ffmpeg
+import numpy as np
+import pandas as pd
+import pytest
+
+from turn_datasets import export
+from turn_datasets._cli import EXIT_BAD_INPUT, run_group
+from turn_datasets.cli import cli
+
+FPS = 50
+N_FRAMES = 150  # 3 s at 50 fps
+CAMERAS = ("54138969", "55011271")
+
+
+def _write_video(path: Path, *, seed: int) -> None:
+    """A 3 s, 50 fps, 32x32 video whose frame n is flat grey, its level rising with n.
+
+    Levels 30 + n + seed are all different, so a decoded frame says which frame it is. Key
+    frames every 25 frames, so a cut starting mid-group needs an accurate seek.
+    """
+    path.parent.mkdir(parents=True, exist_ok=True)
+    source = (
+        f"nullsrc=s=32x32:r={FPS}:d={N_FRAMES / FPS},"
+        f"geq=lum='30+N+{seed}':cb=128:cr=128,format=yuv420p"
+    )
+    cmd = [
+        imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-loglevel", "error", "-y",
+        "-f", "lavfi", "-i", source, "-c:v", "libx264", "-qp", "0", "-g", "25", str(path),
+    ]  # fmt: skip
+    subprocess.run(cmd, check=True, capture_output=True)
+
+
+def _grey_levels(path: Path) -> np.ndarray:
+    frames = imageio_ffmpeg.read_frames(str(path), pix_fmt="gray", bpp=1)
+    next(frames)  # metadata
+    return np.array([np.frombuffer(f, np.uint8).mean() for f in frames])
+
+
+def _source_frames(cut: Path, source: Path) -> list[int]:
+    """Which frame of ``source`` each frame of ``cut`` is (the nearest grey level)."""
+    src, got = _grey_levels(source), _grey_levels(cut)
+    # the flat frames survive the re-encode: each level matches one source frame within 1
+    assert np.abs(src[None, :] - got[:, None]).min(axis=1).max() < 1.0
+    return [int(np.argmin(np.abs(src - level))) for level in got]
+
+
+@pytest.fixture(scope="module")
+def videos(tmp_path_factory) -> Path:
+    root = tmp_path_factory.mktemp("h36m")
+    for k, camera in enumerate(CAMERAS):
+        _write_video(root / "S1" / "Videos" / f"Walking 1.{camera}.mp4", seed=k)
+    _write_video(root / "S1" / "Videos" / f"TakingPhoto.{CAMERAS[0]}.mp4", seed=5)
+    _write_video(root / "S1" / "Videos" / f"_ALL.{CAMERAS[0]}.mp4", seed=9)  # a session
+    return root
+
+
+INDEX_HEADER = (
+    "clip_id,subject,action,subaction,split,start_frame,end_frame,n_frames,fps,start_s,end_s,"
+    "duration_s,angle_deg,direction,bin_deg,speed_deg_s,source"
+)
+
+
+def _index(path: Path, rows: list[tuple]) -> Path:
+    """rows: (clip_id, subject, action, subaction, start_frame, end_frame, fps)."""
+    lines = [INDEX_HEADER]
+    for cid, subject, action, sub, start, end, fps in rows:
+        n = end - start
+        lines.append(
+            f"{cid},{subject},{action},{sub},train,{start},{end},{n},{fps},{start / fps},"
+            f"{end / fps},{n / fps},90.0,left,90,100.0,x.cdf"
+        )
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+def run(args: list, capsys) -> tuple[int, str, str]:
+    code = run_group(cli, "turn-datasets", [str(a) for a in args])
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+WALK = ("S1_Walking_63-100", "S1", "Walking", "1", 63, 100, 50)
+PHOTO = ("S1_Photo_0-25", "S1", "Photo", "", 0, 25, 50)
+
+
+def test_cuts_are_frame_accurate_for_every_camera(tmp_path: Path, videos: Path, capsys) -> None:
+    index = _index(tmp_path / "index.csv", [WALK, PHOTO])
+    out = tmp_path / "clips"
+    code, stdout, stderr = run(
+        ["h36m", "export-clips", index, "--videos", videos, "--out-dir", out], capsys
+    )
+    assert code == 0, stderr
+    assert stdout == ""
+    assert sorted(p.name for p in out.iterdir()) == [
+        f"S1_Photo_0-25.{CAMERAS[0]}.mp4",  # TakingPhoto.<camera>.mp4 is the canonical Photo
+        f"S1_Walking_63-100.{CAMERAS[0]}.mp4",
+        f"S1_Walking_63-100.{CAMERAS[1]}.mp4",
+    ]
+    assert f"wrote 3 cuts (2 clips x 2 cameras) to {out}" in stderr
+    for camera in CAMERAS:
+        cut = out / f"S1_Walking_63-100.{camera}.mp4"
+        # frames 63..99 (end exclusive): 37 frames, 0.74 s
+        assert imageio_ffmpeg.count_frames_and_secs(str(cut)) == (37, 0.74)
+        source = videos / "S1" / "Videos" / f"Walking 1.{camera}.mp4"
+        assert _source_frames(cut, source) == list(range(63, 100))
+    photo = out / f"S1_Photo_0-25.{CAMERAS[0]}.mp4"
+    assert _source_frames(
+        photo, videos / "S1" / "Videos" / f"TakingPhoto.{CAMERAS[0]}.mp4"
+    ) == list(range(25))
+    assert not [p for p in tmp_path.rglob(".*")]  # no temporary files left
+
+
+def test_same_inputs_same_bytes(tmp_path: Path, videos: Path) -> None:
+    index = _index(tmp_path / "index.csv", [WALK])
+    for name in ("a", "b"):
+        export.export_clips(index, videos, tmp_path / name, cameras=[CAMERAS[0]])
+    clip = f"S1_Walking_63-100.{CAMERAS[0]}.mp4"
+    assert (tmp_path / "a" / clip).read_bytes() == (tmp_path / "b" / clip).read_bytes()
+
+
+def test_index_fps_differs_from_video_fps(tmp_path: Path, videos: Path) -> None:
+    # a 25 Hz index: frames 10..19 are 0.4 s to 0.8 s, video frames 20..39 at 50 fps
+    index = _index(tmp_path / "index.csv", [("c", "S1", "Walking", "1", 10, 20, 25)])
+    export.export_clips(index, videos, tmp_path / "out", cameras=[CAMERAS[1]])
+    cut = tmp_path / "out" / f"c.{CAMERAS[1]}.mp4"
+    source = videos / "S1" / "Videos" / f"Walking 1.{CAMERAS[1]}.mp4"
+    assert _source_frames(cut, source) == list(range(20, 40))
+
+
+def test_camera_filter(tmp_path: Path, videos: Path, capsys) -> None:
+    index = _index(tmp_path / "index.csv", [WALK])
+    out = tmp_path / "clips"
+    code, _, stderr = run(
+        [
+            "h36m",
+            "export-clips",
+            index,
+            "--videos",
+            videos,
+            "--out-dir",
+            out,
+            "--camera",
+            CAMERAS[1],
+        ],
+        capsys,
+    )
+    assert code == 0, stderr
+    assert [p.name for p in out.iterdir()] == [f"S1_Walking_63-100.{CAMERAS[1]}.mp4"]
+
+
+def test_missing_video_fails_before_any_cut(tmp_path: Path, videos: Path, capsys) -> None:
+    index = _index(
+        tmp_path / "index.csv", [WALK, ("S9_Walking_0-10", "S9", "Walking", "", 0, 10, 50)]
+    )
+    out = tmp_path / "clips"
+    code, stdout, stderr = run(
+        ["h36m", "export-clips", index, "--videos", videos, "--out-dir", out], capsys
+    )
+    assert code == EXIT_BAD_INPUT
+    assert stdout == ""
+    lines = stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in stderr
+    # the index file and the row (line 3: header, WALK, then the S9 clip)
+    assert f"{index}:3" in lines[0]
+    assert "S9_Walking_0-10 (S9/Videos/Walking.<camera>.mp4)" in lines[0]
+    assert "--skip-missing" in lines[0]
+    assert not out.exists()
+
+
+def test_skip_missing_cuts_the_others_and_lists_them(tmp_path: Path, videos: Path, capsys) -> None:
+    index = _index(
+        tmp_path / "index.csv", [WALK, ("S9_Walking_0-10", "S9", "Walking", "", 0, 10, 50)]
+    )
+    out = tmp_path / "clips"
+    code, _, stderr = run(
+        ["h36m", "export-clips", index, "--videos", videos, "--out-dir", out, "--skip-missing"],
+        capsys,
+    )
+    assert code == 0, stderr
+    assert "warning: no video for clip S9_Walking_0-10" in stderr
+    assert "1 clips without video skipped" in stderr
+    assert len(list(out.iterdir())) == 2
+
+
+def test_clip_past_the_end_of_the_video(tmp_path: Path, videos: Path, capsys) -> None:
+    index = _index(tmp_path / "index.csv", [PHOTO, ("long", "S1", "Walking", "1", 100, 151, 50)])
+    code, _, stderr = run(
+        ["h36m", "export-clips", index, "--videos", videos, "--out-dir", tmp_path / "o"], capsys
+    )
+    assert code == EXIT_BAD_INPUT
+    assert f"{index}:3" in stderr and "ends at video frame 151" in stderr and "150 frames" in stderr
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(
+    ("rows", "message", "row"),
+    [
+        ([("a", "S1", "Walking", "1", 20, 10, 50)], "0 <= start_frame < end_frame", 2),
+        ([("a", "S1", "Walking", "1", "x", 10, 50)], "not whole numbers", 2),
+        ([("a", "S1", "Jogging", "1", 0, 10, 50)], "'Jogging' is not a Human3.6M action", 2),
+        ([PHOTO, PHOTO], "clip_id 'S1_Photo_0-25' repeats row 2", 3),
+        ([("a", "S1", "Walking", "1", 0, 10, 0)], "fps must be positive", 2),
+    ],
+)
+def test_bad_index_rows(tmp_path: Path, videos: Path, rows, message: str, row: int) -> None:
+    lines = ["clip_id,subject,action,subaction,start_frame,end_frame,fps"]
+    lines += [",".join(str(v) for v in r) for r in rows]
+    index = tmp_path / "index.csv"
+    index.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    with pytest.raises(export.TurnbenchError, match=message) as exc:
+        export.export_clips(index, videos, tmp_path / "o")
+    assert (exc.value.where.file, exc.value.where.row) == (str(index), row)
+
+
+def test_index_without_the_columns(tmp_path: Path, videos: Path) -> None:
+    index = tmp_path / "index.csv"
+    index.write_text("clip_id,angle_deg\na,90\n", encoding="utf-8")
+    with pytest.raises(export.TurnbenchError, match="lacks columns subject, action"):
+        export.export_clips(index, videos, tmp_path / "o")
+    with pytest.raises(export.TurnbenchError, match="no such file"):
+        export.export_clips(tmp_path / "nope.csv", videos, tmp_path / "o")
+    with pytest.raises(export.TurnbenchError, match="no such folder"):
+        export.export_clips(_index(index, [WALK]), tmp_path / "novideos", tmp_path / "o")
+
+
+def test_find_videos_matches_names_on_disk(videos: Path) -> None:
+    found = export.find_videos(videos)
+    assert sorted(found) == [("S1", "Photo", ""), ("S1", "Walking", "1")]  # _ALL ignored
+    assert sorted(found[("S1", "Walking", "1")]) == sorted(CAMERAS)
+
+
+def test_probe_video(videos: Path) -> None:
+    info = export.probe_video(videos / "S1" / "Videos" / f"Walking 1.{CAMERAS[0]}.mp4")
+    assert (info.n_frames, info.fps) == (N_FRAMES, 50.0)
+
+
+def test_help_has_an_example(capsys) -> None:
+    code, stdout, _ = run(["h36m", "export-clips", "--help"], capsys)
+    assert code == 0
+    assert "Example:" in stdout and "--skip-missing" in stdout
+
+
+def test_console_script_exit_code(tmp_path: Path) -> None:
+    # the installed console script, beside the interpreter running the tests
+    exe = Path(sys.executable).parent / "turn-datasets"
+    proc = subprocess.run(
+        [str(exe), "h36m", "export-clips", str(tmp_path / "missing.csv"), "--videos", str(tmp_path),
+         "--out-dir", str(tmp_path / "o")],
+        capture_output=True, text=True,
+    )  # fmt: skip
+    assert proc.returncode == EXIT_BAD_INPUT
+    assert proc.stderr.strip() == f"turn-datasets: error: {tmp_path / 'missing.csv'}: no such file"
+
+
+def test_read_clip_index_dtypes(tmp_path: Path) -> None:
+    df = export.read_clip_index(_index(tmp_path / "i.csv", [WALK, PHOTO]))
+    assert list(df.columns) == [*export.INDEX_COLUMNS, "row"]
+    assert df["start_frame"].dtype == np.int64 and df["fps"].dtype == np.float64
+    assert df["subaction"].tolist() == ["1", ""]
+    assert isinstance(df, pd.DataFrame)
