@@ -615,7 +615,8 @@ def table1(labels: pd.DataFrame, participants: pd.DataFrame | None = None) -> pd
 
 
 def _ordered(present: list[Any], preferred: list[Any]) -> list[Any]:
-    return [p for p in preferred if p in present] + sorted(p for p in present if p not in preferred)
+    """Every preferred item (shown even when empty), then the others present, sorted."""
+    return list(preferred) + sorted(p for p in present if p not in preferred)
 
 
 def table2(labels: pd.DataFrame, *, angles_deg: tuple[float, ...] | None = None,
