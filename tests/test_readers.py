@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import zipfile
 from pathlib import Path
 
 import cdflib
@@ -543,3 +544,21 @@ def test_videopose_sequences_one_at_a_time_error_names_the_sequence(tmp_path: Pa
         next(it)
     assert exc.value.where.item == "S5/Waiting"
     assert exc.value.where.file == str(path)
+
+
+def test_videopose_npz_stored_uncompressed_reads_the_same(tmp_path: Path) -> None:
+    x = _walking_h36m(30) / 1000.0
+    readers.write_videopose_npz(tmp_path / "z.npz", {"S1": {"Walking": x}})
+    readers.write_videopose_npz(tmp_path / "s.npz", {"S1": {"Walking": x}}, compressed=False)
+    with zipfile.ZipFile(tmp_path / "s.npz") as zf:
+        assert zf.getinfo("positions_3d.npy").compress_type == zipfile.ZIP_STORED
+    with zipfile.ZipFile(tmp_path / "z.npz") as zf:
+        assert zf.getinfo("positions_3d.npy").compress_type == zipfile.ZIP_DEFLATED
+    (a,) = readers.read_source(tmp_path / "z.npz")
+    (b,) = readers.read_source(tmp_path / "s.npz")
+    np.testing.assert_array_equal(a.positions, b.positions)
+
+
+def test_read_source_takes_one_file_not_a_folder(tmp_path: Path) -> None:
+    with pytest.raises(TurnbenchError, match="reads one file"):
+        list(readers.read_source(tmp_path))

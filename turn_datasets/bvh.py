@@ -51,6 +51,7 @@ __all__ = [
     "CMU_JOINT_MAP",
     "BvhJoint",
     "BvhMotion",
+    "BvhSequence",
     "parse_bvh",
     "forward_kinematics",
     "build_layout",
