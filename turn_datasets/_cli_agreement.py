@@ -174,9 +174,12 @@ def agreement(
 
     if passed is False:
         kappa = audit.overall.kappa
-        shown = "undefined" if kappa is None else f"{kappa:.3f}"
-        why = f" ({audit.overall.kappa_undefined_reason})" if kappa is None else ""
-        raise GateFailed(f"Cohen's kappa {shown}{why} is below --min-kappa {min_kappa:g}")
+        if kappa is None:
+            raise GateFailed(
+                f"Cohen's kappa is undefined ({audit.overall.kappa_undefined_reason}), so "
+                f"--min-kappa {min_kappa:g} is not met"
+            )
+        raise GateFailed(f"Cohen's kappa {kappa:.3f} is below --min-kappa {min_kappa:g}")
 
 
 def _write_outputs(
