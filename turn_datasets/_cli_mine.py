@@ -1,3 +1,329 @@
-"""Commands of turn-datasets (registered on the groups in turn_datasets.cli)."""
+"""``turn-datasets h36m mine`` and ``turn-datasets h36m stats`` (registered on the h36m group).
+
+Thin: options are parsed here, the work is :mod:`turn_datasets.readers`,
+:mod:`turn_datasets.miner` and :mod:`turn_datasets.curation`.
+"""
 
 from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import click
+import pandas as pd
+
+from turn_datasets._cli import emit, format_option, info, progress, warn
+from turn_datasets._io import atomic_path, check_not_input, sha256_file, to_json_text
+from turn_datasets.bvh import parse_joint_map
+from turn_datasets.cli import h36m
+from turn_datasets.curation import (
+    apply_overrides,
+    build_manifest,
+    manifest_path,
+    read_clip_index,
+    read_overrides,
+    stats_csv,
+    stats_dict,
+    stats_markdown,
+    unmatched_overrides,
+)
+from turn_datasets.errors import TurnbenchError
+from turn_datasets.miner import MinerParams, build_index, clip_rows, iter_clips
+from turn_datasets.readers import FORMATS, UNITS, discover, read_source
+from turn_datasets.skeleton import LAYOUTS, UP_AXES
+
+_D = MinerParams()
+
+
+@h36m.command("mine")
+@click.argument(
+    "sources", nargs=-1, required=True, type=click.Path(path_type=Path), metavar="SOURCE..."
+)
+@click.option(
+    "--out",
+    "out",
+    required=True,
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="Clip index CSV to write; the manifest goes beside it as <stem>.manifest.json.",
+)
+@click.option(
+    "--format",
+    "fmt",
+    type=click.Choice(FORMATS),
+    default=None,
+    help="Read every source as this format instead of detecting it.",
+)
+@click.option(
+    "--layout",
+    type=click.Choice(sorted(LAYOUTS)),
+    default=None,
+    help="Joint layout of generic arrays (.npy/.npz/.h5 of shape frames x joints x 3).",
+)
+@click.option("--fps", type=float, default=None, help="Frame rate of generic arrays, in Hz.")
+@click.option(
+    "--up-axis",
+    type=click.Choice(UP_AXES),
+    default=None,
+    help="Vertical axis of generic arrays (converted to z up).",
+)
+@click.option(
+    "--units",
+    type=click.Choice(UNITS),
+    default=None,
+    help="Length unit of generic arrays (recorded in the manifest; BVH: a label).",
+)
+@click.option(
+    "--skip-first-frame",
+    is_flag=True,
+    help="BVH only: drop frame 0, the T-pose that CMU's BVH conversion adds.",
+)
+@click.option(
+    "--joint-map",
+    default=None,
+    metavar="OURS=THEIRS,...",
+    help="BVH only: joint names over CMU's built-in ones, e.g. left_hip=LHip,right_hip=RHip.",
+)
+@click.option(
+    "--min-turn-deg",
+    type=float,
+    default=_D.min_turn_deg,
+    show_default=True,
+    help="Smallest net hip rotation of a clip, in degrees (the paper's 45).",
+)
+@click.option(
+    "--max-gap-s",
+    type=float,
+    default=_D.max_gap_s,
+    show_default=True,
+    help="Dropouts up to this long (seconds) are bridged; longer ones cut the sequence.",
+)
+@click.option(
+    "--smooth-s",
+    type=float,
+    default=_D.smooth_s,
+    show_default=True,
+    help="Savitzky-Golay window of the yaw rate, in seconds (about one step).",
+)
+@click.option(
+    "--start-speed-deg-s",
+    type=float,
+    default=_D.start_speed_deg_s,
+    show_default=True,
+    help="A turn must somewhere rotate faster than this, in degrees per second.",
+)
+@click.option(
+    "--stop-speed-deg-s",
+    type=float,
+    default=_D.stop_speed_deg_s,
+    show_default=True,
+    help="A turn starts and stops where the rotation crosses this speed, in degrees per second.",
+)
+@click.option(
+    "--merge-gap-s",
+    type=float,
+    default=_D.merge_gap_s,
+    show_default=True,
+    help="Rotations in the same direction this close (seconds) are one turn.",
+)
+@click.option(
+    "--position-cutoff-hz",
+    type=float,
+    default=_D.position_cutoff_hz,
+    show_default=True,
+    help="Zero-phase low-pass of the hip positions against joint noise, in Hz (0: off).",
+)
+@click.option(
+    "--overrides",
+    "overrides_path",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="Curation CSV (clip_id, decision, start_frame, end_frame, note) applied to the result.",
+)
+@click.option(
+    "--skip-bad",
+    is_flag=True,
+    help="Write the index without unreadable files (listed in the manifest) instead of failing.",
+)
+def mine_cmd(
+    sources: tuple[Path, ...],
+    out: Path,
+    fmt: str | None,
+    layout: str | None,
+    fps: float | None,
+    up_axis: str | None,
+    units: str | None,
+    skip_first_frame: bool,
+    joint_map: str | None,
+    min_turn_deg: float,
+    max_gap_s: float,
+    smooth_s: float,
+    start_speed_deg_s: float,
+    stop_speed_deg_s: float,
+    merge_gap_s: float,
+    position_cutoff_hz: float,
+    overrides_path: Path | None,
+    skip_bad: bool,
+) -> None:
+    """Mine turning clips from motion capture into a clip index and its manifest.
+
+    SOURCE is a dataset root (the layout is detected: S*/MyPoseFeatures/D3_Positions/*.cdf,
+    S*/MyPoses/3D_positions/*.h5, data_3d_h36m.npz, *.bvh), a file, or several of them. A
+    clip is a maximal run of hip rotation in one direction, at least --min-turn-deg in net,
+    starting and stopping where the yaw rate crosses --stop-speed-deg-s (see the miner's
+    documentation for the rule). By default any unreadable file fails the run (exit 2,
+    nothing written) after all are listed; --skip-bad writes the index without them.
+
+    \b
+    Example:
+      turn-datasets h36m mine /data/human36m --out turn-h36m.csv
+      turn-datasets h36m mine data_3d_h36m.npz --out turn-h36m.csv --overrides curation.csv
+      turn-datasets h36m mine cmu/*.bvh --skip-first-frame --out cmu-turns.csv
+      turn-datasets h36m mine poses.npy --layout h36m17 --fps 30 --up-axis y --units m \\
+          --out turns.csv
+    """
+    params = MinerParams(
+        min_turn_deg=min_turn_deg,
+        max_gap_s=max_gap_s,
+        smooth_s=smooth_s,
+        start_speed_deg_s=start_speed_deg_s,
+        stop_speed_deg_s=stop_speed_deg_s,
+        merge_gap_s=merge_gap_s,
+        position_cutoff_hz=position_cutoff_hz,
+    )
+    if fps is not None and not fps > 0:
+        raise TurnbenchError(f"--fps must be positive, got {fps}")
+    jmap = parse_joint_map(joint_map) if joint_map else None
+    mpath = manifest_path(out)
+    overrides = read_overrides(overrides_path) if overrides_path is not None else None
+    files = discover(list(sources), fmt=fmt)
+    inputs = [f.path for f in files] + ([overrides_path] if overrides_path else [])
+    check_not_input(out, inputs)
+    check_not_input(mpath, inputs)
+    reader_kw: dict[str, Any] = {
+        "layout": layout,
+        "fps": fps,
+        "up_axis": up_axis,
+        "units": units,
+        "joint_map": jmap,
+        "skip_first_frame": skip_first_frame,
+    }
+
+    per_file: dict[Path, dict[str, Any]] = {
+        f.path: {"rows": [], "applied": [], "sequences": 0, "frames": 0, "units": set()}
+        for f in files
+    }
+    bad: dict[Path, TurnbenchError] = {}
+
+    def sequences():
+        for src in files:
+            try:
+                for seq in read_source(src, **reader_kw):
+                    yield src, seq
+                    if src.path in bad:
+                        break  # the miner refused one of its sequences: the file is bad
+            except TurnbenchError as exc:
+                bad[src.path] = (
+                    exc if exc.where.file else TurnbenchError(exc.message, file=src.path)
+                )
+
+    for src, seq in progress(sequences(), label="mining sequences"):
+        try:
+            _, clips = next(iter_clips([seq], params))
+        except TurnbenchError as exc:
+            bad[src.path] = exc
+            continue
+        rows = clip_rows(seq, clips)
+        # curation errors (an adjust outside its sequence) are the curator's, not the file's:
+        # they fail the run whatever --skip-bad says
+        rows, applied = apply_overrides(seq, rows, overrides, params)
+        state = per_file[src.path]
+        state["rows"].append(rows)
+        state["applied"].extend(applied)
+        state["sequences"] += 1
+        state["frames"] += seq.n_frames
+        state["units"].add(seq.units)
+
+    if bad and not skip_bad:
+        for exc in bad.values():
+            click.echo(f"turn-datasets: error: {exc}", err=True)
+        raise TurnbenchError(
+            f"{len(bad)} of {len(files)} files could not be read; nothing written",
+            hint="fix or remove them, or pass --skip-bad to write the index without them",
+        )
+    good = [f for f in files if f.path not in bad]
+    if not any(per_file[f.path]["sequences"] for f in good):
+        raise TurnbenchError("no sequence could be read from the sources; nothing written")
+
+    index = build_index(rows for f in good for rows in per_file[f.path]["rows"])
+    applied = [a for f in good for a in per_file[f.path]["applied"]]
+    unmatched = unmatched_overrides(overrides, applied)
+    for u in unmatched:
+        warn(
+            f"override {u['clip_id']} ({u['decision']}, {overrides.path}:{u['line']}) "
+            "matches no mined clip"
+        )
+    inputs_record = []
+    for f in files:
+        state = per_file[f.path]
+        inputs_record.append(
+            {
+                "path": str(f.path),
+                "format": f.fmt,
+                "sha256": sha256_file(f.path),
+                "bytes": f.path.stat().st_size,
+                "status": "skipped" if f.path in bad else "read",
+                "sequences": state["sequences"] if f.path not in bad else 0,
+                "frames": state["frames"] if f.path not in bad else 0,
+                "units": sorted(state["units"]) if f.path not in bad else [],
+            }
+        )
+    skipped = [{"path": str(p), "error": str(exc)} for p, exc in bad.items()]
+    manifest = build_manifest(
+        index=index,
+        params=params,
+        reader_options={**reader_kw, "format": fmt},
+        inputs=inputs_record,
+        overrides=overrides,
+        applied=applied,
+        unmatched=unmatched,
+        skipped=skipped,
+        n_sequences=sum(per_file[f.path]["sequences"] for f in good),
+        n_frames=sum(per_file[f.path]["frames"] for f in good),
+    )
+    # Both files or neither: each is written to a temporary file and renamed at the end.
+    with atomic_path(out) as tmp_index, atomic_path(mpath) as tmp_manifest:
+        index.to_csv(tmp_index, index=False, lineterminator="\n")
+        tmp_manifest.write_text(to_json_text(manifest), encoding="utf-8", newline="\n")
+    if skipped:
+        warn(f"skipped {len(skipped)} unreadable file(s), listed in {mpath}")
+    info(
+        f"wrote {len(index)} clips from {manifest['counts']['sequences']} sequences "
+        f"to {out}, manifest {mpath}"
+    )
+
+
+@h36m.command("stats")
+@click.argument("index_csv", type=click.Path(dir_okay=False, path_type=Path), metavar="INDEX.csv")
+@click.option("--csv", "as_csv", is_flag=True, help="Same as --format csv.")
+@format_option(default="md", choices=("md", "csv", "json"))
+def stats_cmd(index_csv: Path, as_csv: bool, fmt: str) -> None:
+    """Summarise a clip index as the paper's Table 3, and per subject and action.
+
+    Table 3: per 45° bin, the number of clips, the smallest, largest and mean angle and the
+    mean duration, with a Total row; then the same figures per subject and per action.
+    Markdown by default; --csv prints one CSV (table, group, clips, min_deg, max_deg,
+    mean_deg, mean_duration_s).
+
+    \b
+    Example:
+      turn-datasets h36m stats turn-h36m.csv
+      turn-datasets h36m stats turn-h36m.csv --csv > table3.csv
+    """
+    index: pd.DataFrame = read_clip_index(index_csv)
+    fmt = "csv" if as_csv else fmt
+    if fmt == "csv":
+        emit(stats_csv(index))
+    elif fmt == "json":
+        emit(to_json_text(stats_dict(index)))
+    else:
+        emit(stats_markdown(index))

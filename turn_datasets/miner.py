@@ -61,6 +61,7 @@ from scipy import signal
 from turn_datasets._io import typed_frame
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.geometry import (
+    TurningAngle,
     angular_speed_deg_s,
     direction_of,
     frame_yaw_deg,
@@ -81,6 +82,9 @@ __all__ = [
     "clip_id_of",
     "find_turns",
     "mine_sequence",
+    "measure_clip",
+    "clip_rows",
+    "build_index",
     "mine",
     "iter_clips",
 ]
@@ -320,6 +324,28 @@ def _prepare_piece(
     return out
 
 
+def _prepared_pieces(
+    positions: np.ndarray, layout: Layout, fps_hz: float, params: MinerParams
+) -> Iterator[tuple[int, np.ndarray]]:
+    """Steps 2 and 3 of the rule: ``(first frame, bridged and filtered hips)`` per piece."""
+    if not (np.isfinite(fps_hz) and fps_hz > 0):
+        raise TurnbenchError(f"fps must be positive, got {fps_hz}")
+    p = np.asarray(positions)
+    if p.ndim != 3 or p.shape[2] != 3 or p.shape[1] != layout.n_joints:
+        raise TurnbenchError(
+            f"positions must have shape (frames, {layout.n_joints}, 3) for layout "
+            f"{layout.name!r}, got {p.shape}"
+        )
+    hips = p[:, [layout.index("left_hip"), layout.index("right_hip")], :].astype(np.float64)
+    usable = usable_frames(hips, _HIPS)
+    if int(usable.sum()) < 2:
+        raise TurnbenchError(
+            "fewer than two frames with a usable hip vector (hips missing or coinciding)"
+        )
+    for a, b in _pieces(usable, _frames(params.max_gap_s, fps_hz)):
+        yield a, _prepare_piece(hips[a:b], usable[a:b], fps_hz, params.position_cutoff_hz)
+
+
 def mine_sequence(
     positions: np.ndarray,
     *,
@@ -380,23 +406,8 @@ def mine_sequence(
         merge_gap_s=merge_gap_s,
         position_cutoff_hz=position_cutoff_hz,
     )
-    if not (np.isfinite(fps_hz) and fps_hz > 0):
-        raise TurnbenchError(f"fps must be positive, got {fps_hz}")
-    p = np.asarray(positions)
-    if p.ndim != 3 or p.shape[2] != 3 or p.shape[1] != layout.n_joints:
-        raise TurnbenchError(
-            f"positions must have shape (frames, {layout.n_joints}, 3) for layout "
-            f"{layout.name!r}, got {p.shape}"
-        )
-    hips = p[:, [layout.index("left_hip"), layout.index("right_hip")], :].astype(np.float64)
-    usable = usable_frames(hips, _HIPS)
-    if int(usable.sum()) < 2:
-        raise TurnbenchError(
-            "fewer than two frames with a usable hip vector (hips missing or coinciding)"
-        )
     rows: list[tuple[int, int, float, float, str]] = []
-    for a, b in _pieces(usable, _frames(params.max_gap_s, fps_hz)):
-        piece = _prepare_piece(hips[a:b], usable[a:b], fps_hz, params.position_cutoff_hz)
+    for a, piece in _prepared_pieces(positions, layout, fps_hz, params):
         yaw = frame_yaw_deg(piece, _HIPS)
         if not np.isfinite(yaw).all():
             # filtering cannot create NaN; interpolation fills every gap: keep the guard cheap
@@ -417,6 +428,43 @@ def mine_sequence(
                 rows.append((a + int(s), a + int(e), turn.angle_deg, turn.net_deg, turn.direction))
     frame = pd.DataFrame(rows, columns=list(SEQUENCE_CLIP_DTYPES))
     return typed_frame(frame, SEQUENCE_CLIP_DTYPES)
+
+
+def measure_clip(
+    positions: np.ndarray,
+    *,
+    layout: Layout,
+    fps_hz: float,
+    start_frame: int,
+    end_frame: int,
+    **params: float,
+) -> TurningAngle:
+    """The net hip rotation of frames ``[start_frame, end_frame)``, measured as the miner does.
+
+    Used for a curator's ``adjust`` override: the hips are bridged and filtered exactly as in
+    :func:`mine_sequence` (same ``max_gap_s`` and ``position_cutoff_hz``), then
+    :func:`turn_datasets.geometry.turning_angle` (``method="net"``) runs on the slice.
+
+    Raises
+    ------
+    TurnbenchError
+        Frames outside the sequence, or not inside one piece (they cross a dropout longer
+        than ``max_gap_s``, or reach frames without usable hips at either end).
+    """
+    p = MinerParams(**params)
+    n = int(np.asarray(positions).shape[0])
+    if not (0 <= start_frame and start_frame + 2 <= end_frame <= n):
+        raise TurnbenchError(
+            f"frames {start_frame}-{end_frame} are not a span of at least two frames within "
+            f"the sequence's {n}"
+        )
+    for a, piece in _prepared_pieces(positions, layout, fps_hz, p):
+        if a <= start_frame and end_frame <= a + piece.shape[0]:
+            return turning_angle(piece[start_frame - a : end_frame - a], _HIPS, method="net")
+    raise TurnbenchError(
+        f"frames {start_frame}-{end_frame} cross a dropout longer than max_gap_s "
+        f"({p.max_gap_s} s) or frames without usable hips"
+    )
 
 
 def _natural_key(text: str) -> tuple:
