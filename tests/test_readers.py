@@ -232,7 +232,7 @@ def test_generic_array_needs_its_description(tmp_path: Path) -> None:
     text = str(exc.value)
     assert "walk.npy" in text and "--fps" in text and "--up-axis" in text and "--units" in text
     assert "--layout" not in text
-    with pytest.raises(TurnbenchError, match="unknown layout 'coco'"):
+    with pytest.raises(TurnbenchError, match="walk.npy: unknown layout 'coco'"):
         list(
             readers.read_source(
                 tmp_path / "walk.npy", layout="coco", fps=50, up_axis="z", units="mm"
@@ -244,10 +244,16 @@ def test_generic_array_needs_its_description(tmp_path: Path) -> None:
                 tmp_path / "walk.npy", layout="h36m17", fps=50, up_axis="z", units="mm"
             )
         )
-    with pytest.raises(TurnbenchError, match="unknown units"):
+    with pytest.raises(TurnbenchError, match="walk.npy: unknown units"):
         list(
             readers.read_source(
                 tmp_path / "walk.npy", layout="h36m32", fps=50, up_axis="z", units="furlong"
+            )
+        )
+    with pytest.raises(TurnbenchError, match="walk.npy: unknown up axis 'x'"):
+        list(
+            readers.read_source(
+                tmp_path / "walk.npy", layout="h36m32", fps=50, up_axis="x", units="mm"
             )
         )
     with pytest.raises(TurnbenchError, match="fps must be positive"):

@@ -587,13 +587,20 @@ def _read_arrays(
             hint=f"give {' '.join(missing)} (layout: h36m32 or h36m17; up axis: "
             f"{'/'.join(UP_AXES)}; units: {'/'.join(UNITS)})",
         )
-    lay = layout if isinstance(layout, Layout) else get_layout(str(layout))
+    try:
+        lay = layout if isinstance(layout, Layout) else get_layout(str(layout))
+    except TurnbenchError as exc:
+        raise TurnbenchError(exc.message, file=path) from None
     if not (np.isfinite(fps) and fps > 0):
         raise TurnbenchError(f"fps must be positive, got {fps}", file=path)
     if up_axis not in UP_AXES:
-        raise TurnbenchError(f"unknown up axis {up_axis!r}; choose one of {', '.join(UP_AXES)}")
+        raise TurnbenchError(
+            f"unknown up axis {up_axis!r}; choose one of {', '.join(UP_AXES)}", file=path
+        )
     if units not in UNITS:
-        raise TurnbenchError(f"unknown units {units!r}; choose one of {', '.join(UNITS)}")
+        raise TurnbenchError(
+            f"unknown units {units!r}; choose one of {', '.join(UNITS)}", file=path
+        )
     single = path.suffix.lower() == ".npy"
     for key, array in iter_arrays(path):
         item = None if single else key
