@@ -304,7 +304,8 @@ def _classify(eaf: pympi.Elan.Eaf, schema: Schema) -> list[_TierRole]:
     roles: list[_TierRole] = []
     for tier_id in _tiers_in_order(eaf):
         attrs = _tier_attrs(eaf, tier_id)
-        m = schema.turn_tier_regex.search(tier_id)
+        # A stray space before "Turn" in a tier name must not hide the tier.
+        m = schema.turn_tier_regex.search(tier_id.strip())
         if m:
             groups = m.groupdict()
             annotator = (groups.get("annotator") or "").strip() or _attr(
@@ -323,7 +324,7 @@ def _classify(eaf: pympi.Elan.Eaf, schema: Schema) -> list[_TierRole]:
             ("location", schema.location_tier_regex),
             ("scenario", schema.scenario_tier_regex),
         ):
-            m = regex.search(tier_id)
+            m = regex.search(tier_id.strip())
             if m:
                 participant = (m.groupdict().get("participant") or "").strip() or _attr(
                     attrs, schema.participant_attribute
