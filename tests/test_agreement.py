@@ -433,3 +433,58 @@ def test_synthetic_lower_min_overlap_matches_the_shifted_pairs(synth):
     at_06 = audit_agreement(ann, n_bootstrap=0).overall.matched
     at_02 = audit_agreement(ann, min_overlap=0.25, n_bootstrap=0).overall.matched
     assert at_02 == at_06 + n_shifted == len(both)
+
+
+# ---------------------------------------------------------------------------------------
+# Review copies of real ELAN exports
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        "poio_example.eaf",
+        "poio_turkish.eaf",
+        "pygamma_MaureenMarvinRobin.eaf",
+        "pympi_sample_2.7.eaf",
+        "pympi_sample_2.8.eaf",
+        "pympi_sample_3.0.eaf",
+        "speach_fables_01_03_aesop_64kb.eaf",
+        "speach_test.eaf",
+        "speach_test2.eaf",
+    ],
+)
+def test_review_copy_of_real_exports_keeps_everything(real_eaf_dir, tmp_path, name):
+    from turn_datasets._io import sha256_file
+    from turn_datasets.agreement import write_review_eaf
+    from turn_datasets.eaf import load_eaf
+
+    src = real_eaf_dir / name
+    digest = sha256_file(src)
+    rows = pd.DataFrame(
+        {
+            "session": [src.stem] * 2, "participant": ["P1"] * 2,
+            "kind": ["angle", "unmatched"], "rater_a": ["ann"] * 2,
+            "start_a_s": [1.0, 3.0], "end_a_s": [2.0, 4.0], "angle_a_deg": [90.0, 180.0],
+            "rater_b": ["bob"] * 2, "start_b_s": [1.1, np.nan], "end_b_s": [2.2, np.nan],
+            "angle_b_deg": [135.0, np.nan], "overlap_ratio": [0.8, np.nan],
+            "file": [str(src)] * 2,
+        }
+    )
+    out = write_review_eaf(src, tmp_path / name, rows, rater_a="ann", rater_b="bob")
+    assert sha256_file(src) == digest
+    original, copy = load_eaf(src), load_eaf(out)
+    for tier, (aligned, refs, attrs, _) in original.tiers.items():
+        assert len(copy.tiers[tier][0]) == len(aligned), tier
+        assert len(copy.tiers[tier][1]) == len(refs), tier
+        assert copy.tiers[tier][2] == attrs
+    assert set(copy.tiers) - set(original.tiers) == {"Disagreement"}
+    assert copy.tiers["Disagreement"][2]["PARTICIPANT"] == "P1"
+    assert sorted(copy.get_annotation_data_for_tier("Disagreement")) == [
+        (1000, 2200, "ann: 90 / bob: 135"),
+        (3000, 4000, "ann: 180 / bob: none (unmatched)"),
+    ]
+    # what pympi does not keep is kept too: ELAN 3.0 links of values to vocabulary entries
+    text_src = src.read_text(encoding="utf-8")
+    text_out = out.read_text(encoding="utf-8")
+    assert text_out.count("CVE_REF=") == text_src.count("CVE_REF=")
+    assert "MEDIA_DESCRIPTOR" not in text_out

@@ -11,7 +11,7 @@ from pathlib import Path
 import click
 
 from turn_datasets import __version__
-from turn_datasets._cli import format_option, info, progress, wrote
+from turn_datasets._cli import format_option, info, progress, warn, wrote
 from turn_datasets._io import (
     check_not_input,
     staged_dir,
@@ -151,6 +151,11 @@ def agreement(
         n_bootstrap=bootstrap,
         seed=seed,
     )
+    if not len(audit.items):
+        warn(
+            f"no session and participant was labelled by both {audit.raters[0]!r} and "
+            f"{audit.raters[1]!r}: nothing to compare"
+        )
     document = audit.to_dict()
     document["settings"]["version"] = __version__
     passed: bool | None = None

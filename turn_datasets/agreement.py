@@ -921,8 +921,8 @@ def _markdown(audit: AgreementAudit) -> str:
     single = sum(st.single_annotated.values())
     if single:
         notes.append(
-            f"Not compared (labelled by one rater only): {st.single_annotated[a]} turns of "
-            f"{a}, {st.single_annotated[b]} of {b}."
+            f"Not compared (labelled by one rater only): turns of {a}: "
+            f"{st.single_annotated[a]}, of {b}: {st.single_annotated[b]}."
         )
     if notes:
         lines += [*notes, ""]
