@@ -218,6 +218,15 @@ def test_turn_tier_without_participant_or_rater(tmp_path: Path) -> None:
     assert "rater" in _error_text(path)
 
 
+def test_stray_space_in_tier_name(tmp_path: Path) -> None:
+    path = write_eaf(
+        tmp_path / "sp.eaf",
+        [Tier(" Turn A", annotator=" a ", participant="P01 ", annotations=[(0, 900, "90")])],
+    )
+    df = read_annotations(path)
+    assert df[["tier", "annotator", "participant"]].values.tolist() == [[" Turn A", "a", "P01"]]
+
+
 def test_two_tiers_one_rater_one_participant(tmp_path: Path) -> None:
     path = write_eaf(
         tmp_path / "dup.eaf",

@@ -155,3 +155,13 @@ def test_consensus_is_case_insensitive() -> None:
     s = load_schema()
     assert s.is_consensus("Consensus") and s.is_consensus(" CONSENSUS ")
     assert not s.is_consensus("alice")
+
+
+def test_readme_schema_example_loads(tmp_path: Path) -> None:
+    text = (REPO / "annotations" / "README.md").read_text(encoding="utf-8")
+    block = text.split("```toml\n", 1)[1].split("```", 1)[0]
+    s = load_schema(_schema_file(tmp_path, block))
+    m = s.turn_tier_regex.search("Marvin")
+    assert m and m.group("annotator") == "Marvin"
+    assert s.default_participant == "P01"
+    assert s.turn_angle.parse("S") == 90.0
