@@ -97,7 +97,7 @@ def match_annotations(
     -------
     pandas.DataFrame
         ``index_a, index_b, overlap_ratio`` (:data:`MATCH_COLUMNS`), one row per link, each
-        index label at most once, sorted by ``index_a``.
+        index label at most once, in the row order of ``a``.
 
     Notes
     -----
