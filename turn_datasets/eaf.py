@@ -342,16 +342,26 @@ def _fmt_s(ms: int | None) -> str:
     return "?" if ms is None else f"{ms / 1000:.3f} s"
 
 
+@dataclass(frozen=True)
+class _Timed:
+    """An annotation whose start and end are known and in order."""
+
+    aid: str
+    start_ms: int
+    end_ms: int
+    value: str
+
+
 def _checked_intervals(
     doc: _Document,
     tier: str,
     anns: list[_Ann],
     *,
     allow_overlap: bool,
-) -> list[_Ann]:
+) -> list[_Timed]:
     """Aligned, positive-length annotations of one tier, in time order (errors otherwise)."""
     file = str(doc.path)
-    prev: _Ann | None = None
+    out: list[_Timed] = []
     for a in anns:
         if a.start_ms is None or a.end_ms is None:
             known = a.start_ms if a.start_ms is not None else a.end_ms
@@ -370,19 +380,20 @@ def _checked_intervals(
                 tier=tier,
                 time_s=a.start_ms / 1000,
             )
-        if not allow_overlap and prev is not None and a.start_ms < prev.end_ms:  # type: ignore[operator]
+        if not allow_overlap and out and a.start_ms < out[-1].end_ms:
+            prev = out[-1]
             raise TurnbenchError(
                 f"turn {a.value.strip()!r} overlaps the previous turn on this tier "
-                f"({prev.start_ms / 1000:.3f} to {prev.end_ms / 1000:.3f} s)",  # type: ignore[operator]
+                f"({prev.start_ms / 1000:.3f} to {prev.end_ms / 1000:.3f} s)",
                 file=file,
                 tier=tier,
                 time_s=a.start_ms / 1000,
             )
-        prev = a
-    return anns
+        out.append(_Timed(a.aid, a.start_ms, a.end_ms, a.value))
+    return out
 
 
-def _parse_value(doc: _Document, tier: str, a: _Ann, vocab: Vocabulary) -> str | float:
+def _parse_value(doc: _Document, tier: str, a: _Timed, vocab: Vocabulary) -> str | float:
     """The canonical value of annotation ``a`` (CVE_REF first, then its text), or an error."""
     candidates: list[str] = []
     ref = doc.cve_refs.get(a.aid)
@@ -399,7 +410,7 @@ def _parse_value(doc: _Document, tier: str, a: _Ann, vocab: Vocabulary) -> str |
         f"value {a.value!r} is not in the {vocab.name} vocabulary ({vocab.describe()})",
         file=str(doc.path),
         tier=tier,
-        time_s=None if a.start_ms is None else a.start_ms / 1000,
+        time_s=a.start_ms / 1000,
         hint="fix it in ELAN, or add an alias to the schema (--schema)",
     )
 
@@ -445,9 +456,8 @@ def _file_rows(doc: _Document, schema: Schema) -> list[dict[str, Any]]:
         for a in anns:
             if not a.value.strip() and a.aid not in doc.cve_refs:
                 continue  # an empty context annotation says nothing
-            contexts[r.role].append(
-                _Context(r.participant, a.start_ms, a.end_ms, str(_parse_value(doc, r.tier, a, vocab)))  # type: ignore[arg-type]
-            )
+            value = str(_parse_value(doc, r.tier, a, vocab))
+            contexts[r.role].append(_Context(r.participant, a.start_ms, a.end_ms, value))
     for pool in contexts.values():
         pool.sort(key=lambda c: (c.start_ms, c.end_ms))
 
@@ -493,11 +503,15 @@ def _file_rows(doc: _Document, schema: Schema) -> list[dict[str, Any]]:
                     "tier": r.tier,
                     "annotator": r.annotator,
                     "participant": r.participant,
-                    "start_s": a.start_ms / 1000,  # type: ignore[operator]
-                    "end_s": a.end_ms / 1000,  # type: ignore[operator]
+                    "start_s": a.start_ms / 1000,
+                    "end_s": a.end_ms / 1000,
                     "angle_deg": float(angle),
-                    "scenario": _context_value(contexts["scenario"], r.participant, a.start_ms, a.end_ms),  # type: ignore[arg-type]
-                    "location": _context_value(contexts["location"], r.participant, a.start_ms, a.end_ms),  # type: ignore[arg-type]
+                    "scenario": _context_value(
+                        contexts["scenario"], r.participant, a.start_ms, a.end_ms
+                    ),
+                    "location": _context_value(
+                        contexts["location"], r.participant, a.start_ms, a.end_ms
+                    ),
                     "value": a.value,
                 }
             )

@@ -87,6 +87,7 @@ class Vocabulary:
     values: tuple[str, ...]
     aliases: Mapping[str, str] = field(default_factory=dict)
     numeric: bool = False
+    _lookup: dict[str, str] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         lookup: dict[str, str] = {}
@@ -114,7 +115,7 @@ class Vocabulary:
         """
         if raw is None:
             return None
-        hit = self._lookup.get(self._key(raw))  # type: ignore[attr-defined]
+        hit = self._lookup.get(self._key(raw))
         if hit is None:
             return None
         return float(hit) if self.numeric else hit
