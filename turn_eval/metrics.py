@@ -36,10 +36,11 @@ Bootstrap
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import sparse
 from sklearn.metrics import cohen_kappa_score, precision_recall_fscore_support, precision_score
 
 from turn_datasets.errors import TurnbenchError
@@ -54,7 +55,10 @@ __all__ = [
     "compute_metrics",
     "metrics_of",
     "bin_report",
+    "Partition",
+    "chunk_rows",
     "resample_indices",
+    "grouped_bootstrap",
     "resampled_metrics",
     "bootstrap_distribution",
     "percentile_interval",
@@ -267,16 +271,22 @@ def bin_report(outcomes: ClipOutcomes, *, bin_width_deg: float = 45.0) -> dict[s
     return {"per_bin": per_bin, "kappa": kappa}
 
 
+def chunk_rows(n: int) -> int:
+    """Resamples drawn and evaluated together for ``n`` clips: bounds memory to a few arrays
+    of :data:`_CHUNK_CELLS` values whatever ``n``."""
+    return max(1, _CHUNK_CELLS // max(n, 1))
+
+
 def resample_indices(
-    n: int, *, n_resamples: int = 1000, seed: int = 0, chunk_rows: int | None = None
+    n: int, *, n_resamples: int = 1000, seed: int = 0, rows_per_chunk: int | None = None
 ) -> Iterator[np.ndarray]:
     """The bootstrap index matrix of ``scipy.stats.bootstrap``, in chunks of rows.
 
     ``numpy.random.default_rng(seed).integers(0, n, (n_resamples, n))`` is what scipy draws
-    for one sample (or for paired samples, whose index it resamples); drawing it a chunk of
-    rows at a time takes the same values from the generator's stream. The values are
-    returned as ``uint32`` (the generator draws 32-bit values for any ``n`` below 2**32, so
-    they equal the ``int64`` draws; tested).
+    for one sample, or for paired samples (whose common index it resamples); drawing it a
+    chunk of rows at a time takes the same values from the generator's stream. The values are
+    ``uint32``: for any ``n`` below 2**32 the generator draws 32-bit values whatever the
+    requested type, so they equal scipy's ``int64`` draws (tested).
 
     Yields
     ------
@@ -287,7 +297,9 @@ def resample_indices(
         raise TurnbenchError("cannot resample an empty set of clips")
     if n >= 2**32:
         raise TurnbenchError(f"too many clips to resample ({n})")
-    rows = chunk_rows if chunk_rows is not None else max(1, _CHUNK_CELLS // n)
+    if n_resamples < 0:
+        raise TurnbenchError(f"the number of resamples must be 0 or more, got {n_resamples}")
+    rows = rows_per_chunk if rows_per_chunk is not None else chunk_rows(n)
     rng = np.random.default_rng(seed)
     for start in range(0, n_resamples, rows):
         count = min(rows, n_resamples - start)
@@ -298,7 +310,7 @@ def wprec_from_confusion(confusion: np.ndarray) -> np.ndarray:
     """Weighted precision from confusion counts ``(..., ref bin, predicted bin)``.
 
     ``sum_k true_k * tp_k / pred_k / n`` with ``tp_k / pred_k = 0`` where ``pred_k = 0``:
-    scikit-learn's ``average="weighted", zero_division=0``.
+    scikit-learn's ``average="weighted", zero_division=0``. NaN where ``n = 0``.
     """
     counts = np.asarray(confusion, dtype=np.float64)
     tp = np.diagonal(counts, axis1=-2, axis2=-1)
@@ -307,62 +319,211 @@ def wprec_from_confusion(confusion: np.ndarray) -> np.ndarray:
     n = true.sum(axis=-1)
     with np.errstate(divide="ignore", invalid="ignore"):
         precision = np.where(pred > 0, tp / np.where(pred > 0, pred, 1.0), 0.0)
-    return (true * precision).sum(axis=-1) / n
+        return (true * precision).sum(axis=-1) / n
 
 
-def resampled_metrics(outcomes: ClipOutcomes, indices: np.ndarray) -> dict[str, np.ndarray]:
-    """Every metric on every resample of an index matrix, vectorised.
+@dataclass(frozen=True)
+class Partition:
+    """A grouping of the clips: each clip's group as an index into ``labels``."""
+
+    name: str
+    labels: tuple[str, ...]
+    codes: np.ndarray
+
+    @classmethod
+    def whole(cls, n: int, *, name: str = "overall", label: str = "all") -> Partition:
+        """Every clip in one group."""
+        return cls(name=name, labels=(label,), codes=np.zeros(n, dtype=np.int64))
+
+
+class _Engine:
+    """Every metric of every group of every partition, on many resamples at once.
+
+    The clips are first pooled into *segments*: clips that share their group in every
+    partition, their (reference bin, predicted bin) cell and whether they have a speed error
+    are interchangeable for the counts. A resample is a vector ``w`` of how often it drew
+    each clip (``np.bincount`` of its row of the index matrix); one sparse product turns it
+    into, per segment, the number of clips drawn and the sums of their absolute angle and
+    speed errors; a second sparse product turns those into, per group, the confusion counts
+    and the error sums. The metrics follow from those with array arithmetic. No step costs
+    more than one pass over a resample's clips, whatever the number of groups.
+    """
+
+    def __init__(self, outcomes: ClipOutcomes, partitions: Sequence[Partition]) -> None:
+        n = outcomes.n
+        k = outcomes.bins_deg.shape[0]
+        self.n, self.k = n, k
+        n_cells = k * k
+        cell = outcomes.ref_bin.astype(np.int64) * k + outcomes.pred_bin
+        speed = outcomes.abs_error_speed_deg_s
+        self.has_speed = speed is not None
+        ok = np.isfinite(speed) if speed is not None else np.zeros(n, dtype=bool)
+        keys = [np.asarray(p.codes, dtype=np.int64) for p in partitions]
+        for p, codes in zip(partitions, keys, strict=True):
+            if codes.shape != (n,) or (n and (codes.min() < 0 or codes.max() >= len(p.labels))):
+                raise TurnbenchError(f"grouping {p.name!r} does not label every clip")
+        _, first, seg = np.unique(
+            np.stack([*keys, cell, ok.astype(np.int64)], axis=1),
+            axis=0,
+            return_index=True,
+            return_inverse=True,
+        )
+        seg = seg.reshape(-1)
+        n_seg = first.shape[0]
+        clips = np.arange(n)
+        blocks = 3 if self.has_speed else 2
+        data = [np.ones(n), outcomes.abs_error_deg]
+        if speed is not None:
+            data.append(np.where(ok, speed, 0.0))
+        # Per segment: [drawn clips; sum of |angle error|; sum of |speed error|].
+        self.per_segment = sparse.csr_array(
+            (
+                np.concatenate(data),
+                (np.concatenate([seg + b * n_seg for b in range(blocks)]), np.tile(clips, blocks)),
+            ),
+            shape=(blocks * n_seg, n),
+        )
+        seg_cell, seg_ok = cell[first], ok[first]
+        rows, cols, vals = [], [], []
+        self.layout: list[tuple[Partition, int]] = []
+        offset = 0
+        for p, codes in zip(partitions, keys, strict=True):
+            g = codes[first]
+            n_groups = len(p.labels)
+            segments = np.arange(n_seg)
+            # Confusion cells per group from the drawn counts.
+            rows.append(offset + g * n_cells + seg_cell)
+            cols.append(segments)
+            vals.append(np.ones(n_seg))
+            base = offset + n_groups * n_cells
+            # Sum of |angle error| per group.
+            rows.append(base + g)
+            cols.append(n_seg + segments)
+            vals.append(np.ones(n_seg))
+            if self.has_speed:
+                # Sum of |speed error| and the number of clips that have one, per group.
+                rows.append(base + n_groups + g)
+                cols.append(2 * n_seg + segments)
+                vals.append(np.ones(n_seg))
+                rows.append(base + 2 * n_groups + g)
+                cols.append(segments)
+                vals.append(seg_ok.astype(np.float64))
+            self.layout.append((p, offset))
+            offset = base + (3 if self.has_speed else 1) * n_groups
+        self.per_group = sparse.csr_array(
+            (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+            shape=(offset, blocks * n_seg),
+        )
+
+    def evaluate(self, indices: np.ndarray) -> list[dict[str, np.ndarray]]:
+        """Per partition, each metric (and ``n``) as ``(rows, groups)`` for a chunk of rows."""
+        idx = np.asarray(indices)
+        if idx.ndim != 2 or idx.shape[1] != self.n:
+            raise TurnbenchError(
+                f"an index matrix for {self.n} clips must have shape (rows, {self.n}), "
+                f"got {idx.shape}"
+            )
+        n_rows = idx.shape[0]
+        # How often each resample drew each clip, one column per resample.
+        drawn = np.empty((self.n, n_rows), dtype=np.float64)
+        for r in range(n_rows):
+            drawn[:, r] = np.bincount(idx[r], minlength=self.n)
+        totals = self.per_group @ (self.per_segment @ drawn)
+        k, n_cells = self.k, self.k * self.k
+        out = []
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for p, offset in self.layout:
+                n_groups = len(p.labels)
+                confusion = totals[offset : offset + n_groups * n_cells].reshape(
+                    n_groups, k, k, n_rows
+                )
+                confusion = np.moveaxis(confusion, -1, 0)
+                count = confusion.sum(axis=(-2, -1))
+                base = offset + n_groups * n_cells
+                result = {
+                    "n": count,
+                    "accuracy": np.trace(confusion, axis1=-2, axis2=-1) / count,
+                    "mae_deg": totals[base : base + n_groups].T / count,
+                    "wprec": wprec_from_confusion(confusion),
+                }
+                if self.has_speed:
+                    sums = totals[base + n_groups : base + 2 * n_groups].T
+                    have = totals[base + 2 * n_groups : base + 3 * n_groups].T
+                    result["mae_speed_deg_s"] = sums / have
+                out.append(result)
+        return out
+
+
+def grouped_bootstrap(
+    outcomes: ClipOutcomes,
+    partitions: Sequence[Partition],
+    *,
+    n_resamples: int = 1000,
+    seed: int = 0,
+    indices: Iterable[np.ndarray] | None = None,
+) -> list[dict[str, np.ndarray]]:
+    """Every metric of every group on every bootstrap resample of the clips.
+
+    One index matrix (:func:`resample_indices`, scipy's draws) resamples all the clips;
+    each group's metric on a resample is computed on the clips of that group the resample
+    drew. So every number shares the same resamples (the groups of a grouping are resampled
+    jointly, which is what makes an interval for their average meaningful), and a reader
+    reproduces a group's interval with ``scipy.stats.bootstrap`` on all the clips, paired,
+    with a statistic that keeps the group's clips. A resample that drew no clip of a group
+    gives NaN for that group (:func:`percentile_interval` leaves it out).
 
     Parameters
     ----------
     outcomes
         The clips' outcomes.
+    partitions
+        Groupings of the clips; use :meth:`Partition.whole` for the pooled set.
+    n_resamples, seed
+        The resampling, as :func:`resample_indices`.
     indices
-        ``(n_resamples, n)`` indices into the clips (each row one resample).
+        Chunks of an index matrix to use instead of drawing one (tests, paired designs).
 
     Returns
     -------
-    dict
-        For each of :data:`METRICS`, an array of ``n_resamples`` values (``mae_speed_deg_s``
-        absent without durations; NaN in a resample with no clip that has a speed).
+    list of dict
+        Per partition, ``n`` and each metric as an ``(n_resamples, n_groups)`` array
+        (``mae_speed_deg_s`` only with durations).
     """
-    idx = np.asarray(indices)
-    if idx.ndim != 2:
-        raise TurnbenchError(f"an index matrix must be 2-D, got shape {idx.shape}")
-    rows, n = idx.shape
-    k = outcomes.bins_deg.shape[0]
-    cell = (outcomes.ref_bin * k + outcomes.pred_bin).astype(np.int32)
-    offsets = (np.arange(rows, dtype=np.int32) * (k * k))[:, None]
-    confusion = np.bincount(
-        (cell[idx] + offsets).reshape(-1), minlength=rows * k * k
-    ).reshape(rows, k, k)
-    out: dict[str, np.ndarray] = {
-        "accuracy": np.trace(confusion, axis1=1, axis2=2) / n,
-        "mae_deg": outcomes.abs_error_deg[idx].sum(axis=1) / n,
-        "wprec": wprec_from_confusion(confusion),
-    }
-    speed = outcomes.abs_error_speed_deg_s
-    if speed is not None:
-        finite = np.isfinite(speed)
-        if finite.all():
-            out["mae_speed_deg_s"] = speed[idx].sum(axis=1) / n
-        else:
-            counts = finite[idx].sum(axis=1)
-            sums = np.where(finite, speed, 0.0)[idx].sum(axis=1)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                out["mae_speed_deg_s"] = np.where(counts > 0, sums / counts, np.nan)
-    return out
+    engine = _Engine(outcomes, partitions)
+    chunks = (
+        indices
+        if indices is not None
+        else resample_indices(outcomes.n, n_resamples=n_resamples, seed=seed)
+    )
+    parts: list[dict[str, list[np.ndarray]]] = [{} for _ in partitions]
+    for chunk in chunks:
+        for store, result in zip(parts, engine.evaluate(chunk), strict=True):
+            for name, values in result.items():
+                store.setdefault(name, []).append(values)
+    return [
+        {name: np.concatenate(values, axis=0) for name, values in store.items()}
+        if store
+        else {}
+        for store in parts
+    ]
+
+
+def resampled_metrics(outcomes: ClipOutcomes, indices: np.ndarray) -> dict[str, np.ndarray]:
+    """Every metric of the pooled clips on each row of an index matrix (one value per row)."""
+    (result,) = grouped_bootstrap(
+        outcomes, [Partition.whole(outcomes.n)], indices=[np.asarray(indices)]
+    )
+    return {name: values[:, 0] for name, values in result.items() if name != "n"}
 
 
 def bootstrap_distribution(
     outcomes: ClipOutcomes, *, n_resamples: int = 1000, seed: int = 0
 ) -> dict[str, np.ndarray]:
     """Each metric on ``n_resamples`` bootstrap resamples of the clips (scipy's draws)."""
-    parts: dict[str, list[np.ndarray]] = {}
-    for chunk in resample_indices(outcomes.n, n_resamples=n_resamples, seed=seed):
-        for name, values in resampled_metrics(outcomes, chunk).items():
-            parts.setdefault(name, []).append(values)
-    return {name: np.concatenate(values) for name, values in parts.items()}
+    (result,) = grouped_bootstrap(
+        outcomes, [Partition.whole(outcomes.n)], n_resamples=n_resamples, seed=seed
+    )
+    return {name: values[:, 0] for name, values in result.items() if name != "n"}
 
 
 def percentile_interval(
@@ -370,10 +531,11 @@ def percentile_interval(
 ) -> tuple[float, float] | None:
     """The percentile interval of a bootstrap distribution (linear interpolation, as scipy).
 
-    None when any resample's value is undefined (NaN).
+    Undefined (NaN) resamples are left out; None when none is defined.
     """
     v = np.asarray(values, dtype=np.float64)
-    if v.size == 0 or not np.isfinite(v).all():
+    v = v[np.isfinite(v)]
+    if v.size == 0:
         return None
     alpha = (1 - confidence) / 2
     low, high = np.percentile(v, [100 * alpha, 100 * (1 - alpha)])
@@ -387,7 +549,9 @@ def bootstrap_ci(
     seed: int = 0,
     confidence: float = CONFIDENCE,
 ) -> dict[str, tuple[float, float] | None]:
-    """Percentile bootstrap intervals of every metric (:func:`bootstrap_distribution`)."""
+    """Percentile bootstrap intervals of every metric of the pooled clips."""
     distribution = bootstrap_distribution(outcomes, n_resamples=n_resamples, seed=seed)
-    out: Mapping[str, np.ndarray] = distribution
-    return {name: percentile_interval(values, confidence=confidence) for name, values in out.items()}
+    return {
+        name: percentile_interval(values, confidence=confidence)
+        for name, values in distribution.items()
+    }

@@ -27,7 +27,6 @@ import csv
 import io
 import math
 import os
-import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -66,20 +65,27 @@ _MAX_LISTED = 10
 _TWO_PI = 2 * math.pi
 
 
-@dataclass(frozen=True)
+#: Columns read as numbers wherever they appear.
+_NUMERIC = ("angle_deg", "duration_s", "speed_deg_s")
+_NAN_WORDS = ("nan", "+nan", "-nan", "na", "n/a", "null", "none")
+
+
+@dataclass
 class _Table:
-    """A CSV as read: normalised header, cells as strings, each row's line number."""
+    """A CSV as read: normalised header, stripped text cells, each row's line number.
+
+    ``numbers`` holds the numeric columns the C parser could read as finite floats in one
+    go; a column it could not read is parsed from its text by :func:`_numbers`, which then
+    names the first bad line.
+    """
 
     path: str
     header: tuple[str, ...]
     columns: dict[str, np.ndarray]
+    numbers: dict[str, np.ndarray]
     lines: np.ndarray
     delimiter: str
     header_line: int
-
-    @property
-    def n_rows(self) -> int:
-        return int(self.lines.shape[0])
 
 
 def _sniff_delimiter(header_line: str) -> str:
@@ -89,22 +95,49 @@ def _sniff_delimiter(header_line: str) -> str:
     return best if counts[best] > 0 else ","
 
 
-def _read_table(path: str | os.PathLike[str], *, what: str) -> _Table:
-    name = os.fspath(path)
+def _read_text(name: str, *, what: str) -> str:
     try:
         with open(name, encoding="utf-8-sig", newline="") as fh:
-            text = fh.read()
+            return fh.read()
     except FileNotFoundError:
         raise TurnbenchError(f"{what} file not found", file=name) from None
+    except IsADirectoryError:
+        raise TurnbenchError(f"{what} is a folder, not a CSV file", file=name) from None
     except UnicodeDecodeError as exc:
         raise TurnbenchError(f"{what} file is not UTF-8 text ({exc.reason})", file=name) from None
     except OSError as exc:
         raise TurnbenchError(f"cannot read the {what} file: {exc.strerror}", file=name) from None
-    if not text.strip():
-        raise TurnbenchError(f"empty {what} file: no header and no rows", file=name)
 
-    first_line = next(line for line in text.splitlines() if line.strip())
-    delimiter = _sniff_delimiter(first_line)
+
+def _check_header(header: list[str], *, name: str, line: int) -> None:
+    seen: dict[str, int] = {}
+    for i, col in enumerate(header):
+        if col and col in seen:
+            raise TurnbenchError(
+                f"column {col!r} appears twice in the header (columns {seen[col] + 1} and "
+                f"{i + 1})",
+                file=name,
+                row=line,
+            )
+        seen[col] = i
+
+
+def _wrong_width(n_fields: int, n_header: int, delimiter: str, *, name: str, line: int):
+    return TurnbenchError(
+        f"row has {n_fields} fields but the header has {n_header} (delimiter {delimiter!r})",
+        file=name,
+        row=line,
+    )
+
+
+def _stripped(values) -> np.ndarray:
+    """Cells without surrounding white space, as an object array of ``str``."""
+    text = np.asarray(values, dtype=str)
+    return np.strings.strip(text).astype(object)
+
+
+def _read_quoted(text: str, name: str, delimiter: str) -> _Table:
+    """The exact reader: the csv module, for files with quoted fields (which may span lines)."""
     reader = csv.reader(io.StringIO(text), delimiter=delimiter)
     header: list[str] | None = None
     header_line = 0
@@ -112,7 +145,7 @@ def _read_table(path: str | os.PathLike[str], *, what: str) -> _Table:
     lines: list[int] = []
     start = 0
     for record in reader:
-        # reader.line_num is the line the record ends on; a record starts after the previous.
+        # reader.line_num is the line a record ends on; it starts after the previous one.
         line = start + 1
         start = reader.line_num
         if not record or all(not cell.strip() for cell in record):
@@ -120,45 +153,117 @@ def _read_table(path: str | os.PathLike[str], *, what: str) -> _Table:
         if header is None:
             header = [cell.strip().lower() for cell in record]
             header_line = line
-            seen: dict[str, int] = {}
-            for i, col in enumerate(header):
-                if col in seen and col:
-                    raise TurnbenchError(
-                        f"column {col!r} appears twice in the header (columns "
-                        f"{seen[col] + 1} and {i + 1})",
-                        file=name,
-                        row=line,
-                    )
-                seen[col] = i
+            _check_header(header, name=name, line=line)
             continue
         if len(record) != len(header):
-            raise TurnbenchError(
-                f"row has {len(record)} fields but the header has {len(header)} "
-                f"(delimiter {delimiter!r})",
-                file=name,
-                row=line,
-            )
+            raise _wrong_width(len(record), len(header), delimiter, name=name, line=line)
         rows.append(record)
         lines.append(line)
-    assert header is not None  # text has a non-blank line
-    if not rows:
-        raise TurnbenchError(
-            f"empty {what} file: a header on line {header_line} and no rows", file=name
-        )
-    cells = np.array(rows, dtype=object)
-    columns = {col: cells[:, i] for i, col in enumerate(header) if col}
+    assert header is not None  # the text has a non-blank line
+    cells = np.array(rows, dtype=object).reshape(len(rows), len(header))
+    columns = {col: _stripped(cells[:, i]) for i, col in enumerate(header) if col}
     return _Table(
         path=name,
         header=tuple(header),
         columns=columns,
+        numbers={},
         lines=np.asarray(lines, dtype=np.int64),
         delimiter=delimiter,
         header_line=header_line,
     )
 
 
+def _read_plain(text: str, name: str, delimiter: str) -> _Table:
+    """The fast reader, for files without quotes: one record per line, so every row's line
+    number is known before pandas' C parser splits the fields."""
+    all_lines = np.asarray(text.split("\n"), dtype=str)
+    nonblank = np.strings.strip(all_lines) != ""
+    numbers = np.flatnonzero(nonblank) + 1
+    kept = all_lines[nonblank]
+    header_line = int(numbers[0])
+    header = [cell.strip().lower() for cell in str(kept[0]).split(delimiter)]
+    _check_header(header, name=name, line=header_line)
+    lines = numbers[1:].astype(np.int64)
+    body = kept[1:]
+    widths = np.strings.count(body, delimiter) + 1
+    wrong = np.flatnonzero(widths != len(header))
+    if wrong.size:
+        i = int(wrong[0])
+        raise _wrong_width(int(widths[i]), len(header), delimiter, name=name, line=int(lines[i]))
+    table = _Table(
+        path=name,
+        header=tuple(header),
+        columns={},
+        numbers={},
+        lines=lines,
+        delimiter=delimiter,
+        header_line=header_line,
+    )
+    if body.size == 0:
+        table.columns = {col: np.empty(0, dtype=object) for col in header if col}
+        return table
+    joined = "\n".join(body.tolist())
+    options = {
+        "sep": delimiter,
+        "header": None,
+        "names": list(range(len(header))),
+        "keep_default_na": False,
+        "quoting": csv.QUOTE_NONE,
+        "skip_blank_lines": False,
+        "engine": "c",
+    }
+    numeric = {i for i, col in enumerate(header) if col in _NUMERIC}
+    frame = None
+    if numeric:
+        # Numbers straight from the C parser (the clean, common case); anything it refuses
+        # ("nan", an empty cell, a word) sends the file through the strict text path.
+        try:
+            frame = pd.read_csv(
+                io.StringIO(joined),
+                dtype={i: ("float64" if i in numeric else str) for i in range(len(header))},
+                decimal="," if delimiter != "," else ".",
+                **options,
+            )
+        except ValueError:
+            frame = None
+        if frame is not None and not all(
+            np.isfinite(frame[i].to_numpy(dtype=np.float64)).all() for i in numeric
+        ):
+            frame = None
+    if frame is None:
+        frame = pd.read_csv(io.StringIO(joined), dtype=str, **options)
+        numeric = set()
+    # White space around cells only matters when there is some; finding none is cheap.
+    padded = "\r" in joined or " " in joined or (delimiter != "\t" and "\t" in joined)
+    for i, col in enumerate(header):
+        if not col:
+            continue
+        if i in numeric:
+            table.numbers[col] = frame[i].to_numpy(dtype=np.float64)
+        else:
+            cells = frame[i].to_numpy(dtype=object)
+            table.columns[col] = _stripped(cells) if padded else cells
+    return table
+
+
+def _read_table(path: str | os.PathLike[str], *, what: str) -> _Table:
+    name = os.fspath(path)
+    text = _read_text(name, what=what)
+    if not text.strip():
+        raise TurnbenchError(f"empty {what} file: no header and no rows", file=name)
+    first_line = next(line for line in text.split("\n") if line.strip())
+    delimiter = _sniff_delimiter(first_line)
+    quoted = '"' in text or ("\r" in text and "\n" not in text)
+    table = (_read_quoted if quoted else _read_plain)(text, name, delimiter)
+    if table.lines.size == 0:
+        raise TurnbenchError(
+            f"empty {what} file: a header on line {table.header_line} and no rows", file=name
+        )
+    return table
+
+
 def _require(table: _Table, required: Sequence[str], *, what: str) -> None:
-    missing = [c for c in required if c not in table.columns]
+    missing = [c for c in required if c not in table.header]
     if missing:
         raise TurnbenchError(
             f"{what} lacks column{'s' if len(missing) > 1 else ''} "
@@ -167,13 +272,6 @@ def _require(table: _Table, required: Sequence[str], *, what: str) -> None:
             file=table.path,
             row=table.header_line,
         )
-
-
-def _strings(table: _Table, column: str) -> np.ndarray:
-    return np.array([cell.strip() for cell in table.columns[column]], dtype=object)
-
-
-_NUMBER_RE = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$")
 
 
 def _first_and_count(table: _Table, bad: np.ndarray) -> tuple[int, int, int]:
@@ -193,60 +291,48 @@ def _numbers(
     allow_negative: bool,
     negative_hint: str | None,
 ) -> np.ndarray:
-    """Parse a numeric column strictly; empty cells are NaN only when ``allow_empty``."""
-    text = _strings(table, column)
-    if table.delimiter != ",":
-        # A decimal comma only makes sense when the comma is not the delimiter.
-        text = np.array([t.replace(",", ".") for t in text], dtype=object)
-    empty = text == ""
-    lowered = np.array([t.lower() for t in text], dtype=object)
-    is_nan = np.isin(lowered, ["nan", "+nan", "-nan", "na", "n/a", "null", "none"])
-    is_inf = np.isin(lowered, ["inf", "+inf", "-inf", "infinity", "+infinity", "-infinity"])
-    ok = np.array([bool(_NUMBER_RE.match(t)) for t in text], dtype=bool)
-    bad = ~(ok | empty | is_nan | is_inf)
-    if bad.any():
-        i, line, count = _first_and_count(table, bad)
-        raise TurnbenchError(
-            f"{column} {table.columns[column][i].strip()!r} is not a number{_and_more(count)}",
-            file=table.path,
-            row=line,
+    """A numeric column, strictly: empty cells are NaN only when ``allow_empty``."""
+    values = table.numbers.get(column)
+    if values is None:
+        raw = table.columns[column]
+        text = pd.Series(raw, dtype=object)
+        if table.delimiter != ",":
+            # A decimal comma only makes sense when the comma is not the delimiter.
+            text = text.str.replace(",", ".", regex=False)
+        values = pd.to_numeric(text, errors="coerce").to_numpy(dtype=np.float64)
+        undefined = ~np.isfinite(values)
+        # Only the offending cells are looked at one by one.
+        where = np.flatnonzero(undefined)
+        words = text.iloc[where].str.lower()
+        kinds = np.select(
+            [
+                (words == "").to_numpy(),
+                words.isin(_NAN_WORDS).to_numpy(),
+                np.isinf(values[where]),
+            ],
+            ["empty", "nan", "inf"],
+            default="bad",
         )
-    if not allow_empty and empty.any():
-        i, line, count = _first_and_count(table, empty)
-        raise TurnbenchError(
-            f"{column} is empty{_and_more(count)}", file=table.path, row=line
-        )
-    if is_nan.any():
-        i, line, count = _first_and_count(table, is_nan)
-        raise TurnbenchError(
-            f"{column} is NaN ({table.columns[column][i].strip()!r}){_and_more(count)}",
-            file=table.path,
-            row=line,
-        )
-    if is_inf.any():
-        i, line, count = _first_and_count(table, is_inf)
-        raise TurnbenchError(
-            f"{column} is infinite ({table.columns[column][i].strip()!r}){_and_more(count)}",
-            file=table.path,
-            row=line,
-        )
-    values = np.full(text.shape[0], np.nan)
-    values[ok] = np.array(text[ok], dtype=np.float64)
-    if not np.isfinite(values[ok]).all():
-        # A literal too large for a double (1e999) overflows to infinity.
-        i, line, count = _first_and_count(table, ok & ~np.isfinite(values))
-        raise TurnbenchError(
-            f"{column} {table.columns[column][i].strip()!r} overflows to infinity"
-            f"{_and_more(count)}",
-            file=table.path,
-            row=line,
-        )
+        for kind in ("bad", "empty", "nan", "inf"):
+            if kind == "empty" and allow_empty:
+                continue
+            hits = where[kinds == kind]
+            if not hits.size:
+                continue
+            i, line, count = int(hits[0]), int(table.lines[hits[0]]), int(hits.size)
+            message = {
+                "bad": f"{column} {raw[i]!r} is not a number",
+                "empty": f"{column} is empty",
+                "nan": f"{column} is NaN ({raw[i]!r})",
+                "inf": f"{column} is infinite ({raw[i]!r})",
+            }[kind]
+            raise TurnbenchError(message + _and_more(count), file=table.path, row=line)
     if not allow_negative:
         negative = values < 0
         if negative.any():
             i, line, count = _first_and_count(table, negative)
             raise TurnbenchError(
-                f"{column} is negative ({table.columns[column][i].strip()}){_and_more(count)}",
+                f"{column} is negative ({values[i]:g}){_and_more(count)}",
                 file=table.path,
                 row=line,
                 hint=negative_hint,
@@ -255,19 +341,17 @@ def _numbers(
 
 
 def _clip_ids(table: _Table) -> np.ndarray:
-    ids = _strings(table, "clip_id")
+    ids = table.columns["clip_id"]
     empty = ids == ""
     if empty.any():
         _, line, count = _first_and_count(table, empty)
         raise TurnbenchError(f"clip_id is empty{_and_more(count)}", file=table.path, row=line)
-    # The first occurrence of every repeated id, to name both lines.
-    _, first_index, inverse = np.unique(ids.astype(str), return_index=True, return_inverse=True)
-    first_of_row = first_index[inverse]
-    duplicate = first_of_row != np.arange(ids.shape[0])
+    duplicate = pd.Series(ids, dtype=object).duplicated(keep="first").to_numpy()
     if duplicate.any():
         i, line, count = _first_and_count(table, duplicate)
+        first = int(np.flatnonzero(ids == ids[i])[0])
         raise TurnbenchError(
-            f"duplicate clip_id {ids[i]!r}, first on line {int(table.lines[first_of_row[i]])}"
+            f"duplicate clip_id {ids[i]!r}, first on line {int(table.lines[first])}"
             f"{_and_more(count)}",
             file=table.path,
             row=line,
@@ -323,9 +407,9 @@ def read_reference(
         allow_negative=False,
         negative_hint="reference angles are magnitudes in degrees",
     )
-    data: dict[str, object] = {"clip_id": ids.astype(str), "angle_deg": angle}
+    data: dict[str, object] = {"clip_id": ids, "angle_deg": angle}
     dtypes: dict[str, str] = {"clip_id": "str", "angle_deg": "float64"}
-    if "duration_s" in table.columns:
+    if "duration_s" in table.header:
         data["duration_s"] = _numbers(
             table,
             "duration_s",
@@ -337,8 +421,9 @@ def read_reference(
     data[BIN_COLUMN] = np.asarray(quantise_deg(angle, bin_width_deg), dtype=np.float64)
     dtypes[BIN_COLUMN] = "float64"
     for col in table.header:
-        if col and col not in dtypes:
-            data[col] = _strings(table, col).astype(str)
+        # Numeric columns (a clip index's speed_deg_s) are values, not groups.
+        if col and col not in dtypes and col not in _NUMERIC:
+            data[col] = table.columns[col]
             dtypes[col] = "str"
     frame = typed_frame(pd.DataFrame(data), dtypes)
     frame.attrs["path"] = table.path
@@ -452,7 +537,7 @@ def read_predictions(
         table, "angle_deg", allow_empty=False, allow_negative=abs_angles, negative_hint=hint
     )
     speed = None
-    if "speed_deg_s" in table.columns:
+    if "speed_deg_s" in table.header:
         # An empty speed means "not given": the metric falls back to angle / duration.
         speed = _numbers(
             table, "speed_deg_s", allow_empty=True, allow_negative=abs_angles, negative_hint=hint
@@ -511,7 +596,7 @@ def read_predictions(
         else np.full(ref.shape[0], np.nan)
     )
     data: dict[str, object] = {
-        "clip_id": ref["clip_id"].to_numpy(dtype=object)[covered].astype(str),
+        "clip_id": ref["clip_id"][covered].reset_index(drop=True),
         "ref_angle_deg": ref_angle[covered],
         "pred_angle_deg": pred_angle[covered],
         "ref_duration_s": duration[covered],
@@ -521,7 +606,7 @@ def read_predictions(
     dtypes = dict(JOINED_COLUMNS)
     for col in ref.columns:
         if col not in ("clip_id", "angle_deg", "duration_s", BIN_COLUMN):
-            data[col] = ref[col].to_numpy(dtype=object)[covered].astype(str)
+            data[col] = ref[col][covered].reset_index(drop=True)
             dtypes[col] = "str"
     joined = typed_frame(pd.DataFrame(data), dtypes)
     return Joined(

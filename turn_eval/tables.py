@@ -1,0 +1,381 @@
+"""The scores document of ``turn-eval score`` and its Markdown and CSV tables.
+
+One document holds everything (DESIGN.md, "Scores"):
+
+``overall``
+    Every scored clip pooled: ``n``, the metrics of :mod:`turn_eval.metrics`, their bootstrap
+    ``ci95``, the quadratic-weighted ``kappa`` between predicted and reference bins and
+    ``per_bin`` precision and recall.
+``by``
+    One entry per grouping (``scenario``, ``subject``, ``bin_deg``, ...): ``groups``, each with
+    ``n``, the metrics and their ``ci95`` (each group resampled on its own, seeded with the
+    same seed, so every group's interval is what ``scipy.stats.bootstrap`` gives on that
+    group's clips), and ``avg``, the unweighted mean over the groups of each metric and of
+    ``n``: the "Avg." column of the paper's Tables 4 and 5. ``avg`` has no interval: its
+    groups' resamples are not independent of each other.
+``n_missing``
+    Reference clips the submission left out (``--allow-missing``).
+``settings``
+    Bin width, resamples, seed, confidence and the turnbench version: what a reader needs to
+    reproduce a number.
+
+Fractions stay fractions in JSON and CSV; Markdown prints them as percentages with one
+decimal, as the paper does.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from decimal import ROUND_HALF_UP, Decimal
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from turn_datasets import __version__
+from turn_datasets._io import typed_frame
+from turn_datasets.errors import TurnbenchError
+from turn_eval.metrics import (
+    CONFIDENCE,
+    KAPPA_WEIGHTS,
+    METRICS,
+    ClipOutcomes,
+    Partition,
+    bin_report,
+    chunk_rows,
+    clip_outcomes,
+    grouped_bootstrap,
+    metrics_of,
+    percentile_interval,
+    resample_indices,
+)
+from turn_eval.predictions import BIN_COLUMN, Joined, group_label
+
+__all__ = [
+    "ROW_LABELS",
+    "SCORES_CSV_COLUMNS",
+    "BLANK_GROUP",
+    "outcomes_of",
+    "build_scores",
+    "scores_markdown",
+    "scores_frame",
+]
+
+#: Markdown row labels of the metrics, in the paper's order, and how each prints.
+ROW_LABELS: Mapping[str, tuple[str, str]] = {
+    "accuracy": ("Acc. (%)", "percent"),
+    "mae_deg": ("MAE (°)", "decimal"),
+    "wprec": ("WPrec (%)", "percent"),
+    "mae_speed_deg_s": ("MAE speed (°/s)", "decimal"),
+}
+#: The label of the group of clips whose grouping column is empty.
+BLANK_GROUP = "(blank)"
+#: Columns and dtypes of ``scores.csv``: one row per group, the overall row and ``avg`` rows.
+SCORES_CSV_COLUMNS: Mapping[str, str] = {
+    "grouping": "str",
+    "group": "str",
+    "n": "float64",
+    **{m: "float64" for m in METRICS},
+    **{f"{m}_ci{b}": "float64" for m in METRICS for b in ("_low", "_high")},
+}
+
+#: Wraps the iterator of resample chunks (and their number) to show progress.
+Progress = Callable[[Iterator[np.ndarray], int], Iterable[np.ndarray]]
+
+
+def outcomes_of(joined: Joined) -> ClipOutcomes:
+    """The per-clip outcomes of a joined submission (:func:`turn_eval.metrics.clip_outcomes`)."""
+    t = joined.table
+    return clip_outcomes(
+        t["pred_angle_deg"].to_numpy(),
+        t["ref_angle_deg"].to_numpy(),
+        ref_duration_s=t["ref_duration_s"].to_numpy() if joined.has_durations else None,
+        pred_speed_deg_s=t["pred_speed_deg_s"].to_numpy(),
+        bin_width_deg=joined.bin_width_deg,
+    )
+
+
+def _natural_key(label: str) -> tuple:
+    # S2 before S11, and numbers as numbers: the order a reader expects of subjects and bins.
+    parts = re.split(r"(\d+(?:\.\d+)?)", label)
+    return tuple((0, float(p), "") if i % 2 else (1, 0.0, p.lower()) for i, p in enumerate(parts))
+
+
+def _partition(joined: Joined, column: str) -> Partition:
+    """The groups of one grouping column, in natural order; empty cells form one group."""
+    values = joined.table[column]
+    if column == BIN_COLUMN:
+        bins, codes = np.unique(values.to_numpy(dtype=np.float64), return_inverse=True)
+        return Partition(column, tuple(group_label(b) for b in bins), codes.reshape(-1))
+    text = values.to_numpy(dtype=object)
+    unique, inverse = np.unique(text.astype(str), return_inverse=True)
+    labels = [BLANK_GROUP if u == "" else str(u) for u in unique]
+    order = sorted(range(len(labels)), key=lambda i: _natural_key(labels[i]))
+    rank = np.empty(len(labels), dtype=np.int64)
+    rank[order] = np.arange(len(labels))
+    return Partition(column, tuple(labels[i] for i in order), rank[inverse.reshape(-1)])
+
+
+def _intervals(
+    distribution: Mapping[str, np.ndarray], column: int | None
+) -> dict[str, list[float] | None]:
+    """``ci95`` of one group (a column of the distribution) or of the groups' average."""
+    out: dict[str, list[float] | None] = {}
+    for m in METRICS:
+        values = distribution.get(m)
+        if values is None:
+            out[m] = None
+            continue
+        # The average over groups on a resample is undefined when one group is.
+        v = values[:, column] if column is not None else values.mean(axis=1)
+        bounds = percentile_interval(v)
+        out[m] = None if bounds is None else [bounds[0], bounds[1]]
+    return out
+
+
+def _average(groups: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
+    """The paper's "Avg.": the unweighted mean over groups, of ``n`` and of each metric."""
+    out: dict[str, Any] = {"n": float(np.mean([g["n"] for g in groups.values()]))}
+    for m in METRICS:
+        values = [g[m] for g in groups.values() if g.get(m) is not None]
+        out[m] = float(np.mean(values)) if values else None
+    return out
+
+
+def _check_groupings(joined: Joined, by: Sequence[str] | None) -> list[str]:
+    if not by:
+        return list(joined.default_groupings)
+    out: list[str] = []
+    for name in by:
+        col = name.strip().lower()
+        if col not in joined.group_columns:
+            raise TurnbenchError(
+                f"--by {name!r}: the reference has no such group column; it has "
+                f"{', '.join(joined.group_columns)}",
+                file=joined.reference_path,
+            )
+        if col not in out:
+            out.append(col)
+    return out
+
+
+def build_scores(
+    joined: Joined,
+    *,
+    by: Sequence[str] | None = None,
+    n_resamples: int = 1000,
+    seed: int = 0,
+    progress: Progress | None = None,
+) -> dict[str, Any]:
+    """Score a joined submission overall and per group (the scores JSON of DESIGN.md).
+
+    Parameters
+    ----------
+    joined
+        From :func:`turn_eval.predictions.read_predictions`.
+    by
+        Group columns of the reference; None or empty for every default grouping the
+        reference has (:attr:`Joined.default_groupings`).
+    n_resamples
+        Bootstrap resamples per interval; 0 for no intervals.
+    seed
+        Seed of every resampling (see the module docstring).
+    progress
+        Wraps the iterator of chunks of resamples, given it and the number of chunks, to
+        show progress; None for none.
+
+    Returns
+    -------
+    dict
+        ``overall``, ``by``, ``n_missing``, ``settings``, ready for JSON.
+    """
+    if n_resamples < 0:
+        raise TurnbenchError(f"--bootstrap must be 0 or more, got {n_resamples}")
+    if seed < 0:
+        raise TurnbenchError(f"--seed must be 0 or more, got {seed}")
+    groupings = _check_groupings(joined, by)
+    outcomes = outcomes_of(joined)
+    partitions = [Partition.whole(outcomes.n)]
+    partitions += [_partition(joined, col) for col in groupings]
+
+    distributions: list[Mapping[str, np.ndarray]] = [{} for _ in partitions]
+    if n_resamples > 0:
+        chunks: Iterable[np.ndarray] = resample_indices(
+            outcomes.n, n_resamples=n_resamples, seed=seed
+        )
+        if progress is not None:
+            rows = chunk_rows(outcomes.n)
+            chunks = progress(chunks, -(-n_resamples // rows))
+        distributions = grouped_bootstrap(outcomes, partitions, indices=chunks)
+
+    def entry(subset: ClipOutcomes, distribution, column: int) -> dict[str, Any]:
+        values: dict[str, Any] = metrics_of(subset)
+        if n_resamples > 0:
+            values["ci95"] = _intervals(distribution, column)
+        return values
+
+    overall = entry(outcomes, distributions[0], 0)
+    overall.update(bin_report(outcomes, bin_width_deg=joined.bin_width_deg))
+    by_doc: dict[str, Any] = {}
+    for p, distribution in zip(partitions[1:], distributions[1:], strict=True):
+        groups = {
+            label: entry(outcomes.subset(p.codes == g), distribution, g)
+            for g, label in enumerate(p.labels)
+        }
+        avg = _average(groups)
+        if n_resamples > 0:
+            avg["ci95"] = _intervals(distribution, None)
+        by_doc[p.name] = {"groups": groups, "avg": avg}
+    width = joined.bin_width_deg
+    return {
+        "overall": overall,
+        "by": by_doc,
+        "n_missing": joined.n_missing,
+        "settings": {
+            "bin_width_deg": int(width) if float(width).is_integer() else width,
+            "bootstrap": n_resamples,
+            "seed": seed,
+            "confidence": CONFIDENCE,
+            "ci_method": "percentile",
+            "kappa_weights": KAPPA_WEIGHTS,
+            "version": __version__,
+        },
+    }
+
+
+def _one_decimal(value: float) -> str:
+    # Half up on the shortest decimal form (6.25 -> 6.3), as a reader rounds a printed table;
+    # Python's own formatting rounds the binary value, which prints 6.25 as 6.2.
+    return str(Decimal(repr(float(value))).quantize(Decimal("0.1"), rounding=ROUND_HALF_UP))
+
+
+def _format(metric: str, value: Any) -> str:
+    if value is None or (isinstance(value, float) and not np.isfinite(value)):
+        return "–"
+    if metric == "n":
+        return _one_decimal(value) if not float(value).is_integer() else f"{int(value)}"
+    kind = ROW_LABELS[metric][1]
+    return _one_decimal(100 * value) if kind == "percent" else _one_decimal(value)
+
+
+def _cell(text: str) -> str:
+    return text.replace("|", "\\|")
+
+
+def _md_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
+    lines = ["| " + " | ".join(_cell(h) for h in header) + " |"]
+    lines.append("|" + "|".join([" --- "] + [" ---: "] * (len(header) - 1)) + "|")
+    lines += ["| " + " | ".join(_cell(c) for c in row) + " |" for row in rows]
+    return lines
+
+
+def _present(entries: Iterable[Mapping[str, Any]]) -> list[str]:
+    entries = list(entries)
+    return [m for m in METRICS if any(e.get(m) is not None for e in entries)]
+
+
+def scores_markdown(scores: Mapping[str, Any]) -> str:
+    """Markdown tables of a scores document, laid out as the paper's Tables 4 and 5.
+
+    First the overall metrics with their 95% intervals and the kappa; then, per grouping,
+    the metrics as rows and the groups as columns, then ``Avg.``, with ``# Turns`` as the
+    last row; then each bin's precision and recall. Percentages with one decimal.
+    """
+    overall = scores["overall"]
+    settings = scores["settings"]
+    out: list[str] = ["## Overall", ""]
+    ci = overall.get("ci95")
+    header = ["Metric", "All"] + (["95% CI"] if ci is not None else [])
+    rows = []
+    for m in _present([overall]):
+        row = [ROW_LABELS[m][0], _format(m, overall[m])]
+        if ci is not None:
+            bounds = ci.get(m)
+            row.append(
+                "–" if bounds is None else f"{_format(m, bounds[0])} – {_format(m, bounds[1])}"
+            )
+        rows.append(row)
+    kappa = overall.get("kappa")
+    rows.append(
+        [f"Kappa ({settings.get('kappa_weights', KAPPA_WEIGHTS)})",
+         "–" if kappa is None else f"{kappa:.3f}"]
+        + ([""] if ci is not None else [])
+    )
+    rows.append(["# Turns", _format("n", overall["n"])] + ([""] if ci is not None else []))
+    out += _md_table(header, rows)
+
+    for col, block in scores.get("by", {}).items():
+        groups = block["groups"]
+        avg = block["avg"]
+        names = list(groups)
+        out += ["", f"## By {col}", ""]
+        rows = []
+        for m in _present(groups.values()):
+            rows.append(
+                [ROW_LABELS[m][0]]
+                + [_format(m, groups[g].get(m)) for g in names]
+                + [_format(m, avg.get(m))]
+            )
+        rows.append(
+            ["# Turns"] + [_format("n", groups[g]["n"]) for g in names] + [_format("n", avg["n"])]
+        )
+        out += _md_table([col, *names, "Avg."], rows)
+
+    per_bin = overall.get("per_bin")
+    if per_bin:
+        out += ["", "## Per bin (reference bin, degrees)", ""]
+        labels = list(per_bin)
+        out += _md_table(
+            ["Bin", *labels],
+            [
+                ["Precision (%)"] + [_format("wprec", per_bin[b]["precision"]) for b in labels],
+                ["Recall (%)"] + [_format("accuracy", per_bin[b]["recall"]) for b in labels],
+                ["# Turns"] + [str(per_bin[b]["n"]) for b in labels],
+                ["# Predicted"] + [str(per_bin[b]["n_predicted"]) for b in labels],
+            ],
+        )
+
+    notes = [
+        f"Bins of {settings['bin_width_deg']}°"
+        + (
+            f"; {int(100 * settings.get('confidence', CONFIDENCE))}% percentile bootstrap "
+            f"intervals from {settings['bootstrap']} resamples of the clips, seed "
+            f"{settings['seed']}"
+            if settings.get("bootstrap")
+            else "; no bootstrap"
+        )
+        + f"; Avg. is the unweighted mean over groups; turnbench {settings['version']}."
+    ]
+    if scores.get("n_missing"):
+        notes.append(
+            f"{scores['n_missing']} reference clips were missing from the predictions and "
+            "are not scored."
+        )
+    out += [""] + notes
+    return "\n".join(out) + "\n"
+
+
+def _csv_row(grouping: str, group: str, entry: Mapping[str, Any]) -> dict[str, Any]:
+    row: dict[str, Any] = {"grouping": grouping, "group": group, "n": entry["n"]}
+    ci = entry.get("ci95") or {}
+    for m in METRICS:
+        value = entry.get(m)
+        row[m] = np.nan if value is None else value
+        bounds = ci.get(m)
+        row[f"{m}_ci_low"] = np.nan if bounds is None else bounds[0]
+        row[f"{m}_ci_high"] = np.nan if bounds is None else bounds[1]
+    return row
+
+
+def scores_frame(scores: Mapping[str, Any]) -> pd.DataFrame:
+    """``scores.csv``: the overall row, then every group of every grouping and its ``avg``.
+
+    Columns :data:`SCORES_CSV_COLUMNS`; fractions as in the JSON; empty where undefined.
+    """
+    rows = [_csv_row("overall", "all", scores["overall"])]
+    for col, block in scores.get("by", {}).items():
+        for label, entry in block["groups"].items():
+            rows.append(_csv_row(col, label, entry))
+        rows.append(_csv_row(col, "avg", block["avg"]))
+    return typed_frame(pd.DataFrame(rows), SCORES_CSV_COLUMNS)
