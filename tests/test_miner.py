@@ -1,0 +1,421 @@
+"""The miner: its rule on hand-made yaw series, on synthetic mocap with planted turns (recall,
+precision, angle and boundary errors against the generator's truth), the clip index contract,
+and the turns CMU's descriptions name in real captures.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.optimize import linear_sum_assignment
+
+from turn_datasets import readers
+from turn_datasets import synth_mocap as sm
+from turn_datasets.errors import TurnbenchError
+from turn_datasets.geometry import turning_angle
+from turn_datasets.miner import (
+    CLIP_INDEX_DTYPES,
+    MinerParams,
+    clip_id_of,
+    find_turns,
+    measure_clip,
+    mine,
+    mine_sequence,
+    split_of,
+)
+from turn_datasets.skeleton import H36M17, H36M17_FROM_32, H36M32, MocapSequence
+
+FPS = 50.0
+
+
+def yaw_from_rates(pieces: list[tuple[float, float]], fps: float = FPS) -> np.ndarray:
+    """Yaw (degrees) from (duration_s, rate_deg_s) pieces, starting at 0."""
+    rate = np.concatenate([np.full(int(round(d * fps)), r) for d, r in pieces])
+    return np.concatenate([[0.0], np.cumsum(rate) / fps])
+
+
+# --- the rule on yaw series ---------------------------------------------------------------
+
+
+def test_constant_yaw_has_no_turn() -> None:
+    assert find_turns(np.full(500, 37.0), fps_hz=FPS).empty
+
+
+def test_ramp_boundaries_worked_by_hand() -> None:
+    # Still for 2 s, 90°/s for 1 s (yaw frames 100..150), still for 2 s. The rate is the
+    # slope of a least-squares quadratic over 31 frames (0.6 s), i.e. of a line: at d frames
+    # before the kink at frame 100 it is 50 * 1.8 * sum_{k=d+1}^{15} k (k - d) / 2480 (°/s,
+    # sum k^2 over -15..15 = 2480): d = 9 gives 10.16 > 10, d = 10 gives 7.44 < 10, so the
+    # run starts at frame 91. Symmetrically the rate is 10.16 at frame 159 and 7.44 at 160:
+    # the run ends at 160 (exclusive).
+    yaw = yaw_from_rates([(2.0, 0.0), (1.0, 90.0), (2.0, 0.0)])
+    got = find_turns(yaw, fps_hz=FPS)
+    assert got.values.tolist() == [[91, 160, 1]]
+    right = find_turns(-yaw, fps_hz=FPS)
+    assert right.values.tolist() == [[91, 160, -1]]
+
+
+def test_brief_sway_against_the_turn_does_not_split_it() -> None:
+    # A slow left turn (30°/s) with 0.2 s of rotation back (-20°/s) in its middle.
+    yaw = yaw_from_rates([(2, 0), (2, 30), (0.2, -20), (2, 30), (2, 0)])
+    assert len(find_turns(yaw, fps_hz=FPS)) == 1
+    # Without the merge the hesitation would cut it in two: the hysteresis is what keeps it.
+    assert len(find_turns(yaw, fps_hz=FPS, merge_gap_s=0.0)) == 2
+
+
+def test_back_to_back_opposite_turns_half_a_second_apart_stay_apart() -> None:
+    yaw = yaw_from_rates([(2, 0), (1, 90), (0.5, 0), (1, -90), (2, 0)])
+    got = find_turns(yaw, fps_hz=FPS)
+    assert got["sign"].tolist() == [1, -1]
+    # Each run covers its own turn (frames 100-150 and 175-225) and not the other.
+    assert got["start_frame"][0] < 100 and 150 < got["end_frame"][0] <= 175
+    assert 150 <= got["start_frame"][1] < 175 and got["end_frame"][1] > 225
+
+
+def test_start_threshold_and_sway() -> None:
+    # 15°/s for 6 s (90° in all) never reaches the 20°/s start threshold...
+    slow = yaw_from_rates([(2, 0), (6, 15), (2, 0)])
+    assert find_turns(slow, fps_hz=FPS).empty
+    # ...but does with a lower one.
+    assert len(find_turns(slow, fps_hz=FPS, start_speed_deg_s=12.0)) == 1
+    # Pelvic sway of 6° peak to peak once per stride (0.77 to 1.0 Hz: raw rate up to
+    # 2 pi * 1.0 * 3 = 18.8°/s), faded in and out over a stride, never starts a turn.
+    t = np.arange(int(20 * FPS)) / FPS
+    fade = np.clip(np.minimum(t, t[-1] - t) / 1.0, 0.0, 1.0)
+    for f_hz in (0.77, 0.9, 1.0):
+        assert find_turns(3.0 * fade * np.sin(2 * np.pi * f_hz * t), fps_hz=FPS).empty
+
+
+def test_find_turns_refuses_nan_and_short_series_have_no_turn() -> None:
+    with pytest.raises(TurnbenchError, match="NaN"):
+        find_turns(np.array([0.0, np.nan, 1.0] * 20), fps_hz=FPS)
+    assert find_turns(np.linspace(0, 90, 20), fps_hz=FPS).empty  # shorter than the window
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        {"min_turn_deg": 0},
+        {"smooth_s": -1},
+        {"max_gap_s": float("nan")},
+        {"start_speed_deg_s": 5, "stop_speed_deg_s": 10},
+    ],
+)
+def test_bad_parameters_are_refused(bad) -> None:
+    with pytest.raises(TurnbenchError):
+        MinerParams(**bad)
+
+
+# --- whole sequences --------------------------------------------------------------------
+
+
+def _seq(segments, **kw):
+    return sm.generate_sequence(seed=kw.pop("seed", 7), segments=segments, **kw)
+
+
+def test_clean_turn_angle_is_geometrys_net_rotation_between_the_boundaries() -> None:
+    seq = _seq(
+        [sm.Segment.walk(3, 1.2), sm.Segment.walking_turn(-135, 1.5, 1.2), sm.Segment.walk(3, 1.2)],
+        noise_mm=0.0,
+    )
+    clips = mine_sequence(seq.positions, layout=H36M32, fps_hz=FPS, position_cutoff_hz=0.0)
+    assert len(clips) == 1
+    c = clips.iloc[0]
+    # DESIGN.md: the net rotation of the hip vector from start_frame to end_frame - 1.
+    ref = turning_angle(seq.positions[c.start_frame : c.end_frame], H36M32, method="net")
+    assert c.angle_deg == pytest.approx(ref.angle_deg, abs=1e-9)
+    assert c.net_deg == pytest.approx(ref.net_deg, abs=1e-9) and c.direction == "right"
+    planted = seq.planted.iloc[0]
+    assert c.angle_deg == pytest.approx(-planted.angle_deg, abs=3.0)
+    assert abs(c.start_frame - planted.start_frame) <= 0.2 * FPS
+    assert abs(c.end_frame - planted.end_frame) <= 0.2 * FPS
+
+
+def test_straight_walking_and_standing_give_no_clip() -> None:
+    for seed, sway in ((1, 3.0), (2, 6.0), (3, 6.0)):
+        walk = _seq(
+            [
+                sm.Segment.stand(1.0),
+                sm.Segment.walk(40.0, 1.0 + 0.25 * seed),
+                sm.Segment.stand(20.0),
+            ],
+            seed=seed,
+            sway_deg=sway,
+        )
+        assert mine_sequence(walk.positions, layout=H36M32, fps_hz=FPS).empty
+
+
+def test_units_and_the_17_joint_layout_do_not_change_the_clips() -> None:
+    seq = _seq([sm.Segment.walk(2, 1.2), sm.Segment.pivot_turn(90, 1.2), sm.Segment.walk(2, 1.2)])
+    mm = mine_sequence(seq.positions, layout=H36M32, fps_hz=FPS)
+    metres = mine_sequence(seq.positions / 1000.0, layout=H36M32, fps_hz=FPS)
+    j17 = mine_sequence(seq.positions[:, list(H36M17_FROM_32)], layout=H36M17, fps_hz=FPS)
+    assert len(mm) == 1
+    pd.testing.assert_frame_equal(mm, metres, atol=1e-9)
+    pd.testing.assert_frame_equal(mm, j17)
+
+
+def test_short_dropouts_are_bridged_long_ones_cut() -> None:
+    segs = [sm.Segment.walk(3, 1.2), sm.Segment.pivot_turn(120, 2.0), sm.Segment.walk(4, 1.2)]
+    base = _seq(segs)
+    # 0.1 s lost in the middle of the turn (frames 200-205): bridged, the turn still found.
+    short = _seq(segs, dropouts=[sm.Dropout(4.0, 0.1)])
+    a = mine_sequence(base.positions, layout=H36M32, fps_hz=FPS)
+    b = mine_sequence(short.positions, layout=H36M32, fps_hz=FPS)
+    assert len(a) == len(b) == 1
+    assert b.angle_deg[0] == pytest.approx(a.angle_deg[0], abs=2.0)
+    # 1 s lost in the middle of the turn: no turn is measured across the hole.
+    long = _seq(segs, dropouts=[sm.Dropout(3.6, 1.0)])
+    c = mine_sequence(long.positions, layout=H36M32, fps_hz=FPS)
+    hole = (180, 230)
+    assert all(
+        e <= hole[0] or s >= hole[1] for s, e in zip(c.start_frame, c.end_frame, strict=True)
+    )
+    # With a longer max_gap_s the same hole is bridged and the turn is one clip again.
+    d = mine_sequence(long.positions, layout=H36M32, fps_hz=FPS, max_gap_s=1.5)
+    assert len(d) == 1 and d.start_frame[0] < hole[0] and d.end_frame[0] > hole[1]
+
+
+def test_sequences_without_usable_hips_are_refused() -> None:
+    p = _seq([sm.Segment.walk(2, 1.2)]).positions.copy()
+    nan_hips = p.copy()
+    nan_hips[:, [1, 6]] = np.nan
+    with pytest.raises(TurnbenchError, match="usable hip"):
+        mine_sequence(nan_hips, layout=H36M32, fps_hz=FPS)
+    same = p.copy()
+    same[:, 6] = same[:, 1]
+    with pytest.raises(TurnbenchError, match="usable hip"):
+        mine_sequence(same, layout=H36M32, fps_hz=FPS)
+    with pytest.raises(TurnbenchError, match="shape"):
+        mine_sequence(p[:, :17], layout=H36M32, fps_hz=FPS)
+
+
+def test_measure_clip_matches_the_miner_and_refuses_bad_spans() -> None:
+    seq = _seq([sm.Segment.walk(2, 1.2), sm.Segment.pivot_turn(90, 1.2), sm.Segment.walk(2, 1.2)])
+    clip = mine_sequence(seq.positions, layout=H36M32, fps_hz=FPS).iloc[0]
+    again = measure_clip(
+        seq.positions,
+        layout=H36M32,
+        fps_hz=FPS,
+        start_frame=clip.start_frame,
+        end_frame=clip.end_frame,
+    )
+    assert again.angle_deg == pytest.approx(clip.angle_deg, abs=1e-9)
+    with pytest.raises(TurnbenchError, match="within"):
+        measure_clip(seq.positions, layout=H36M32, fps_hz=FPS, start_frame=10, end_frame=10_000)
+
+
+# --- measured on a synthetic corpus -----------------------------------------------------
+
+
+def match_turns(planted: pd.DataFrame, mined: pd.DataFrame) -> list[tuple[int, int]]:
+    """One-to-one planted/mined pairs of the same direction maximising total frame overlap.
+
+    Solved with scipy's Hungarian algorithm on the overlap matrix; only overlapping pairs
+    are kept.
+    """
+    if planted.empty or mined.empty:
+        return []
+    ps, pe = planted["start_frame"].to_numpy()[:, None], planted["end_frame"].to_numpy()[:, None]
+    ms, me = mined["start_frame"].to_numpy()[None, :], mined["end_frame"].to_numpy()[None, :]
+    overlap = np.clip(np.minimum(pe, me) - np.maximum(ps, ms), 0, None)
+    same_way = (
+        np.sign(planted["angle_deg"].to_numpy())[:, None]
+        == np.sign(mined["net_deg"].to_numpy())[None, :]
+    )
+    overlap = np.where(same_way, overlap, 0)
+    rows, cols = linear_sum_assignment(-overlap)
+    return [(int(r), int(c)) for r, c in zip(rows, cols, strict=True) if overlap[r, c] > 0]
+
+
+def corpus_scores(seeds, *, min_planted_deg: float = 60.0) -> dict:
+    """Mine a synthetic corpus and score it against the planted turns (see the test)."""
+    rows = []
+    false_clips = 0
+    for seed in seeds:
+        rng = np.random.default_rng(seed)
+        segs = sm.random_segments(rng)
+        seq = sm.generate_sequence(
+            seed=seed,
+            segments=segs,
+            sway_deg=float(rng.uniform(3.0, 6.0)),
+            noise_mm=10.0,
+            dropouts=sm.random_dropouts(rng, segs),
+        )
+        mined = mine_sequence(seq.positions, layout=H36M32, fps_hz=seq.fps)
+        pairs = dict(match_turns(seq.planted, mined))
+        matched = set(pairs.values())
+        prev_end = -1_000_000
+        for i, p in enumerate(seq.planted.itertuples(index=False)):
+            row = {
+                "kind": p.kind,
+                "left": p.angle_deg > 0,
+                "fast": abs(p.heading_deg) / p.duration_s > 100.0,
+                "back_to_back": p.start_frame - prev_end == int(0.5 * seq.fps),
+                "planted_deg": abs(p.angle_deg),
+                "found": i in pairs,
+            }
+            prev_end = p.end_frame
+            if i in pairs:
+                m = mined.iloc[pairs[i]]
+                row["angle_error_deg"] = m.angle_deg - abs(p.angle_deg)
+                row["start_error_s"] = (m.start_frame - p.start_frame) / seq.fps
+                row["end_error_s"] = (m.end_frame - p.end_frame) / seq.fps
+            rows.append(row)
+        # A mined clip matched to no planted turn is false, unless it overlaps a planted
+        # turn below the scored range (those may or may not be mined, either is right).
+        for j in set(range(len(mined))) - matched:
+            m = mined.iloc[j]
+            small = seq.planted[
+                (seq.planted.angle_deg.abs() < min_planted_deg)
+                & (seq.planted.end_frame > m.start_frame)
+                & (seq.planted.start_frame < m.end_frame)
+            ]
+            false_clips += small.empty
+    table = pd.DataFrame(rows)
+    scored = table[table.planted_deg >= min_planted_deg]
+    hits = scored[scored.found]
+    boundary = np.abs(np.concatenate([hits.start_error_s, hits.end_error_s]))
+    return {
+        "table": scored,
+        "n_planted": len(scored),
+        "recall": len(hits) / len(scored),
+        "precision": len(hits) / (len(hits) + false_clips),
+        "false_clips": false_clips,
+        "median_abs_angle_error_deg": float(np.median(np.abs(hits.angle_error_deg))),
+        "median_abs_boundary_error_s": float(np.median(boundary)),
+    }
+
+
+@pytest.fixture(scope="module")
+def corpus() -> dict:
+    return corpus_scores(range(60))
+
+
+def test_corpus_covers_every_kind_of_planted_turn(corpus) -> None:
+    t = corpus["table"]
+    assert corpus["n_planted"] >= 350
+    for col in ("kind", "left", "fast", "back_to_back"):
+        assert t[col].nunique() == 2, col
+    assert t.back_to_back.sum() >= 30
+    assert t.planted_deg.max() > 300
+
+
+def test_recall_and_precision_of_turns_of_60_degrees_or_more(corpus) -> None:
+    assert corpus["recall"] >= 0.98
+    assert corpus["precision"] >= 0.98
+    # and in every kind of turn, not only on average
+    t = corpus["table"]
+    for col in ("kind", "left", "fast", "back_to_back"):
+        for value, group in t.groupby(col):
+            assert group.found.mean() >= 0.98, (col, value)
+
+
+def test_no_clip_where_nothing_was_planted(corpus) -> None:
+    # Every mined clip overlaps a planted turn: none on straight walking or standing.
+    assert corpus["false_clips"] == 0
+
+
+def test_median_angle_and_boundary_errors(corpus) -> None:
+    assert corpus["median_abs_angle_error_deg"] <= 3.0
+    assert corpus["median_abs_boundary_error_s"] <= 0.2
+
+
+# --- the clip index -----------------------------------------------------------------------
+
+
+def _mocap(seed, segments, subject, action, subaction="", source="mem") -> MocapSequence:
+    seq = sm.generate_sequence(seed=seed, segments=segments)
+    return seq.to_mocap(subject=subject, action=action, subaction=subaction, source=source)
+
+
+TURNING = [sm.Segment.walk(2, 1.2), sm.Segment.pivot_turn(100, 1.2), sm.Segment.walk(2, 1.2)]
+
+
+def test_clip_index_columns_ids_split_and_derived_values() -> None:
+    seqs = [
+        _mocap(1, TURNING, "S11", "Walking", "1", "a.npz"),
+        _mocap(2, TURNING, "S9", "WalkDog", "", "a.npz"),
+        _mocap(3, TURNING, "S1", "Walking", "1", "b.cdf"),
+        _mocap(4, TURNING, "S1", "Walking", "", "c.cdf"),
+        _mocap(5, TURNING, "cmu", "69_25", "", "69_25.bvh"),
+    ]
+    index = mine(seqs)
+    assert list(index.columns) == list(CLIP_INDEX_DTYPES)
+    assert {c: str(index[c].dtype) for c in index.columns} == dict(CLIP_INDEX_DTYPES)
+    # Sorted by subject (S1 < S9 < S11 as numbers), then action, subaction, start frame.
+    assert index["subject"].tolist() == ["S1", "S1", "S9", "S11", "cmu"]
+    assert index["subaction"].tolist()[:2] == ["", "1"]
+    assert index["split"].tolist() == ["train", "train", "test", "test", ""]
+    for r in index.itertuples(index=False):
+        label = r.action + ("-" + r.subaction if r.subaction else "")
+        assert r.clip_id == f"{r.subject}_{label}_{r.start_frame}-{r.end_frame}"
+        assert r.n_frames == r.end_frame - r.start_frame
+        assert r.duration_s == pytest.approx(r.n_frames / 50.0)
+        assert r.start_s == pytest.approx(r.start_frame / 50.0)
+        assert r.speed_deg_s == pytest.approx(r.angle_deg / r.duration_s)
+        assert r.bin_deg == 90  # 100° planted: nearest multiple of 45 is 90
+        assert r.direction == "left"
+    assert index["clip_id"].is_unique
+    assert index["source"].tolist()[-1] == "69_25.bvh"
+
+
+def test_clip_id_and_split_helpers() -> None:
+    assert clip_id_of("S1", "Walking", "1", 120, 260) == "S1_Walking-1_120-260"
+    assert clip_id_of("S1", "Walking Dog", "", 0, 50) == "S1_Walking-Dog_0-50"
+    assert [split_of(s) for s in ("S1", "S5", "S6", "S7", "S8", "S9", "S11", "S2", "x")] == [
+        "train",
+        "train",
+        "train",
+        "train",
+        "train",
+        "test",
+        "test",
+        "",
+        "",
+    ]
+
+
+def test_the_same_sequence_twice_is_refused_naming_both_sources() -> None:
+    seqs = [
+        _mocap(1, TURNING, "S1", "Walking", "", "copy1.cdf"),
+        _mocap(1, TURNING, "S1", "Walking", "", "copy2.h5"),
+    ]
+    with pytest.raises(TurnbenchError, match="copy1.cdf and copy2.h5"):
+        mine(seqs)
+
+
+def test_a_bad_sequence_names_its_file_and_sequence() -> None:
+    seq = _mocap(1, TURNING, "S1", "Walking", "1", "S1/Walking 1.cdf")
+    seq.positions[:, [1, 6]] = np.nan
+    with pytest.raises(TurnbenchError) as err:
+        mine([seq])
+    assert str(err.value).startswith("S1/Walking 1.cdf, S1/Walking 1: ")
+
+
+# --- real captures --------------------------------------------------------------------
+
+
+CMU_TURNS = {  # CMU's description -> the one turn it names
+    "69_20.bvh": "right",  # walk forward 90 degree right turn
+    "69_25.bvh": "left",  # walk forward 90 degree left turn
+    "16_18.bvh": "left",  # walk, 90-degree left turn
+    "16_21.bvh": None,  # walk
+    "69_01.bvh": None,  # walk forward
+}
+
+
+def test_cmu_turns_are_found_with_their_direction(cmu_dir) -> None:
+    # Measured: 69_20 right 101.5°, 69_25 left 104.5°, 16_18 left 95.6° (frame 0, the
+    # conversion's T-pose, skipped); no clip in the two straight walks.
+    for name, direction in CMU_TURNS.items():
+        (seq,) = readers.read_source(cmu_dir / name, skip_first_frame=True)
+        clips = mine_sequence(seq.positions, layout=seq.layout, fps_hz=seq.fps)
+        if direction is None:
+            assert clips.empty, name
+            continue
+        assert len(clips) == 1, name
+        assert clips.direction[0] == direction, name
+        # a described 90° turn: the hips turn by more, as walking turns overshoot a bit
+        assert 85.0 <= clips.angle_deg[0] <= 115.0, (name, clips.angle_deg[0])
