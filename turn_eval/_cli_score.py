@@ -1,3 +1,155 @@
-"""Commands of turn-eval (registered on the group in turn_eval.cli)."""
+"""``turn-eval score``: score a predictions file against a reference (issue 5).
+
+Thin: parse the options, read and validate (:mod:`turn_eval.predictions`), score
+(:mod:`turn_eval.tables`), print one format on stdout and, with ``--out-dir``, write all three
+(and the figures) together, atomically.
+"""
 
 from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from turn_datasets._cli import emit, format_option, progress, warn, wrote
+from turn_datasets._io import (
+    check_not_input,
+    staged_dir,
+    to_json_text,
+    write_csv,
+    write_json,
+    write_text,
+)
+from turn_datasets.errors import TurnbenchError
+from turn_eval.cli import CONTEXT_SETTINGS, cli
+from turn_eval.plots import PLOT_FILES, write_plots
+from turn_eval.predictions import read_predictions, read_reference
+from turn_eval.tables import build_scores, scores_frame, scores_markdown
+
+#: The files ``--out-dir`` receives besides the figures.
+SCORE_FILES = ("scores.json", "scores.md", "scores.csv")
+
+
+def _bootstrap_progress(chunks, n_chunks: int):
+    return progress(chunks, label="bootstrap", length=n_chunks)
+
+
+@cli.command("score", context_settings=CONTEXT_SETTINGS)
+@click.argument("predictions", type=click.Path(dir_okay=True, path_type=Path))
+@click.option(
+    "--reference",
+    "-r",
+    required=True,
+    type=click.Path(dir_okay=True, path_type=Path),
+    help="CSV with clip_id, angle_deg and optionally duration_s and group columns "
+    "(a Turn-H3.6M clip index or Turn-REMAP labels).",
+)
+@click.option(
+    "--by",
+    multiple=True,
+    metavar="COL",
+    help="Group by this reference column (repeatable). Default: every one of scenario, "
+    "location, cohort, subject, bin_deg, action, split the reference has.",
+)
+@click.option(
+    "--allow-missing",
+    is_flag=True,
+    help="Score the clips the predictions have and report how many are missing.",
+)
+@click.option(
+    "--abs",
+    "abs_angles",
+    is_flag=True,
+    help="Take negative angles (signed rotations) as their magnitudes.",
+)
+@click.option(
+    "--bootstrap",
+    "n_resamples",
+    type=click.IntRange(min=0),
+    default=1000,
+    show_default=True,
+    help="Bootstrap resamples for the 95% intervals (0: none).",
+)
+@click.option(
+    "--seed", type=click.IntRange(min=0), default=0, show_default=True,
+    help="Seed of the bootstrap.",
+)
+@click.option(
+    "--bin-width-deg",
+    type=click.FloatRange(min=0, min_open=True),
+    default=45.0,
+    show_default=True,
+    help="Width of the angle bins (the paper's 45°).",
+)
+@format_option()
+@click.option(
+    "--out-dir",
+    type=click.Path(file_okay=False, path_type=Path),
+    help="Also write scores.json, scores.md and scores.csv here.",
+)
+@click.option("--plots", is_flag=True, help="With --out-dir: also write the figures as PNG.")
+def score(
+    predictions: Path,
+    reference: Path,
+    by: tuple[str, ...],
+    allow_missing: bool,
+    abs_angles: bool,
+    n_resamples: int,
+    seed: int,
+    bin_width_deg: float,
+    fmt: str,
+    out_dir: Path | None,
+    plots: bool,
+) -> None:
+    """Score turning-angle predictions overall and per group, as the paper's tables.
+
+    PREDICTIONS is a CSV with clip_id, angle_deg and optionally speed_deg_s (degrees per
+    second); other columns are ignored. Metrics: accuracy of the 45° bin, MAE (degrees),
+    weighted precision, MAE of angular speed (with reference durations), with seeded
+    percentile bootstrap 95% intervals; per group and the groups' unweighted average.
+
+    \b
+    Example:
+      turn-eval score predictions.csv --reference turn-h36m.csv
+      turn-eval score predictions.csv -r labels.csv --by cohort --by scenario --format json
+      turn-eval score predictions.csv -r labels.csv --out-dir scores/ --plots
+    """
+    if plots and out_dir is None:
+        raise click.UsageError("--plots needs --out-dir (the figures are files)")
+    inputs = [predictions, reference]
+    if out_dir is not None:
+        for name in (*SCORE_FILES, *(PLOT_FILES if plots else ())):
+            check_not_input(out_dir / name, inputs)
+        if out_dir.exists() and not out_dir.is_dir():
+            raise TurnbenchError("--out-dir is a file, not a folder", file=str(out_dir))
+    ref = read_reference(reference, bin_width_deg=bin_width_deg)
+    joined = read_predictions(
+        predictions, ref, allow_missing=allow_missing, abs_angles=abs_angles, warn=warn
+    )
+    scores = build_scores(
+        joined, by=list(by), n_resamples=n_resamples, seed=seed, progress=_bootstrap_progress
+    )
+    texts = {
+        "json": to_json_text(scores),
+        "md": scores_markdown(scores),
+    }
+    frame = scores_frame(scores)
+    if out_dir is not None:
+        with staged_dir(out_dir) as tmp:
+            write_json(tmp / "scores.json", scores)
+            write_text(tmp / "scores.md", texts["md"])
+            write_csv(frame, tmp / "scores.csv")
+            if plots:
+                t = joined.table
+                write_plots(
+                    t["pred_angle_deg"].to_numpy(),
+                    t["ref_angle_deg"].to_numpy(),
+                    tmp,
+                    bin_width_deg=bin_width_deg,
+                )
+        names = [*SCORE_FILES, *(PLOT_FILES if plots else ())]
+        wrote(*(out_dir / name for name in names), what="scores")
+    if fmt == "csv":
+        emit(frame.to_csv(index=False, lineterminator="\n"))
+    else:
+        emit(texts[fmt])

@@ -26,12 +26,14 @@ bins even when the bin between them is empty (scikit-learn weighs by label posit
 Bootstrap
     Percentile intervals over clips, as ``scipy.stats.bootstrap(method="percentile")``
     computes them, with the same draws: the resample index matrix of ``n_resamples`` rows is
-    ``numpy.random.default_rng(seed).integers(0, n, (n_resamples, n))``, drawn here in chunks
-    of rows (the generator's stream is the same) to bound memory; the bounds are the 2.5th
-    and 97.5th percentiles of the resampled statistic (linear interpolation). A reader can
-    therefore reproduce any interval with scipy on the same clips and seed. All metrics of a
-    resample come from one gather per clip and one ``np.bincount`` of confusion cells per
-    chunk, never from a call to scikit-learn per resample.
+    ``numpy.random.default_rng(seed).integers(0, n, (n_resamples, n))``, drawn in chunks of
+    rows (the generator's stream is the same) to bound memory; the bounds are the 2.5th and
+    97.5th percentiles of the resampled statistic (linear interpolation). One index matrix
+    resamples all the clips, and each group's metric on a resample is computed on that group's
+    clips in it, so a reader reproduces any interval with scipy on the same clips and seed
+    (paired, with a statistic that keeps the group's clips). The metrics of all groups on all
+    resamples come from per-resample draw counts (``np.bincount``) and two sparse products
+    (:class:`_Engine`), never from a call to scikit-learn per resample.
 """
 
 from __future__ import annotations

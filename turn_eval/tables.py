@@ -8,11 +8,13 @@ One document holds everything (DESIGN.md, "Scores"):
     ``per_bin`` precision and recall.
 ``by``
     One entry per grouping (``scenario``, ``subject``, ``bin_deg``, ...): ``groups``, each with
-    ``n``, the metrics and their ``ci95`` (each group resampled on its own, seeded with the
-    same seed, so every group's interval is what ``scipy.stats.bootstrap`` gives on that
-    group's clips), and ``avg``, the unweighted mean over the groups of each metric and of
-    ``n``: the "Avg." column of the paper's Tables 4 and 5. ``avg`` has no interval: its
-    groups' resamples are not independent of each other.
+    ``n``, the metrics and their ``ci95``, and ``avg``, the unweighted mean over the groups of
+    each metric and of ``n`` (the "Avg." column of the paper's Tables 4 and 5) with its own
+    ``ci95``. Every interval comes from the same bootstrap resamples of all the clips
+    (:func:`turn_eval.metrics.grouped_bootstrap`): a group's metric on a resample is computed
+    on the group's clips it drew, and the average's on the same resample is the mean of those,
+    so the groups' sampling noise enters the average's interval jointly. A resample that drew
+    no clip of some group is left out of that group's interval and the average's.
 ``n_missing``
     Reference clips the submission left out (``--allow-missing``).
 ``settings``
