@@ -123,7 +123,7 @@ TABLE3_MD = """\
 | 45 | 2 | 45.2 | 66.0 | 55.6 |
 | 90 | 1 | 91.0 | 91.0 | 91.0 |
 | a \\| b | 1 | 1 | 1 | 1 |
-| Total | 4 | 45.2 | 91.0 | 67.1 |
+| **Total** | 4 | 45.2 | 91.0 | 67.1 |
 """
 
 
@@ -239,6 +239,8 @@ def test_same_inputs_same_bytes(tmp_path: Path, png: Path) -> None:
         ("accuracy", float("nan"), "–"),
         ("n", 619, "619"),
         ("n", 88.4, "88.4"),  # an Avg. row's mean count is not an integer
+        ("n", 33.42857, "33.4"),
+        ("n", 46.0, "46"),
         ("kappa", 0.96123, "0.961"),
     ],
 )

@@ -112,9 +112,10 @@ def format_metric(key: str, value: object) -> str:
         return str(value)
     kind = _METRIC_KIND.get(key)
     if key == "n" or key.startswith("n_"):
-        return (
-            f"{value:g}" if isinstance(value, float) and not value.is_integer() else f"{int(value)}"
-        )
+        # an Avg. column's count is a mean over groups: one decimal, as the paper prints it
+        if isinstance(value, float) and not value.is_integer():
+            return f"{value:.1f}"
+        return f"{int(value)}"
     if kind == "fraction":
         return f"{100.0 * value:.1f}"
     if kind in ("deg", "deg_s"):
@@ -248,7 +249,14 @@ def _split_row(line: str) -> list[str]:
     if body.endswith("|") and not body.endswith("\\|"):
         body = body[:-1]
     cells = re.split(r"(?<!\\)\|", body)
-    return [c.strip().replace("\\|", "|") for c in cells]
+    return [_plain_cell(c.strip().replace("\\|", "|")) for c in cells]
+
+
+def _plain_cell(text: str) -> str:
+    # A table cell is escaped text: drop the Markdown emphasis the commands put on a
+    # "**Total**" row (the row is styled instead) and the backticks of `code`.
+    match = re.fullmatch(r"\*\*(.*)\*\*|`(.*)`", text)
+    return next(g for g in match.groups() if g is not None) if match else text
 
 
 def _inline(text: str) -> str:

@@ -1,0 +1,529 @@
+"""``make demo``: everything turnbench does, on the bundled synthetic corpus, in one run.
+
+Run as ``python -m turn_eval.demo --out-dir demo-output``. The steps are the commands a user
+runs, called in process through the same click groups as the console scripts (so the demo
+exercises exactly what users run, without paying for a Python start per command), each
+printed as ``$ turn-datasets ...`` before it runs:
+
+1. write the demo corpus (:mod:`turn_datasets.demo_corpus`): Turn-H3.6M-like motion capture
+   in the three Human3.6M layouts, and Turn-REMAP-like ELAN sessions;
+2. ``turn-datasets h36m mine`` the clip index, ``h36m stats`` (the paper's Table 3), and a
+   check of the mined clips against the turns the generator planted;
+3. ``turn-datasets remap labels``, ``remap stats`` (Tables 1 and 2) and ``remap agreement``
+   with its kappa gate (``--min-kappa 0.8``) and the review EAFs;
+4. skeletons as a monocular estimator would give them (:mod:`turn_eval.degrade`), then
+   ``turn-eval predict`` with both methods (``paper``: equation 3 as printed; ``net``);
+5. ``turn-eval score --plots`` of each method on each set (Tables 4 and 5, Figure 5);
+6. ``turn-eval compare`` of the two methods on each set;
+7. ``report.html``: one self-contained page of all of it (:mod:`turn_eval.report`).
+
+It ends by printing where each result is. Same seed, same outputs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import shlex
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import click
+import numpy as np
+import pandas as pd
+
+from turn_datasets import __version__
+from turn_datasets import cli as datasets_cli
+from turn_datasets._cli import run_group
+from turn_datasets._io import write_csv, write_text
+from turn_datasets.demo_corpus import (
+    DEMO_SEED,
+    write_h36m_corpus,
+    write_h36m_estimates,
+    write_remap_corpus,
+    write_remap_estimates,
+)
+from turn_eval import cli as eval_cli
+from turn_eval.degrade import degrade_skeleton
+from turn_eval.report import Report, load_json
+
+__all__ = ["DemoFailed", "run_demo", "match_planted", "write_report", "main"]
+
+METHODS = ("paper", "net")
+MIN_KAPPA = 0.8
+#: A planted turn counts as found when a mined clip of the same sequence and direction
+#: covers at least this share of its frames.
+FOUND_COVERAGE = 0.5
+
+
+class DemoFailed(RuntimeError):
+    """A step of the demo exited with an unexpected code."""
+
+
+def _say(text: str = "") -> None:
+    click.echo(text)
+
+
+def _run(group: click.Group, prog: str, args: Sequence[str], *, show: bool = False) -> str:
+    """Run one command in process, as its console script would; return what it printed.
+
+    The command's stdout is captured (and echoed when ``show``); its stderr (progress and
+    "wrote ..." lines) goes to the terminal as usual.
+    """
+    _say(f"\n$ {prog} {shlex.join(args)}")
+    buffer = io.StringIO()
+    with contextlib.redirect_stdout(buffer):
+        code = run_group(group, prog, list(args))
+    out = buffer.getvalue()
+    if show and out:
+        _say(out.rstrip("\n"))
+    if code != 0:
+        raise DemoFailed(f"`{prog} {shlex.join(args)}` exited with code {code}")
+    return out
+
+
+def _datasets(args: Sequence[str], *, show: bool = False) -> str:
+    return _run(datasets_cli.cli, "turn-datasets", args, show=show)
+
+
+def _eval(args: Sequence[str], *, show: bool = False) -> str:
+    return _run(eval_cli.cli, "turn-eval", args, show=show)
+
+
+def match_planted(
+    planted: pd.DataFrame, index: pd.DataFrame, *, min_coverage: float = FOUND_COVERAGE
+) -> pd.DataFrame:
+    """Each planted turn with the mined clip that covers it best, if any.
+
+    A planted turn is ``found`` by a clip of the same subject, action, subaction and
+    direction that covers at least ``min_coverage`` of its frames. Returns the planted rows
+    with ``found``, ``clip_id``, ``mined_angle_deg``, ``start_error_s`` and ``end_error_s``
+    (mined minus planted boundary).
+    """
+    rows = []
+    keys = ["subject", "action", "subaction"]
+    index = index.assign(subaction=index["subaction"].fillna("").astype(str))
+    by_seq = {k: g for k, g in index.groupby(keys, sort=False)}
+    for turn in planted.itertuples(index=False):
+        best = None
+        clips = by_seq.get((turn.subject, turn.action, turn.subaction))
+        if clips is not None:
+            same = clips[clips["direction"] == turn.direction]
+            overlap = np.minimum(same["end_frame"], turn.end_frame) - np.maximum(
+                same["start_frame"], turn.start_frame
+            )
+            coverage = np.clip(overlap, 0, None) / (turn.end_frame - turn.start_frame)
+            if len(same) and coverage.max() >= min_coverage:
+                best = same.iloc[int(np.argmax(coverage.to_numpy()))]
+        fps = 50.0 if best is None else float(best["fps"])
+        rows.append(
+            {
+                **turn._asdict(),
+                "found": best is not None,
+                "clip_id": "" if best is None else str(best["clip_id"]),
+                "mined_angle_deg": np.nan if best is None else float(best["angle_deg"]),
+                "start_error_s": np.nan
+                if best is None
+                else (int(best["start_frame"]) - turn.start_frame) / fps,
+                "end_error_s": np.nan
+                if best is None
+                else (int(best["end_frame"]) - turn.end_frame) / fps,
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def _miner_check(planted: pd.DataFrame, index: pd.DataFrame) -> tuple[pd.DataFrame, str]:
+    """Recall of planted turns, precision of mined clips, angle and boundary errors."""
+    matched = match_planted(planted, index)
+    lines = [
+        "| planted turns | planted | found | recall | median angle error (°) | "
+        "median start error (s) | median end error (s) |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    for label, rows in (
+        ("all (48° to 233°)", matched),
+        ("at least 60°", matched[matched["angle_deg"] >= 60.0]),
+    ):
+        found = rows[rows["found"]]
+        lines.append(
+            f"| {label} | {len(rows)} | {len(found)} | "
+            f"{100.0 * len(found) / max(len(rows), 1):.1f}% | "
+            f"{np.median(np.abs(found['mined_angle_deg'] - found['angle_deg'])):.1f} | "
+            f"{np.median(np.abs(found['start_error_s'])):.2f} | "
+            f"{np.median(np.abs(found['end_error_s'])):.2f} |"
+        )
+    claimed = set(matched.loc[matched["found"], "clip_id"])
+    spurious = len(index) - len(claimed & set(index["clip_id"]))
+    precision = 100.0 * (len(index) - spurious) / max(len(index), 1)
+    lines.append("")
+    lines.append(
+        f"Mined clips: {len(index)}, of which {len(index) - spurious} cover a planted turn "
+        f"(precision {precision:.1f}%); {spurious} cover none (a sway or a wander read as a turn, "
+        "or the second half of a planted turn split in two)."
+    )
+    return matched, "\n".join(lines) + "\n"
+
+
+def _overall_line(scores: dict) -> str:
+    o = scores["overall"]
+    speed = o.get("mae_speed_deg_s")
+    speed_text = "" if speed is None else f", MAE speed {speed:.1f}°/s"
+    return (
+        f"n {o['n']}: accuracy {100 * o['accuracy']:.1f}%, MAE {o['mae_deg']:.1f}°, "
+        f"WPrec {100 * o['wprec']:.1f}%{speed_text}"
+    )
+
+
+#: The corpus of ``--quick`` (and of the tests): three subjects (both splits), two actions, three
+#: pairs; every step still runs.
+QUICK = {
+    "subjects": ("S1", "S5", "S9"),
+    "actions": {"Walking": (3, 4), "Phoning": (1, 2)},
+    "n_pairs": 3,
+}
+
+
+def run_demo(
+    out_dir: str | Path,
+    *,
+    seed: int = DEMO_SEED,
+    bootstrap: int = 1000,
+    quick: bool = False,
+) -> dict[str, Path]:
+    """Run every step into ``out_dir`` and return the results' paths by description.
+
+    ``quick`` writes a small corpus (:data:`QUICK`) so that every step runs in seconds.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    corpus = out / "corpus"
+    h36m_dir, remap_dir = out / "h36m", out / "remap"
+    results: dict[str, Path] = {}
+
+    _say(f"turnbench {__version__} demo, seed {seed}: everything goes to {out}/")
+    _say("\n# 1. The demo corpus (synthetic; no licensed data needed)")
+    if quick:
+        h36m = write_h36m_corpus(
+            corpus / "h36m", seed=seed, subjects=QUICK["subjects"], actions=QUICK["actions"]
+        )
+        remap = write_remap_corpus(corpus / "remap", seed=seed, n_pairs=QUICK["n_pairs"])
+    else:
+        h36m = write_h36m_corpus(corpus / "h36m", seed=seed)
+        remap = write_remap_corpus(corpus / "remap", seed=seed)
+    _say(
+        f"Turn-H3.6M-like motion capture: {h36m.n_sequences} sequences, {h36m.n_frames} frames "
+        f"at 50 Hz, {len(h36m.planted)} planted turns, in {corpus / 'h36m'} "
+        "(S1 as CDF, S5 as 3d-pose-baseline h5, the rest as VideoPose3D npz)"
+    )
+    _say(
+        f"Turn-REMAP-like ELAN sessions: {len(remap.paths)} sessions of "
+        f"{len(remap.participants)} participants, {len(remap.truth)} planted turns, in "
+        f"{corpus / 'remap'}"
+    )
+
+    _say("\n# 2. Turn-H3.6M: mine the clip index, summarise it (Table 3)")
+    index_path = h36m_dir / "turn-h36m.csv"
+    _datasets(["h36m", "mine", str(corpus / "h36m"), "--out", str(index_path)])
+    table3 = _datasets(["h36m", "stats", str(index_path)], show=True)
+    results["Turn-H3.6M clip index"] = index_path
+    results["Turn-H3.6M manifest"] = index_path.with_suffix(".manifest.json")
+    results["Table 3 (clips per bin)"] = write_text(h36m_dir / "table3.md", table3)
+    index = pd.read_csv(index_path, dtype={"subaction": str}, keep_default_na=False)
+    matched, miner_md = _miner_check(h36m.planted, index)
+    _say("\nThe miner against the turns the generator planted:")
+    _say(miner_md.rstrip("\n"))
+    results["Miner vs planted turns"] = write_text(h36m_dir / "miner-check.md", miner_md)
+    results["Each planted turn and the clip that found it"] = write_csv(
+        matched, h36m_dir / "miner-check.csv"
+    )
+
+    _say("\n# 3. Turn-REMAP: labels, Tables 1 and 2, the inter-rater agreement audit")
+    labels_path = remap_dir / "labels.csv"
+    participants = str(remap.participants_path)
+    eaf_dir = str(corpus / "remap" / "eaf")
+    _datasets(
+        ["remap", "labels", eaf_dir, "--participants", participants, "--out", str(labels_path)]
+    )
+    results["Turn-REMAP labels"] = labels_path
+    results["Turn-REMAP raw annotations"] = labels_path.with_name("annotations.csv")
+    tables12 = _datasets(
+        ["remap", "stats", str(labels_path), "--participants", participants], show=True
+    )
+    results["Tables 1 and 2 (cohorts, scenarios x angles)"] = write_text(
+        remap_dir / "tables1-2.md", tables12
+    )
+    audit_dir = remap_dir / "agreement"
+    _datasets(
+        [
+            "remap",
+            "agreement",
+            eaf_dir,
+            "--min-kappa",
+            str(MIN_KAPPA),
+            "--out-dir",
+            str(audit_dir),
+            "--review-eaf",
+            "--seed",
+            "0",
+        ]
+    )
+    audit = load_json(audit_dir / "agreement.json")
+    _say(_agreement_line(audit))
+    results["Agreement audit (report, pairs, disagreements, confusion)"] = audit_dir
+    results["Review EAFs (open in ELAN)"] = audit_dir / "review"
+
+    _say("\n# 4. Skeletons as a monocular estimator gives them, and predictions from them")
+    skeletons = {"h36m": h36m_dir / "skeletons.npz", "remap": remap_dir / "skeletons.npz"}
+    write_h36m_estimates(
+        index_path, [corpus / "h36m"], skeletons["h36m"], degrade=degrade_skeleton, seed=seed
+    )
+    write_remap_estimates(labels_path, skeletons["remap"], degrade=degrade_skeleton, seed=seed)
+    _say(
+        "Wrote 17-joint skeletons (camera axes, y down, metres) for every clip: "
+        f"{skeletons['h36m']} and {skeletons['remap']}"
+    )
+    references = {"h36m": index_path, "remap": labels_path}
+    names = {"h36m": "Turn-H3.6M", "remap": "Turn-REMAP"}
+    for key, folder in (("h36m", h36m_dir), ("remap", remap_dir)):
+        results[f"{names[key]} estimator skeletons"] = skeletons[key]
+        for method in METHODS:
+            pred = folder / f"predictions-{method}.csv"
+            _eval(
+                [
+                    "predict",
+                    str(skeletons[key]),
+                    "--layout",
+                    "h36m17",
+                    "--up-axis",
+                    "-y",
+                    "--fps",
+                    "50",
+                    "--method",
+                    method,
+                    "--out",
+                    str(pred),
+                ]
+            )
+            results[f"{names[key]} predictions ({method})"] = pred
+
+    _say("\n# 5. Scores (Tables 4 and 5, Figure 5), per method and set")
+    for key, folder in (("h36m", h36m_dir), ("remap", remap_dir)):
+        for method in METHODS:
+            score_dir = folder / f"scores-{method}"
+            _eval(
+                [
+                    "score",
+                    str(folder / f"predictions-{method}.csv"),
+                    "--reference",
+                    str(references[key]),
+                    "--out-dir",
+                    str(score_dir),
+                    "--plots",
+                    "--bootstrap",
+                    str(bootstrap),
+                    "--seed",
+                    "0",
+                ],
+            )
+            scores = load_json(score_dir / "scores.json")
+            _say(f"{names[key]}, method {method}: {_overall_line(scores)}")
+            results[f"{names[key]} scores ({method}): json, md, csv, figures"] = score_dir
+
+    _say("\n# 6. Is net better than paper? Paired bootstrap and McNemar")
+    for key, folder in (("h36m", h36m_dir), ("remap", remap_dir)):
+        args = [
+            "compare",
+            str(folder / "predictions-paper.csv"),
+            str(folder / "predictions-net.csv"),
+            "--reference",
+            str(references[key]),
+            "--bootstrap",
+            str(bootstrap),
+            "--seed",
+            "0",
+        ]
+        _eval([*args, "--out", str(folder / "compare.md")], show=True)
+        _eval([*args, "--format", "json", "--out", str(folder / "compare.json")])
+        results[f"{names[key]}: paper vs net"] = folder / "compare.md"
+
+    _say("\n# 7. The report")
+    report_path = write_report(out, seed=seed)
+    results["The report (open in a browser)"] = report_path
+    elapsed = time.perf_counter() - t0
+
+    _say(f"\nDone in {elapsed:.0f} s. Where each result is:")
+    width = max(len(k) for k in results)
+    for what, path in results.items():
+        _say(f"  {what:<{width}}  {path}")
+    return results
+
+
+def _agreement_line(audit: dict) -> str:
+    raters = audit.get("raters", ["A", "B"])
+    ci = audit.get("kappa_ci95") or [float("nan"), float("nan")]
+    return (
+        f"Agreement of {raters[0]} and {raters[1]} on {audit.get('matched')} matched turns: "
+        f"{100 * audit.get('percent_agreement', float('nan')):.1f}% agree, Cohen's kappa "
+        f"{audit.get('kappa', float('nan')):.3f} (95% CI {ci[0]:.3f} to {ci[1]:.3f}); "
+        f"gate kappa >= {MIN_KAPPA} passed."
+    )
+
+
+_FIGURE_CAPTIONS = {
+    "predicted": "Predicted angles per reference bin (the paper's Figure 5a).",
+    "error": "Distribution of absolute errors (the paper's Figure 5b).",
+    "confusion": "Confusion matrix of predicted against reference 45° bins.",
+    "bland": "Bland-Altman plot: difference against mean of predicted and reference angles.",
+}
+
+
+def _figure_order(png: Path) -> tuple[int, str]:
+    # Figure 5a and 5b first, as the paper shows them; anything unknown last, by name
+    keys = list(_FIGURE_CAPTIONS)
+    stem = png.stem.lower()
+    rank = next((i for i, key in enumerate(keys) if key in stem), len(keys))
+    return rank, png.name
+
+
+def _caption(png: Path) -> str:
+    stem = png.stem.lower()
+    for key, text in _FIGURE_CAPTIONS.items():
+        if key in stem:
+            return f"{text} ({png.name})"
+    return png.name
+
+
+def _scores_section(report: Report, title: str, folder: Path, groupings: Sequence[str]) -> None:
+    sec = report.section(title)
+    labelled = {m: load_json(folder / f"scores-{m}" / "scores.json") for m in METHODS}
+    sec.paragraph(
+        "Overall, with percentile-bootstrap 95% confidence intervals over clips "
+        f"({labelled['net']['settings'].get('bootstrap')} resamples, seed "
+        f"{labelled['net']['settings'].get('seed')}). `paper` is equation 3 as printed "
+        "(every frame-to-frame rotation counted with its magnitude); `net` the signed net "
+        "rotation of the hip vector."
+    )
+    sec.summary(labelled, caption=f"{title}: overall")
+    for method, scores in labelled.items():
+        present = [g for g in groupings if g in scores.get("by", {})]
+        sec.heading(f"Method {method}")
+        sec.scores(scores, groupings=present, caption=f"{title}, {method}")
+        pngs = sorted((folder / f"scores-{method}").glob("*.png"), key=_figure_order)
+        sec.figures(pngs, captions={p.name: _caption(p) for p in pngs})
+    compare_md = folder / "compare.md"
+    if compare_md.exists():
+        sec.heading("paper against net on the same clips")
+        sec.markdown_file(compare_md)
+
+
+def _disagreements_table(path: Path, *, max_rows: int = 60) -> pd.DataFrame:
+    """The disagreements for the page: no file paths, angles as whole degrees."""
+    df = pd.read_csv(path)
+    df = df.drop(columns=[c for c in ("file",) if c in df.columns]).head(max_rows)
+    for col in [c for c in df.columns if c.startswith("angle_")]:
+        df[col] = df[col].map(lambda v: "–" if pd.isna(v) else f"{v:.0f}")
+    return df
+
+
+def write_report(out_dir: str | Path, *, seed: int = DEMO_SEED) -> Path:
+    """Build ``out_dir/report.html`` from the results the demo wrote into ``out_dir``."""
+    out = Path(out_dir)
+    h36m_dir, remap_dir = out / "h36m", out / "remap"
+    report = Report(
+        "turnbench demo: Turn-H3.6M and Turn-REMAP, curated and scored",
+        subtitle=(
+            f"turnbench {__version__}, on the bundled synthetic corpus (seed {seed}). "
+            "Every number here comes from the command-line tools run by `make demo`; the "
+            "data are generated, not recorded, so they show how the tools work, not how "
+            "well any estimator does on real people."
+        ),
+    )
+    sec = report.section("Turn-H3.6M: the mined clip index")
+    sec.paragraph(
+        "Clips are runs where the hip vector turns by 45° or more about the vertical axis, "
+        "found by `turn-datasets h36m mine` in the demo motion capture (S1 as CDF, S5 as "
+        "3d-pose-baseline h5, the other subjects in a VideoPose3D npz)."
+    )
+    sec.markdown_file(h36m_dir / "table3.md")
+    if (h36m_dir / "miner-check.md").exists():
+        sec.heading("The miner against the planted turns")
+        sec.markdown_file(h36m_dir / "miner-check.md")
+
+    sec = report.section("Turn-REMAP: labels and their agreement audit")
+    sec.paragraph(
+        "Labels from the ELAN sessions by `turn-datasets remap labels` (one row per turn "
+        "after adjudication: where the two clinicians disagree, the consensus tier decides)."
+    )
+    sec.markdown_file(remap_dir / "tables1-2.md")
+    audit_dir = remap_dir / "agreement"
+    audit = load_json(audit_dir / "agreement.json")
+    sec.heading("Inter-rater agreement")
+    sec.paragraph(_agreement_line(audit), kind="note")
+    if (audit_dir / "agreement.md").exists():
+        sec.markdown_file(audit_dir / "agreement.md")
+    for png in sorted(audit_dir.glob("*.png")):
+        sec.figure(png, caption=f"Agreement confusion matrix ({png.name})", width_px=480)
+    if (audit_dir / "disagreements.csv").exists():
+        sec.heading("Disagreements to review (also marked in the review EAFs)")
+        sec.frame(_disagreements_table(audit_dir / "disagreements.csv"), float_digits=3)
+
+    _scores_section(
+        report,
+        "Turn-H3.6M scores",
+        h36m_dir,
+        ("subject", "bin_deg", "action", "split"),
+    )
+    _scores_section(
+        report,
+        "Turn-REMAP scores",
+        remap_dir,
+        ("scenario", "location", "cohort", "bin_deg", "subject"),
+    )
+
+    sec = report.section("Files")
+    files = {
+        "clip index": "h36m/turn-h36m.csv",
+        "Table 3": "h36m/table3.md",
+        "labels": "remap/labels.csv",
+        "agreement audit": "remap/agreement/",
+        "review EAFs": "remap/agreement/review/",
+        "predictions": "h36m/predictions-{paper,net}.csv, remap/predictions-{paper,net}.csv",
+        "scores": "h36m/scores-{paper,net}/, remap/scores-{paper,net}/",
+        "comparisons": "h36m/compare.md, remap/compare.md (and .json)",
+        "corpus": "corpus/h36m/ (planted.csv lists the planted turns), corpus/remap/",
+        "miner check": "h36m/miner-check.md, h36m/miner-check.csv",
+    }
+    sec.files(files, caption="Where everything is, relative to this page")
+    return report.write(out / "report.html")
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m turn_eval.demo",
+        description="Run the whole turnbench pipeline on the bundled synthetic corpus.",
+        epilog="Example: python -m turn_eval.demo --out-dir demo-output",
+    )
+    parser.add_argument(
+        "--out-dir", type=Path, default=Path("demo-output"), help="Where everything goes."
+    )
+    parser.add_argument("--seed", type=int, default=DEMO_SEED, help="Seed of the corpus.")
+    parser.add_argument("--bootstrap", type=int, default=1000, help="Bootstrap resamples.")
+    parser.add_argument(
+        "--quick", action="store_true", help="A small corpus: every step in a few seconds."
+    )
+    args = parser.parse_args(argv)
+    try:
+        run_demo(args.out_dir, seed=args.seed, bootstrap=args.bootstrap, quick=args.quick)
+    except DemoFailed as exc:
+        click.echo(f"demo failed: {exc}", err=True)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
