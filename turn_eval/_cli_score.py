@@ -22,12 +22,14 @@ from turn_datasets._io import (
 )
 from turn_datasets.errors import TurnbenchError
 from turn_eval.cli import CONTEXT_SETTINGS, cli
-from turn_eval.plots import PLOT_FILES, write_plots
 from turn_eval.predictions import read_predictions, read_reference
 from turn_eval.tables import build_scores, scores_frame, scores_markdown
 
 #: The files ``--out-dir`` receives besides the figures.
 SCORE_FILES = ("scores.json", "scores.md", "scores.csv")
+#: The figures ``--plots`` adds (as :data:`turn_eval.plots.PLOT_FILES`; matplotlib is only
+#: imported when they are drawn).
+PLOT_FILES = ("confusion_matrix.png", "predicted_by_bin.png", "abs_error.png", "bland_altman.png")
 
 
 def _bootstrap_progress(chunks, n_chunks: int):
@@ -140,6 +142,8 @@ def score(
             write_text(tmp / "scores.md", texts["md"])
             write_csv(frame, tmp / "scores.csv")
             if plots:
+                from turn_eval.plots import write_plots
+
                 t = joined.table
                 write_plots(
                     t["pred_angle_deg"].to_numpy(),

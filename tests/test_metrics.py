@@ -1,0 +1,253 @@
+"""The paper's metrics and their bootstrap, against hand-worked cases, scikit-learn and scipy."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy import stats
+from sklearn.metrics import cohen_kappa_score, precision_score
+
+from turn_datasets.errors import TurnbenchError
+from turn_datasets.geometry import quantise_deg
+from turn_eval.metrics import (
+    Partition,
+    bin_report,
+    bootstrap_ci,
+    clip_outcomes,
+    compute_metrics,
+    grouped_bootstrap,
+    metrics_of,
+    percentile_interval,
+    resample_indices,
+    resampled_metrics,
+    wprec_from_confusion,
+)
+
+# Four clips worked by hand (also the CLI tests' example).
+REF = [90.0, 180.0, 45.0, 135.0]
+PRED = [92.5, 170.0, 40.0, 100.0]
+DURATION = [1.0, 2.0, 0.5, 1.5]
+
+
+def test_hand_worked_metrics():
+    m = compute_metrics(PRED, REF, ref_duration_s=DURATION)
+    # Bins: ref 90, 180, 45, 135; pred 90, 180, 45, 90 (100/45 + 0.5 = 2.72 -> 2 -> 90).
+    assert m["n"] == 4
+    assert m["accuracy"] == pytest.approx(3 / 4)
+    # |errors| 2.5, 10, 5, 35 -> 52.5 / 4.
+    assert m["mae_deg"] == pytest.approx(13.125)
+    # Precision per predicted bin: 90 -> 1 of 2, 180 -> 1/1, 45 -> 1/1, 135 never predicted -> 0;
+    # each reference bin has one clip, so WPrec = (0.5 + 1 + 1 + 0) / 4.
+    assert m["wprec"] == pytest.approx(0.625)
+    # Speeds (eq. 4): reference 90/1, 180/2, 45/0.5, 135/1.5 = 90 deg/s each; predicted
+    # 92.5, 85, 80, 66.67 -> errors 2.5, 5, 10, 23.33 -> mean 10.2083.
+    assert m["mae_speed_deg_s"] == pytest.approx((2.5 + 5 + 10 + 70 / 3) / 4)
+
+
+def test_speed_given_overrides_and_undefined_durations_are_left_out():
+    # Clip 0 gives its speed (100 vs 90 -> 10); clip 1 falls back to 170/2 = 85 (5);
+    # clip 2 has a zero duration and clip 3 a NaN one: no speed for either.
+    m = compute_metrics(
+        PRED,
+        REF,
+        ref_duration_s=[1.0, 2.0, 0.0, np.nan],
+        pred_speed_deg_s=[100.0, np.nan, 50.0, 60.0],
+    )
+    assert m["mae_speed_deg_s"] == pytest.approx((10 + 5) / 2)
+    assert compute_metrics(PRED, REF)["mae_speed_deg_s"] is None
+
+
+def test_bins_are_the_geometry_quantisation_halves_up():
+    # 22.5 is in the 45 bin (floor(0.5 + 0.5) = 1); 22.49 is in the 0 bin; 67.5 -> 90.
+    m = compute_metrics([22.5, 22.49, 67.5], [44.0, 44.0, 89.0])
+    assert m["accuracy"] == pytest.approx(2 / 3)
+    assert quantise_deg(22.5) == 45.0  # the rule the metric relies on
+
+
+def test_wprec_matches_sklearn_including_bins_only_predicted():
+    rng = np.random.default_rng(5)
+    ref = rng.uniform(30, 200, 400)
+    pred = np.abs(ref + rng.normal(0, 60, 400))  # reaches bins the reference lacks
+    m = compute_metrics(pred, ref)
+    expected = precision_score(
+        quantise_deg(ref), quantise_deg(pred), average="weighted", zero_division=0
+    )
+    assert m["wprec"] == pytest.approx(expected, abs=1e-12)
+    o = clip_outcomes(pred, ref)
+    confusion = np.zeros((o.bins_deg.size,) * 2)
+    np.add.at(confusion, (o.ref_bin, o.pred_bin), 1)
+    assert wprec_from_confusion(confusion) == pytest.approx(expected, abs=1e-12)
+
+
+def test_per_bin_precision_recall_by_hand():
+    report = bin_report(clip_outcomes(PRED, REF))
+    assert list(report["per_bin"]) == ["45", "90", "135", "180"]
+    assert report["per_bin"]["90"] == {"n": 1, "n_predicted": 2, "precision": 0.5, "recall": 1.0}
+    assert report["per_bin"]["135"] == {"n": 1, "n_predicted": 0, "precision": 0.0, "recall": 0.0}
+    assert report["per_bin"]["45"]["precision"] == 1.0
+
+
+def test_kappa_weighs_bins_by_degrees_even_with_an_empty_bin_between():
+    ref = [0.0, 45.0, 180.0, 180.0]
+    pred = [45.0, 45.0, 180.0, 0.0]
+    # Quadratic weights ((a - b) / 45)^2: observed sum 1 + 16 = 17 over n = 4 -> 4.25;
+    # expected sum over marginals ref {0:1, 45:1, 180:2}, pred {0:1, 45:2, 180:1} is
+    # (18 + 10 + 68) / 16 = 6; kappa = 1 - 4.25 / 6 = 7/24.
+    assert bin_report(clip_outcomes(pred, ref))["kappa"] == pytest.approx(7 / 24)
+    # scikit-learn given only the labels present weighs 0 vs 180 as two steps: kappa 0.
+    assert cohen_kappa_score(ref, pred, weights="quadratic") == pytest.approx(0.0)
+
+
+def test_kappa_is_none_when_every_clip_is_in_one_bin():
+    assert bin_report(clip_outcomes([90.0, 95.0], [88.0, 91.0]))["kappa"] is None
+
+
+def test_bad_inputs():
+    with pytest.raises(TurnbenchError, match="2 predicted angles for 3"):
+        compute_metrics([1.0, 2.0], [1.0, 2.0, 3.0])
+    with pytest.raises(TurnbenchError, match="finite"):
+        compute_metrics([np.nan], [1.0])
+    with pytest.raises(TurnbenchError, match="no clips"):
+        compute_metrics([], [])
+
+
+# --- bootstrap -----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("rows", [1, 7, 64, None])
+def test_resample_indices_are_scipys_draws_in_any_chunking(rows):
+    n, b = 101, 64  # odd n: 32-bit draws do not pair up into 64-bit words
+    drawn = np.concatenate(list(resample_indices(n, n_resamples=b, seed=3, rows_per_chunk=rows)))
+    expected = np.random.default_rng(3).integers(0, n, (b, n))  # scipy's _bootstrap_resample
+    assert drawn.shape == (b, n)
+    assert np.array_equal(drawn, expected)
+
+
+def _sample(n=150, seed=11):
+    rng = np.random.default_rng(seed)
+    ref = rng.uniform(20, 250, n)
+    pred = np.abs(ref + rng.normal(0, 35, n))
+    duration = rng.uniform(0.8, 4.0, n)
+    duration[:7] = np.nan  # some clips without a duration
+    speed = np.where(rng.random(n) < 0.3, rng.uniform(10, 120, n), np.nan)
+    group = rng.integers(0, 3, n)
+    return pred, ref, duration, speed, group
+
+
+def test_vectorised_group_metrics_equal_sklearn_on_the_same_resamples():
+    pred, ref, duration, speed, group = _sample()
+    o = clip_outcomes(pred, ref, ref_duration_s=duration, pred_speed_deg_s=speed)
+    idx = np.random.default_rng(0).integers(0, o.n, (40, o.n))
+    overall, by = grouped_bootstrap(
+        o, [Partition.whole(o.n), Partition("g", ("a", "b", "c"), group)], indices=[idx]
+    )
+    for r in range(idx.shape[0]):
+        drawn = idx[r]
+        whole = compute_metrics(
+            pred[drawn], ref[drawn], ref_duration_s=duration[drawn], pred_speed_deg_s=speed[drawn]
+        )
+        for name in ("accuracy", "mae_deg", "wprec", "mae_speed_deg_s"):
+            assert overall[name][r, 0] == pytest.approx(whole[name], abs=1e-12)
+        for g in range(3):
+            keep = drawn[group[drawn] == g]
+            assert by["n"][r, g] == keep.size
+            expected = precision_score(
+                quantise_deg(ref[keep]), quantise_deg(pred[keep]), average="weighted",
+                zero_division=0,
+            )
+            assert by["wprec"][r, g] == pytest.approx(expected, abs=1e-12)
+            assert by["mae_deg"][r, g] == pytest.approx(np.abs(pred[keep] - ref[keep]).mean())
+    assert resampled_metrics(o, idx)["wprec"] == pytest.approx(overall["wprec"][:, 0])
+
+
+def test_overall_ci_equals_scipy_bootstrap_percentile():
+    pred, ref, duration, _, _ = _sample(n=120)
+    n_resamples, seed = 300, 4
+    ci = bootstrap_ci(
+        clip_outcomes(pred, ref, ref_duration_s=np.full(ref.shape, 2.0)),
+        n_resamples=n_resamples,
+        seed=seed,
+    )
+
+    def accuracy(p, r, axis=-1):
+        return np.mean(quantise_deg(p) == quantise_deg(r), axis=axis)
+
+    def mae(p, r, axis=-1):
+        return np.mean(np.abs(p - r), axis=axis)
+
+    def wprec(p, r):
+        return precision_score(quantise_deg(r), quantise_deg(p), average="weighted",
+                               zero_division=0)
+
+    def speed(p, r, axis=-1):
+        return np.mean(np.abs(p / 2.0 - r / 2.0), axis=axis)
+
+    for name, statistic, vectorized in [
+        ("accuracy", accuracy, True), ("mae_deg", mae, True), ("wprec", wprec, False),
+        ("mae_speed_deg_s", speed, True),
+    ]:
+        res = stats.bootstrap(
+            (pred, ref), statistic, paired=True, vectorized=vectorized,
+            n_resamples=n_resamples, method="percentile", rng=seed,
+        )
+        low, high = res.confidence_interval
+        # Same draws, same percentiles: equal up to floating-point summation order.
+        assert ci[name] == pytest.approx((low, high), rel=1e-9, abs=1e-12), name
+
+
+def test_group_ci_equals_scipy_bootstrap_on_all_clips_keeping_the_group():
+    pred, ref, _, _, group = _sample(n=180)
+    o = clip_outcomes(pred, ref)
+    n_resamples, seed = 300, 9
+    _, by = grouped_bootstrap(
+        o, [Partition.whole(o.n), Partition("g", ("a", "b", "c"), group)],
+        n_resamples=n_resamples, seed=seed,
+    )
+    # ~60 clips per group: a resample without any clip of a group has probability ~e^-60.
+    assert np.isfinite(by["accuracy"]).all()
+
+    def accuracy_in(g):
+        def statistic(p, r, grp, axis=-1):
+            keep = grp == g
+            return np.sum((quantise_deg(p) == quantise_deg(r)) & keep, axis=axis) / np.sum(
+                keep, axis=axis
+            )
+        return statistic
+
+    for g in range(3):
+        res = stats.bootstrap(
+            (pred, ref, group), accuracy_in(g), paired=True, vectorized=True,
+            n_resamples=n_resamples, method="percentile", rng=seed,
+        )
+        expected = tuple(res.confidence_interval)
+        assert percentile_interval(by["accuracy"][:, g]) == pytest.approx(expected, rel=1e-12)
+
+
+def test_percentile_interval_leaves_out_undefined_resamples():
+    values = np.array([np.nan, *np.arange(1.0, 102.0)])
+    # 101 defined values 1..101: the 2.5th percentile by linear interpolation is 1 + 2.5 = 3.5.
+    assert percentile_interval(values) == pytest.approx((3.5, 98.5))
+    assert percentile_interval(np.array([np.nan])) is None
+
+
+def test_a_group_missing_from_a_resample_is_nan_not_zero():
+    # Clip 2 alone is group "b"; the first resample never draws it.
+    o = clip_outcomes([90.0, 90.0, 10.0], [90.0, 90.0, 90.0])
+    idx = np.array([[0, 1, 0], [2, 2, 2]])
+    _, by = grouped_bootstrap(
+        o, [Partition.whole(3), Partition("g", ("a", "b"), np.array([0, 0, 1]))], indices=[idx]
+    )
+    assert by["n"][:, 1].tolist() == [0, 3]
+    assert math.isnan(by["accuracy"][0, 1]) and by["accuracy"][1, 1] == 0.0
+    assert math.isnan(by["wprec"][0, 1]) and by["mae_deg"][1, 1] == 80.0
+
+
+def test_resampling_refuses_nonsense():
+    with pytest.raises(TurnbenchError):
+        next(resample_indices(0))
+    o = clip_outcomes(PRED, REF)
+    with pytest.raises(TurnbenchError, match="does not label every clip"):
+        grouped_bootstrap(o, [Partition("g", ("a",), np.array([0, 0, 1, 0]))], n_resamples=2)
+    assert metrics_of(o)["n"] == 4

@@ -1,0 +1,196 @@
+"""``turn-eval score``: formats, files, exit codes, atomic output, reproducible bytes."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from io import StringIO
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from turn_datasets._cli import EXIT_BAD_INPUT, run_group
+from turn_eval import _cli_score, plots
+from turn_eval.cli import cli
+
+REPO = Path(__file__).resolve().parents[1]
+TURN_EVAL = Path(sys.executable).with_name("turn-eval")
+
+# The four hand-worked clips of test_metrics: accuracy 3/4, MAE 13.125, WPrec 0.625,
+# MAE speed 10.208; subjects S1 (2 clips, both right), S9 (right), S11 (wrong).
+REFERENCE = (
+    "clip_id,subject,action,split,angle_deg,duration_s\n"
+    "a,S1,Walking,train,90,1.0\n"
+    "b,S1,Walking,train,180,2.0\n"
+    "c,S9,Walking,test,45,0.5\n"
+    "d,S11,Walking,test,135,1.5\n"
+)
+PREDICTIONS = "clip_id,angle_deg\na,92.5\nb,170\nc,40\nd,100\n"
+
+
+def run(args: list, capsys) -> tuple[int, str, str]:
+    code = run_group(cli, "turn-eval", [str(a) for a in args])
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+@pytest.fixture()
+def files(tmp_path: Path) -> tuple[Path, Path]:
+    ref = tmp_path / "ref.csv"
+    ref.write_text(REFERENCE)
+    pred = tmp_path / "pred.csv"
+    pred.write_text(PREDICTIONS)
+    return pred, ref
+
+
+def test_json_on_stdout_has_the_hand_worked_numbers(files, capsys):
+    pred, ref = files
+    code, out, err = run(["score", pred, "--reference", ref, "--format", "json",
+                          "--bootstrap", "100"], capsys)
+    assert code == 0, err
+    scores = json.loads(out)
+    overall = scores["overall"]
+    assert overall["n"] == 4 and overall["accuracy"] == pytest.approx(0.75)
+    assert overall["mae_deg"] == pytest.approx(13.125) and overall["wprec"] == pytest.approx(0.625)
+    assert overall["mae_speed_deg_s"] == pytest.approx((2.5 + 5 + 10 + 70 / 3) / 4)
+    assert list(scores["by"]) == ["subject", "bin_deg", "action", "split"]
+    # S1: 2 of 2 right, S9: 1 of 1, S11: 0 of 1 -> avg (1 + 1 + 0) / 3.
+    assert scores["by"]["subject"]["avg"]["accuracy"] == pytest.approx(2 / 3)
+    assert scores["settings"]["bootstrap"] == 100
+    assert "wrote" not in err  # nothing written without --out-dir
+
+
+def test_markdown_is_the_default_and_csv_parses(files, capsys):
+    pred, ref = files
+    code, out, _ = run(["score", pred, "-r", ref, "--by", "subject", "--bootstrap", "0"], capsys)
+    assert code == 0
+    assert "| subject | S1 | S9 | S11 | Avg. |" in out
+    assert "| Acc. (%) | 100.0 | 100.0 | 0.0 | 66.7 |" in out
+    code, out, _ = run(["score", pred, "-r", ref, "--by", "subject", "--format", "csv",
+                        "--bootstrap", "0"], capsys)
+    frame = pd.read_csv(StringIO(out))
+    assert frame["group"].tolist() == ["all", "S1", "S9", "S11", "avg"]
+
+
+def test_out_dir_writes_everything_and_reruns_are_byte_identical(files, tmp_path, capsys):
+    pred, ref = files
+    out_dir = tmp_path / "scores"
+    args = ["score", pred, "-r", ref, "--out-dir", out_dir, "--plots", "--bootstrap", "200"]
+    code, out, err = run(args, capsys)
+    assert code == 0, err
+    names = sorted(p.name for p in out_dir.iterdir())
+    assert names == sorted([*_cli_score.SCORE_FILES, "confusion_matrix.png",
+                            "predicted_by_bin.png", "abs_error.png", "bland_altman.png"])
+    for png in out_dir.glob("*.png"):
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert json.loads((out_dir / "scores.json").read_text())["overall"]["n"] == 4
+    assert (out_dir / "scores.md").read_text() == out  # md on stdout too, same text
+    assert err.strip().splitlines()[-1].startswith(f"wrote scores {out_dir / 'scores.json'}")
+    first = {p.name: p.read_bytes() for p in out_dir.iterdir()}
+    assert run(args, capsys)[0] == 0
+    assert {p.name: p.read_bytes() for p in out_dir.iterdir()} == first
+
+
+def test_bad_submission_exits_2_with_one_line_and_writes_nothing(files, tmp_path, capsys):
+    pred, ref = files
+    pred.write_text("clip_id,angle_deg\na,92.5\nb,NaN\nc,40\nd,100\n")
+    out_dir = tmp_path / "scores"
+    code, out, err = run(["score", pred, "-r", ref, "--out-dir", out_dir], capsys)
+    assert code == EXIT_BAD_INPUT
+    assert out == ""
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert err.startswith(f"turn-eval: error: {pred}:3: angle_deg is NaN")
+    assert not out_dir.exists()
+
+
+def test_missing_clips_exit_2_unless_allowed(files, capsys):
+    pred, ref = files
+    pred.write_text("clip_id,angle_deg\na,92.5\nc,40\n")
+    code, _, err = run(["score", pred, "-r", ref], capsys)
+    assert code == EXIT_BAD_INPUT and "2 of the reference's 4 clips are missing" in err
+    code, out, err = run(["score", pred, "-r", ref, "--allow-missing", "--format", "json",
+                          "--bootstrap", "0"], capsys)
+    assert code == 0
+    scores = json.loads(out)
+    assert scores["n_missing"] == 2 and scores["overall"]["n"] == 2
+    assert "warning:" in err and "'b', 'd'" in err
+
+
+def test_negative_angles_hint_and_abs(files, capsys):
+    pred, ref = files
+    pred.write_text(PREDICTIONS.replace("170", "-170"))
+    code, _, err = run(["score", pred, "-r", ref], capsys)
+    assert code == EXIT_BAD_INPUT and "--abs" in err and f"{pred}:3" in err
+    code, out, _ = run(["score", pred, "-r", ref, "--abs", "--format", "json",
+                        "--bootstrap", "0"], capsys)
+    assert code == 0 and json.loads(out)["overall"]["accuracy"] == pytest.approx(0.75)
+
+
+def test_radians_warning_still_scores(files, capsys):
+    pred, ref = files
+    pred.write_text("clip_id,angle_deg\na,1.5708\nb,3.1416\nc,0.7854\nd,2.3562\n")
+    code, out, err = run(["score", pred, "-r", ref, "--format", "json", "--bootstrap", "0"],
+                         capsys)
+    assert code == 0 and "radians" in err
+    assert json.loads(out)["overall"]["accuracy"] == 0.0
+
+
+def test_usage_errors_exit_2(files, tmp_path, capsys):
+    pred, ref = files
+    code, _, err = run(["score", pred, "-r", ref, "--plots"], capsys)
+    assert code == EXIT_BAD_INPUT and "--plots needs --out-dir" in err
+    code, _, err = run(["score", pred, "-r", ref, "--by", "cohort"], capsys)
+    assert code == EXIT_BAD_INPUT and "no such group column" in err
+    code, _, _ = run(["score", pred, "-r", ref, "--bootstrap", "-1"], capsys)
+    assert code == EXIT_BAD_INPUT
+
+
+def test_never_writes_over_an_input(files, tmp_path, capsys):
+    pred, _ = files
+    out_dir = tmp_path / "here"
+    out_dir.mkdir()
+    ref = out_dir / "scores.csv"  # the reference sits where scores.csv would go
+    ref.write_text(REFERENCE)
+    code, _, err = run(["score", pred, "-r", ref, "--out-dir", out_dir], capsys)
+    assert code == EXIT_BAD_INPUT and "overwrite" in err
+    assert ref.read_text() == REFERENCE
+    assert sorted(p.name for p in out_dir.iterdir()) == ["scores.csv"]
+
+
+def test_a_failure_while_writing_leaves_no_partial_output(files, tmp_path, capsys, monkeypatch):
+    pred, ref = files
+    out_dir = tmp_path / "scores"
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(plots, "write_plots", broken)
+    with pytest.raises(RuntimeError, match="disk full"):
+        run(["score", pred, "-r", ref, "--out-dir", out_dir, "--plots", "--bootstrap", "0"],
+            capsys)
+    # scores.json was written to the staging folder first; none of it reached out_dir.
+    assert not out_dir.exists() or list(out_dir.iterdir()) == []
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+
+
+def test_plot_names_agree():
+    assert _cli_score.PLOT_FILES == plots.PLOT_FILES
+
+
+def test_help_has_an_example(capsys):
+    code, out, _ = run(["score", "--help"], capsys)
+    assert code == 0 and "Example:" in out and "turn-eval score predictions.csv" in out
+
+
+def test_console_script_exit_codes(files):
+    pred, ref = files
+    ok = subprocess.run([TURN_EVAL, "score", pred, "-r", ref, "--bootstrap", "0"],
+                        capture_output=True, text=True, cwd=REPO)
+    assert ok.returncode == 0 and ok.stdout.startswith("## Overall")
+    bad = subprocess.run([TURN_EVAL, "score", pred, "-r", ref.with_name("nope.csv")],
+                         capture_output=True, text=True, cwd=REPO)
+    assert bad.returncode == 2
+    assert bad.stderr.strip() == f"turn-eval: error: {ref.with_name('nope.csv')}: " \
+                                 "reference file not found"
