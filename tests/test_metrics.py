@@ -251,3 +251,22 @@ def test_resampling_refuses_nonsense():
     with pytest.raises(TurnbenchError, match="does not label every clip"):
         grouped_bootstrap(o, [Partition("g", ("a",), np.array([0, 0, 1, 0]))], n_resamples=2)
     assert metrics_of(o)["n"] == 4
+
+
+def test_observed_group_metrics_equal_sklearn_per_group():
+    from turn_eval.metrics import grouped_metrics
+
+    pred, ref, duration, speed, group = _sample(n=90)
+    o = clip_outcomes(pred, ref, ref_duration_s=duration, pred_speed_deg_s=speed)
+    overall, by = grouped_metrics(
+        o, [Partition.whole(o.n), Partition("g", ("a", "b", "c"), group)]
+    )
+    assert overall["n"].tolist() == [90]
+    for g in range(3):
+        keep = group == g
+        expected = compute_metrics(
+            pred[keep], ref[keep], ref_duration_s=duration[keep], pred_speed_deg_s=speed[keep]
+        )
+        assert by["n"][g] == keep.sum()
+        for name in ("accuracy", "mae_deg", "wprec", "mae_speed_deg_s"):
+            assert by[name][g] == pytest.approx(expected[name], abs=1e-12), name

@@ -184,3 +184,34 @@ def test_scores_frame_is_typed(table4a):
     assert frame.dtypes.astype(str).tolist()[2:] == ["float64"] * (len(SCORES_CSV_COLUMNS) - 2)
     assert frame["accuracy_ci_low"].isna().all()  # no bootstrap: empty intervals
     assert isinstance(frame, pd.DataFrame)
+
+
+def test_every_group_entry_equals_sklearn_on_its_clips(tmp_path):
+    from turn_eval.metrics import compute_metrics
+
+    rng = np.random.default_rng(2)
+    n = 240
+    ref_angle = rng.uniform(30, 250, n).round(1)
+    subject = rng.choice(["P1", "P2", "P3", "P4"], n)
+    pd.DataFrame({"clip_id": [f"c{i}" for i in range(n)], "subject": subject,
+                  "angle_deg": ref_angle, "duration_s": rng.uniform(1, 3, n).round(2)}
+                 ).to_csv(tmp_path / "ref.csv", index=False)
+    pred_angle = np.abs(ref_angle + rng.normal(0, 40, n)).round(1)
+    pd.DataFrame({"clip_id": [f"c{i}" for i in range(n)], "angle_deg": pred_angle}).to_csv(
+        tmp_path / "pred.csv", index=False
+    )
+    joined = read_predictions(tmp_path / "pred.csv", read_reference(tmp_path / "ref.csv"))
+    scores = build_scores(joined, by=["subject"], n_resamples=0)
+    t = joined.table
+    for label, entry in scores["by"]["subject"]["groups"].items():
+        keep = (t["subject"] == label).to_numpy()
+        expected = compute_metrics(t["pred_angle_deg"][keep], t["ref_angle_deg"][keep],
+                                   ref_duration_s=t["ref_duration_s"][keep])
+        assert entry["n"] == expected["n"]
+        for m in METRICS:
+            assert entry[m] == pytest.approx(expected[m], abs=1e-12), (label, m)
+    whole = compute_metrics(t["pred_angle_deg"], t["ref_angle_deg"],
+                            ref_duration_s=t["ref_duration_s"])
+    assert {m: scores["overall"][m] for m in METRICS} == pytest.approx(
+        {m: whole[m] for m in METRICS}, abs=1e-12
+    )

@@ -38,6 +38,7 @@ Bootstrap
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 
@@ -61,6 +62,7 @@ __all__ = [
     "chunk_rows",
     "resample_indices",
     "grouped_bootstrap",
+    "grouped_metrics",
     "resampled_metrics",
     "bootstrap_distribution",
     "percentile_interval",
@@ -262,13 +264,17 @@ def bin_report(outcomes: ClipOutcomes, *, bin_width_deg: float = 45.0) -> dict[s
         }
         for k, label in enumerate(labels)
     }
-    # Every bin between the extremes, so that the quadratic weights count bins, not labels.
-    grid = np.arange(labels[0], labels[-1] + bin_width_deg / 2, bin_width_deg)
     if labels.shape[0] < 2:
         kappa = None
     else:
+        # Bins as their step number from the lowest, with every step in between as a label,
+        # so the quadratic weights count bins, not labels present (and scikit-learn takes
+        # its fast path for labels 0..k-1).
+        ref_step = np.rint((ref_bins - labels[0]) / bin_width_deg).astype(np.int64)
+        pred_step = np.rint((pred_bins - labels[0]) / bin_width_deg).astype(np.int64)
+        grid = np.arange(int(max(ref_step.max(), pred_step.max())) + 1)
         with np.errstate(divide="ignore", invalid="ignore"):
-            value = cohen_kappa_score(ref_bins, pred_bins, labels=grid, weights=KAPPA_WEIGHTS)
+            value = cohen_kappa_score(ref_step, pred_step, labels=grid, weights=KAPPA_WEIGHTS)
         kappa = float(value) if np.isfinite(value) else None
     return {"per_bin": per_bin, "kappa": kappa}
 
@@ -338,6 +344,22 @@ class Partition:
         return cls(name=name, labels=(label,), codes=np.zeros(n, dtype=np.int64))
 
 
+def _segments(columns: Sequence[np.ndarray], sizes: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+    """Ids of the distinct rows of integer columns (each in ``[0, size)``): the first row of
+    each and every row's id, as ``np.unique(axis=0)`` gives them but on one int64 key when
+    the sizes' product fits (a 1-D sort instead of a row-wise one)."""
+    if math.prod(sizes) < 2**62:
+        key = np.zeros(columns[0].shape[0], dtype=np.int64)
+        for column, size in zip(columns, sizes, strict=True):
+            key = key * size + column
+        _, first, seg = np.unique(key, return_index=True, return_inverse=True)
+    else:
+        _, first, seg = np.unique(
+            np.stack(columns, axis=1), axis=0, return_index=True, return_inverse=True
+        )
+    return first, seg.reshape(-1)
+
+
 class _Engine:
     """Every metric of every group of every partition, on many resamples at once.
 
@@ -364,13 +386,9 @@ class _Engine:
         for p, codes in zip(partitions, keys, strict=True):
             if codes.shape != (n,) or (n and (codes.min() < 0 or codes.max() >= len(p.labels))):
                 raise TurnbenchError(f"grouping {p.name!r} does not label every clip")
-        _, first, seg = np.unique(
-            np.stack([*keys, cell, ok.astype(np.int64)], axis=1),
-            axis=0,
-            return_index=True,
-            return_inverse=True,
-        )
-        seg = seg.reshape(-1)
+        first, seg = _segments([*keys, cell, ok.astype(np.int64)], [
+            *(len(p.labels) for p in partitions), n_cells, 2
+        ])
         n_seg = first.shape[0]
         clips = np.arange(n)
         blocks = 3 if self.has_speed else 2
@@ -384,7 +402,7 @@ class _Engine:
                 (np.concatenate([seg + b * n_seg for b in range(blocks)]), np.tile(clips, blocks)),
             ),
             shape=(blocks * n_seg, n),
-        )
+        ).tocsc()  # column by column: reads the draw counts in order (cache-friendly)
         seg_cell, seg_ok = cell[first], ok[first]
         rows, cols, vals = [], [], []
         self.layout: list[tuple[Partition, int]] = []
@@ -426,10 +444,12 @@ class _Engine:
                 f"got {idx.shape}"
             )
         n_rows = idx.shape[0]
-        # How often each resample drew each clip, one column per resample.
-        drawn = np.empty((self.n, n_rows), dtype=np.float64)
+        # How often each resample drew each clip (a row per resample, written contiguously),
+        # then one column per resample for the sparse products.
+        counts = np.empty((n_rows, self.n), dtype=np.float64)
         for r in range(n_rows):
-            drawn[:, r] = np.bincount(idx[r], minlength=self.n)
+            counts[r] = np.bincount(idx[r], minlength=self.n)
+        drawn = np.ascontiguousarray(counts.T)
         totals = self.per_group @ (self.per_segment @ drawn)
         k, n_cells = self.k, self.k * self.k
         out = []
@@ -508,6 +528,27 @@ def grouped_bootstrap(
         else {}
         for store in parts
     ]
+
+
+def grouped_metrics(
+    outcomes: ClipOutcomes, partitions: Sequence[Partition]
+) -> list[dict[str, np.ndarray]]:
+    """``n`` and every metric of every group, on the clips as they are (no resampling).
+
+    The same computation as :func:`grouped_bootstrap` on the one "resample" that draws every
+    clip once, so the observed values and their intervals come from one code path; it equals
+    :func:`metrics_of` (scikit-learn's WPrec) on each group's clips (tested). A group with
+    no clip that has a speed gets NaN for ``mae_speed_deg_s``.
+
+    Returns
+    -------
+    list of dict
+        Per partition, ``n`` and each metric as an array with one value per group.
+    """
+    observed = grouped_bootstrap(
+        outcomes, partitions, indices=[np.arange(outcomes.n, dtype=np.int64)[None, :]]
+    )
+    return [{name: values[0] for name, values in result.items()} for result in observed]
 
 
 def resampled_metrics(outcomes: ClipOutcomes, indices: np.ndarray) -> dict[str, np.ndarray]:

@@ -605,7 +605,7 @@ def read_predictions(
     }
     dtypes = dict(JOINED_COLUMNS)
     for col in ref.columns:
-        if col not in ("clip_id", "angle_deg", "duration_s", BIN_COLUMN):
+        if col not in ("clip_id", "angle_deg", "duration_s") and col not in JOINED_COLUMNS:
             data[col] = ref[col][covered].reset_index(drop=True)
             dtypes[col] = "str"
     joined = typed_frame(pd.DataFrame(data), dtypes)

@@ -48,7 +48,7 @@ from turn_eval.metrics import (
     chunk_rows,
     clip_outcomes,
     grouped_bootstrap,
-    metrics_of,
+    grouped_metrics,
     percentile_interval,
     resample_indices,
 )
@@ -110,8 +110,7 @@ def _partition(joined: Joined, column: str) -> Partition:
     if column == BIN_COLUMN:
         bins, codes = np.unique(values.to_numpy(dtype=np.float64), return_inverse=True)
         return Partition(column, tuple(group_label(b) for b in bins), codes.reshape(-1))
-    text = values.to_numpy(dtype=object)
-    unique, inverse = np.unique(text.astype(str), return_inverse=True)
+    inverse, unique = pd.factorize(values.to_numpy(dtype=object))
     labels = [BLANK_GROUP if u == "" else str(u) for u in unique]
     order = sorted(range(len(labels)), key=lambda i: _natural_key(labels[i]))
     rank = np.empty(len(labels), dtype=np.int64)
@@ -211,23 +210,27 @@ def build_scores(
             chunks = progress(chunks, -(-n_resamples // rows))
         distributions = grouped_bootstrap(outcomes, partitions, indices=chunks)
 
-    def entry(subset: ClipOutcomes, distribution, column: int) -> dict[str, Any]:
-        values: dict[str, Any] = metrics_of(subset)
+    observed = grouped_metrics(outcomes, partitions)
+
+    def entry(part: int, column: int) -> dict[str, Any]:
+        values: dict[str, Any] = {"n": int(observed[part]["n"][column])}
+        for m in METRICS:
+            value = observed[part].get(m)
+            values[m] = (
+                None if value is None or not np.isfinite(value[column]) else float(value[column])
+            )
         if n_resamples > 0:
-            values["ci95"] = _intervals(distribution, column)
+            values["ci95"] = _intervals(distributions[part], column)
         return values
 
-    overall = entry(outcomes, distributions[0], 0)
+    overall = entry(0, 0)
     overall.update(bin_report(outcomes, bin_width_deg=joined.bin_width_deg))
     by_doc: dict[str, Any] = {}
-    for p, distribution in zip(partitions[1:], distributions[1:], strict=True):
-        groups = {
-            label: entry(outcomes.subset(p.codes == g), distribution, g)
-            for g, label in enumerate(p.labels)
-        }
+    for part, p in enumerate(partitions[1:], start=1):
+        groups = {label: entry(part, g) for g, label in enumerate(p.labels)}
         avg = _average(groups)
         if n_resamples > 0:
-            avg["ci95"] = _intervals(distribution, None)
+            avg["ci95"] = _intervals(distributions[part], None)
         by_doc[p.name] = {"groups": groups, "avg": avg}
     width = joined.bin_width_deg
     return {
