@@ -8,6 +8,7 @@ import sys
 from io import StringIO
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -194,3 +195,52 @@ def test_console_script_exit_codes(files):
     assert bad.returncode == 2
     assert bad.stderr.strip() == f"turn-eval: error: {ref.with_name('nope.csv')}: " \
                                  "reference file not found"
+
+
+def test_a_real_clip_index_scores_as_it_is(cmu_dir, tmp_path, capsys):
+    # Turn-H3.6M's clip index format, mined from the real CMU captures in ../shared/data.
+    from turn_datasets.cli import cli as datasets_cli
+
+    index = tmp_path / "cmu.csv"
+    bvh = sorted(str(p) for p in cmu_dir.glob("*.bvh"))
+    code = run_group(datasets_cli, "turn-datasets",
+                     ["h36m", "mine", *bvh, "--skip-first-frame", "--out", str(index)])
+    capsys.readouterr()
+    assert code == 0
+    clips = pd.read_csv(index)
+    assert len(clips) >= 1
+    # A submission off by known amounts: +10, +30, -50, +10, ... degrees.
+    offsets = [(10.0, 30.0, -50.0)[i % 3] for i in range(len(clips))]
+    predicted = clips["angle_deg"] + offsets
+    pred = tmp_path / "pred.csv"
+    pd.DataFrame({"clip_id": clips["clip_id"], "angle_deg": predicted}).to_csv(pred, index=False)
+    code, out, err = run(["score", pred, "-r", index, "--format", "json", "--bootstrap", "50"],
+                         capsys)
+    assert code == 0, err
+    overall = json.loads(out)["overall"]
+
+    def bin_of(a):  # DESIGN.md: nearest multiple of 45, halves up
+        return 45 * np.floor(np.asarray(a) / 45 + 0.5)
+
+    assert overall["n"] == len(clips)
+    assert overall["mae_deg"] == pytest.approx(np.mean(np.abs(offsets)))
+    assert overall["accuracy"] == pytest.approx(
+        np.mean(bin_of(predicted) == bin_of(clips["angle_deg"]))
+    )
+    # Equation 4 with the reference duration: |offset| / duration per clip.
+    assert overall["mae_speed_deg_s"] == pytest.approx(
+        np.mean(np.abs(offsets) / clips["duration_s"])
+    )
+
+
+def test_plots_of_one_clip_are_drawn_and_reproducible(tmp_path):
+    first, second = tmp_path / "a", tmp_path / "b"
+    first.mkdir()
+    second.mkdir()
+    written = plots.write_plots([90.0], [92.0], first)
+    plots.write_plots([90.0], [92.0], second)
+    assert [p.name for p in written] == list(plots.PLOT_FILES)
+    for name in plots.PLOT_FILES:
+        data = (first / name).read_bytes()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and b"Software" not in data
+        assert data == (second / name).read_bytes()

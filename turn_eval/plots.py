@@ -16,6 +16,7 @@ saved without a software tag so the same scores give the same bytes.
 from __future__ import annotations
 
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -44,7 +45,10 @@ def _confusion(
     pred_bins: np.ndarray, ref_bins: np.ndarray, bin_width_deg: float, path: Path
 ) -> Path:
     labels = np.unique(np.concatenate([ref_bins, pred_bins]))
-    counts = confusion_matrix(ref_bins, pred_bins, labels=labels)
+    with warnings.catch_warnings():
+        # One bin on both sides is a fine 1 x 1 matrix; scikit-learn warns about it anyway.
+        warnings.filterwarnings("ignore", message="A single label was found", category=UserWarning)
+        counts = confusion_matrix(ref_bins, pred_bins, labels=labels)
     with np.errstate(divide="ignore", invalid="ignore"):
         share = counts / counts.sum(axis=1, keepdims=True)
     share = np.nan_to_num(share)
