@@ -244,3 +244,16 @@ def test_plots_of_one_clip_are_drawn_and_reproducible(tmp_path):
         data = (first / name).read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and b"Software" not in data
         assert data == (second / name).read_bytes()
+
+
+def test_bin_width_option(files, capsys):
+    pred, ref = files
+    code, out, _ = run(["score", pred, "-r", ref, "--bin-width-deg", "90", "--format", "json",
+                        "--bootstrap", "0"], capsys)
+    assert code == 0
+    scores = json.loads(out)
+    # 90-degree bins: ref 90, 180, 45, 135 -> 90, 180, 90, 180; pred 92.5, 170, 40, 100 ->
+    # 90, 180, 0, 90: two of four right.
+    assert scores["overall"]["accuracy"] == pytest.approx(0.5)
+    assert scores["settings"]["bin_width_deg"] == 90
+    assert list(scores["by"]["bin_deg"]["groups"]) == ["90", "180"]

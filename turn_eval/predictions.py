@@ -132,7 +132,7 @@ def _wrong_width(n_fields: int, n_header: int, delimiter: str, *, name: str, lin
 
 def _stripped(values) -> np.ndarray:
     """Cells without surrounding white space, as an object array of ``str``."""
-    text = np.asarray(values, dtype=str)
+    text = np.asarray(values, dtype=np.dtypes.StringDType())
     return np.strings.strip(text).astype(object)
 
 
@@ -176,7 +176,8 @@ def _read_quoted(text: str, name: str, delimiter: str) -> _Table:
 def _read_plain(text: str, name: str, delimiter: str) -> _Table:
     """The fast reader, for files without quotes: one record per line, so every row's line
     number is known before pandas' C parser splits the fields."""
-    all_lines = np.asarray(text.split("\n"), dtype=str)
+    # Variable-width strings: one long line must not widen every other one in memory.
+    all_lines = np.asarray(text.split("\n"), dtype=np.dtypes.StringDType())
     nonblank = np.strings.strip(all_lines) != ""
     numbers = np.flatnonzero(nonblank) + 1
     kept = all_lines[nonblank]
