@@ -1,0 +1,222 @@
+"""``python -m turn_eval.demo``: every step runs through the real commands and lands where the
+demo says, the gate passes, the report holds it all, and the demo's own outputs repeat.
+
+The demo runs once per module on its ``--quick`` corpus (the full one is ``make demo``'s,
+timed in the report to the lead, not here).
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import re
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from turn_datasets.demo_corpus import (
+    write_h36m_corpus,
+    write_h36m_estimates,
+    write_remap_corpus,
+    write_remap_estimates,
+)
+from turn_eval import demo
+from turn_eval.degrade import degrade_skeleton
+
+
+@pytest.fixture(scope="module")
+def ran(tmp_path_factory):
+    out = tmp_path_factory.mktemp("demo") / "demo-output"
+    capture = pytest.MonkeyPatch()
+    lines: list[str] = []
+    capture.setattr(demo, "_say", lambda text="": lines.append(text))
+    try:
+        results = demo.run_demo(out, quick=True, bootstrap=100)
+    finally:
+        capture.undo()
+    return out, results, "\n".join(lines)
+
+
+def test_every_result_listed_exists(ran) -> None:
+    out, results, printed = ran
+    assert len(results) >= 20
+    for what, path in results.items():
+        assert Path(path).exists(), what
+        assert out in Path(path).parents or Path(path) == out / "report.html"
+    # the run ends by saying where each result is
+    tail = printed[printed.index("Where each result is:") :]
+    for path in results.values():
+        assert str(path) in tail
+
+
+def test_it_runs_the_commands_users_run(ran) -> None:
+    _, _, printed = ran
+    commands = [line[2:] for line in printed.splitlines() if line.startswith("$ ")]
+    verbs = [
+        " ".join(c.split()[:3]) if c.startswith("turn-datasets") else " ".join(c.split()[:2])
+        for c in commands
+    ]
+    for expected in (
+        "turn-datasets h36m mine",
+        "turn-datasets h36m stats",
+        "turn-datasets remap labels",
+        "turn-datasets remap stats",
+        "turn-datasets remap agreement",
+        "turn-eval predict",
+        "turn-eval score",
+        "turn-eval compare",
+    ):
+        assert expected in verbs, expected
+    # both methods, both sets
+    assert sum(v == "turn-eval predict" for v in verbs) == 4
+    assert sum(v == "turn-eval score" for v in verbs) == 4
+    assert "Table 3: clips per angle bin" in printed
+    assert "--min-kappa 0.8" in printed
+
+
+def test_the_gate_passes_and_agrees_with_the_printed_line(ran) -> None:
+    out, _, printed = ran
+    audit = json.loads((out / "remap" / "agreement" / "agreement.json").read_text())
+    assert audit["kappa"] >= demo.MIN_KAPPA
+    assert f"Cohen's kappa {audit['kappa']:.3f}" in printed
+    assert list((out / "remap" / "agreement" / "review").glob("*.eaf"))
+
+
+def test_predictions_cover_every_reference_clip(ran) -> None:
+    out, _, _ = ran
+    for folder, reference in (("h36m", "turn-h36m.csv"), ("remap", "labels.csv")):
+        ref = pd.read_csv(out / folder / reference)
+        for method in demo.METHODS:
+            pred = pd.read_csv(out / folder / f"predictions-{method}.csv")
+            assert sorted(pred["clip_id"]) == sorted(ref["clip_id"])
+            scores = json.loads((out / folder / f"scores-{method}" / "scores.json").read_text())
+            assert scores["overall"]["n"] == len(ref)
+            assert scores["settings"]["bootstrap"] == 100
+            assert len(list((out / folder / f"scores-{method}").glob("*.png"))) >= 2
+        assert (out / folder / "compare.md").read_text().count("signature:") == 1
+
+
+def test_net_is_no_worse_than_equation_3_on_the_degraded_skeletons(ran) -> None:
+    # equation 3 adds the magnitude of every frame-to-frame rotation, so on skeletons with
+    # jitter it can only overshoot the net rotation (|sum of steps| <= sum of |steps|): its
+    # predictions are never below net's, clip by clip
+    out, _, _ = ran
+    for folder in ("h36m", "remap"):
+        paper = pd.read_csv(out / folder / "predictions-paper.csv").set_index("clip_id")
+        net = pd.read_csv(out / folder / "predictions-net.csv").set_index("clip_id")
+        assert (paper["angle_deg"] >= net.loc[paper.index, "angle_deg"] - 1e-6).all()
+
+
+def test_report_is_one_self_contained_page_with_everything(ran) -> None:
+    out, _, _ = ran
+    text = (out / "report.html").read_text(encoding="utf-8")
+    assert "<script" not in text.lower() and "<link" not in text.lower()
+    sources = re.findall(r'src="([^"]+)"', text)
+    # 4 figures per method and set, plus the agreement confusion matrix
+    assert len(sources) >= 2 * 2 * 2 + 1
+    for src in sources:
+        assert src.startswith("data:image/png;base64,")
+        assert base64.b64decode(src.split(",", 1)[1]).startswith(b"\x89PNG")
+    for needle in (
+        "Table 3: clips per angle bin",
+        "Table 1: subjects and turns per cohort",
+        "Table 2: turns per scenario and angle",
+        "Inter-rater agreement",
+        "Turn-H3.6M scores",
+        "Turn-REMAP scores",
+        "McNemar",
+        "Avg.",
+        "# Turns",
+    ):
+        assert needle in text, needle
+    # no absolute file paths from the disagreements table
+    assert str(out / "corpus") not in text.split("Disagreements to review")[1].split("</table>")[0]
+
+
+def test_miner_check_against_planted_turns(ran) -> None:
+    out, _, _ = ran
+    matched = pd.read_csv(out / "h36m" / "miner-check.csv")
+    planted = pd.read_csv(out / "corpus" / "h36m" / "planted.csv")
+    assert len(matched) == len(planted)
+    # the issue's target for the miner: at least 98% of planted turns of 60° or more found
+    big = matched[matched["angle_deg"] >= 60.0]
+    assert big["found"].mean() >= 0.98
+
+
+def test_match_planted_by_hand() -> None:
+    planted = pd.DataFrame(
+        {
+            "subject": ["S9", "S9", "S9"],
+            "action": ["Walking"] * 3,
+            "subaction": ["", "", "1"],
+            "start_frame": [100, 300, 100],
+            "end_frame": [200, 400, 200],
+            "angle_deg": [90.0, 60.0, 50.0],
+            "direction": ["left", "right", "left"],
+        }
+    )
+    index = pd.DataFrame(
+        {
+            "clip_id": ["a", "b", "c"],
+            "subject": ["S9", "S9", "S9"],
+            "action": ["Walking"] * 3,
+            "subaction": ["", "", ""],
+            # a covers 60 of turn 0's 100 frames (>= half): found, 10 frames late = 0.2 s;
+            # b overlaps turn 1 by 40 frames only (< half); c turns the wrong way
+            "start_frame": [110, 360, 300],
+            "end_frame": [170, 420, 400],
+            "angle_deg": [85.0, 61.0, 59.0],
+            "direction": ["left", "right", "left"],
+            "fps": [50.0, 50.0, 50.0],
+        }
+    )
+    m = demo.match_planted(planted, index)
+    assert m["found"].tolist() == [True, False, False]
+    assert m.loc[0, "clip_id"] == "a"
+    assert m.loc[0, "start_error_s"] == pytest.approx(0.2)
+    assert m.loc[0, "end_error_s"] == pytest.approx(-0.6)
+    assert m.loc[0, "mined_angle_deg"] == 85.0
+
+
+def test_the_demos_own_outputs_repeat(ran, tmp_path: Path) -> None:
+    """Corpus, estimator skeletons and report are byte-identical on a rerun (the commands'
+    own outputs are checked for that by their tests)."""
+    out, _, _ = ran
+    seed = demo.DEMO_SEED
+    h36m = write_h36m_corpus(
+        tmp_path / "h36m", seed=seed, subjects=demo.QUICK["subjects"], actions=demo.QUICK["actions"]
+    )
+    for path in h36m.files:
+        rel = path.relative_to(tmp_path / "h36m")
+        assert path.read_bytes() == (out / "corpus" / "h36m" / rel).read_bytes(), rel
+    remap = write_remap_corpus(tmp_path / "remap", seed=seed, n_pairs=demo.QUICK["n_pairs"])
+    for path in remap.paths:
+        assert path.read_bytes() == (out / "corpus" / "remap" / "eaf" / path.name).read_bytes()
+    write_h36m_estimates(
+        out / "h36m" / "turn-h36m.csv",
+        [out / "corpus" / "h36m"],
+        tmp_path / "h.npz",
+        degrade=degrade_skeleton,
+        seed=seed,
+    )
+    assert (tmp_path / "h.npz").read_bytes() == (out / "h36m" / "skeletons.npz").read_bytes()
+    write_remap_estimates(
+        out / "remap" / "labels.csv", tmp_path / "r.npz", degrade=degrade_skeleton, seed=seed
+    )
+    assert (tmp_path / "r.npz").read_bytes() == (out / "remap" / "skeletons.npz").read_bytes()
+    before = (out / "report.html").read_bytes()
+    demo.write_report(out, seed=seed)
+    assert (out / "report.html").read_bytes() == before
+
+
+def test_a_failed_step_stops_the_demo_with_exit_1(tmp_path: Path, monkeypatch, capsys) -> None:
+    # a gate the quick corpus's labels cannot pass (its kappa is about 0.98, with planted
+    # disagreements): the audit exits 3, the demo stops there and says so
+    monkeypatch.setattr(demo, "MIN_KAPPA", 0.999)
+    code = demo.main(["--out-dir", str(tmp_path / "out"), "--quick", "--bootstrap", "10"])
+    assert code == 1
+    err = capsys.readouterr().err
+    assert "demo failed" in err and "remap agreement" in err and "code 3" in err
+    assert not (tmp_path / "out" / "report.html").exists()
+    assert not (tmp_path / "out" / "h36m" / "predictions-net.csv").exists()
