@@ -268,5 +268,6 @@ def test_observed_group_metrics_equal_sklearn_per_group():
             pred[keep], ref[keep], ref_duration_s=duration[keep], pred_speed_deg_s=speed[keep]
         )
         assert by["n"][g] == keep.sum()
+        assert metrics_of(o.subset(keep)) == pytest.approx(expected, abs=1e-12)
         for name in ("accuracy", "mae_deg", "wprec", "mae_speed_deg_s"):
             assert by[name][g] == pytest.approx(expected[name], abs=1e-12), name
