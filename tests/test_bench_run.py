@@ -39,7 +39,7 @@ def bench_dir(tmp_path: Path) -> Path:
         "fast",
         "def run():\n"
         "    return {'what': 'add numbers', 'size': '10 rows', 'ratio': 1.2, 'target': 1.5,\n"
-        "            'baseline': 'np.sum'}\n",
+        "            'baseline': 'np.sum', 'seconds': 0.25}\n",
     )
     _bench(
         tmp_path,
@@ -88,17 +88,28 @@ def test_parse_target_rejects_nonsense(bad) -> None:
 def test_one_table_with_pass_fail_and_error(bench_dir: Path, capsys) -> None:
     assert run.main(["--dir", str(bench_dir)]) == 0
     out = capsys.readouterr().out.strip().splitlines()
-    assert out[0] == "| benchmark | what | size | baseline | ratio | target | result | wall_s |"
+    assert out[0] == (
+        "| benchmark | what | size | baseline | seconds | ratio | target | result | wall_s |"
+    )
     body = {
         line.split("|")[1].strip(): [c.strip() for c in line.split("|")[1:-1]] for line in out[2:]
     }
     assert len(out) == 2 + 3
-    assert body["fast"][1:7] == ["add numbers", "10 rows", "np.sum", "1.20", "<= 1.5", "pass"]
+    assert body["fast"][1:8] == [
+        "add numbers",
+        "10 rows",
+        "np.sum",
+        "0.25",
+        "1.20",
+        "<= 1.5",
+        "pass",
+    ]
     # the pipe inside "what" is escaped, so the row still has its eight cells
     slow_line = next(line for line in out if line.startswith("| slow "))
     assert "score \\| rows" in slow_line
     assert slow_line.split(" | ")[-2] == "FAIL"
-    assert body["broken"][6] == "error"
+    assert body["slow"][4] == ""  # no seconds given: an empty cell
+    assert body["broken"][7] == "error"
     assert "RuntimeError: no data" in body["broken"][1]
 
 
