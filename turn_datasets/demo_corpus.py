@@ -373,22 +373,37 @@ def write_h36m_estimates(
     Each sequence the index uses is read back from ``sources`` (as the miner read it),
     degraded once as a whole, seen from one of four corner cameras, and cut at each clip's
     ``start_frame:end_frame``; the member is the clip's ``clip_id``.
+
+    Parameters
+    ----------
+    index
+        The clip index (a path or the table): ``clip_id, subject, action, subaction,
+        start_frame, end_frame``.
+    sources
+        The motion capture the index was mined from (dataset roots or files).
+    out_npz
+        The ``.npz`` to write (atomically).
+    degrade
+        :func:`turn_eval.degrade.degrade_skeleton` or a function with its signature.
+    seed
+        Seed; each sequence derives its own from this and its names.
+    **degrade_params
+        Passed on to ``degrade`` (``joint_noise_mm=...``, ``depth_sd_away_mm=...``).
+
+    Raises
+    ------
+    TurnbenchError
+        The index lacks a column, or names a sequence the sources do not hold.
     """
-    table = (
-        pd.read_csv(index, dtype={"subaction": str}, keep_default_na=False)
-        if not isinstance(index, pd.DataFrame)
-        else index
-    )
-    missing = [
-        c
-        for c in ("clip_id", "subject", "action", "subaction", "start_frame", "end_frame")
-        if c not in table.columns
-    ]
+    if isinstance(index, pd.DataFrame):
+        table, where = index, None
+    else:
+        table = pd.read_csv(index, dtype={"subaction": str}, keep_default_na=False)
+        where = str(index)
+    need = ("clip_id", "subject", "action", "subaction", "start_frame", "end_frame")
+    missing = [c for c in need if c not in table.columns]
     if missing:
-        raise TurnbenchError(
-            f"the clip index lacks columns {missing}",
-            file=str(index) if not isinstance(index, pd.DataFrame) else None,
-        )
+        raise TurnbenchError(f"the clip index lacks columns {missing}", file=where)
     table = table.assign(subaction=table["subaction"].fillna("").astype(str))
     wanted = {(r.subject, r.action, r.subaction) for r in table.itertuples(index=False)}
     arrays: dict[str, np.ndarray] = {}
@@ -493,8 +508,22 @@ def write_remap_estimates(
 
     For each participant and session, one sequence is synthesised whose turns have the
     labels' durations and angles (:func:`_remap_segments`), seen by a home camera 2.5 to
-    4.5 m away at 1.0 to 2.2 m height, degraded per scenario (free-living: farther, more
-    occluded), and cut into the labelled clips.
+    4.5 m away at 1.0 to 2.2 m height, degraded per scenario (free-living: larger depth
+    error and more occlusion), and cut into the labelled clips.
+
+    Parameters
+    ----------
+    labels
+        The label table (a path or the table): ``clip_id, session, subject, cohort,
+        start_s, end_s, angle_deg, scenario``.
+    out_npz
+        The ``.npz`` to write (atomically).
+    degrade
+        :func:`turn_eval.degrade.degrade_skeleton` or a function with its signature.
+    seed
+        Seed; each participant and session derives its own from this and their names.
+    fps_hz
+        Frame rate of the synthesised skeletons.
     """
     table = (
         labels if isinstance(labels, pd.DataFrame) else pd.read_csv(labels, keep_default_na=False)
