@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
+from scipy import signal
 from scipy.optimize import linear_sum_assignment
 
 from turn_datasets import readers
@@ -17,6 +18,8 @@ from turn_datasets.geometry import turning_angle
 from turn_datasets.miner import (
     CLIP_INDEX_DTYPES,
     MinerParams,
+    _yaw_rate,
+    _zero_phase_lowpass,
     clip_id_of,
     find_turns,
     measure_clip,
@@ -191,19 +194,52 @@ def test_sequences_without_usable_hips_are_refused() -> None:
         mine_sequence(p[:, :17], layout=H36M32, fps_hz=FPS)
 
 
-def test_measure_clip_matches_the_miner_and_refuses_bad_spans() -> None:
-    seq = _seq([sm.Segment.walk(2, 1.2), sm.Segment.pivot_turn(90, 1.2), sm.Segment.walk(2, 1.2)])
-    clip = mine_sequence(seq.positions, layout=H36M32, fps_hz=FPS).iloc[0]
-    again = measure_clip(
-        seq.positions,
-        layout=H36M32,
-        fps_hz=FPS,
-        start_frame=clip.start_frame,
-        end_frame=clip.end_frame,
+def test_every_clip_angle_is_turning_angle_on_its_frames() -> None:
+    # The miner reads all angles off the piece's unwrapped yaw at once; measure_clip runs
+    # geometry.turning_angle(method="net") on each clip's own frames, prepared the same way.
+    n = 0
+    for seed in range(3):
+        rng = np.random.default_rng(seed)
+        segs = sm.random_segments(rng)
+        seq = sm.generate_sequence(seed=seed, segments=segs, dropouts=sm.random_dropouts(rng, segs))
+        clips = mine_sequence(seq.positions, layout=H36M32, fps_hz=FPS)
+        for c in clips.itertuples(index=False):
+            ref = measure_clip(
+                seq.positions,
+                layout=H36M32,
+                fps_hz=FPS,
+                start_frame=c.start_frame,
+                end_frame=c.end_frame,
+            )
+            assert c.angle_deg == pytest.approx(ref.angle_deg, abs=1e-9)
+            assert c.net_deg == pytest.approx(ref.net_deg, abs=1e-9)
+            n += 1
+    assert n >= 20
+
+
+def test_measure_clip_refuses_bad_spans() -> None:
+    seq = _seq(
+        [sm.Segment.walk(2, 1.2), sm.Segment.pivot_turn(90, 1.2), sm.Segment.walk(2, 1.2)],
+        dropouts=[sm.Dropout(1.0, 1.0)],
     )
-    assert again.angle_deg == pytest.approx(clip.angle_deg, abs=1e-9)
     with pytest.raises(TurnbenchError, match="within"):
         measure_clip(seq.positions, layout=H36M32, fps_hz=FPS, start_frame=10, end_frame=10_000)
+    with pytest.raises(TurnbenchError, match="cross a dropout"):
+        measure_clip(seq.positions, layout=H36M32, fps_hz=FPS, start_frame=10, end_frame=150)
+
+
+def test_fast_filters_equal_scipys() -> None:
+    # The miner precomputes its filters; they must stay scipy's filtfilt and savgol_filter.
+    rng = np.random.default_rng(0)
+    b, a = signal.butter(2, 6.0, fs=FPS)
+    for n in (4, 10, 500):
+        x = rng.normal(size=(n, 4))
+        want = signal.filtfilt(b, a, x, axis=0, padlen=min(9, n - 1))
+        np.testing.assert_allclose(_zero_phase_lowpass(x, 6.0, FPS), want, atol=1e-12)
+    y = np.cumsum(rng.normal(size=600))
+    for window in (3, 31, 61):
+        want = signal.savgol_filter(y, window, 2, deriv=1, delta=1 / FPS, mode="interp")
+        np.testing.assert_allclose(_yaw_rate(y, window, FPS), want, atol=1e-9)
 
 
 # --- measured on a synthetic corpus -----------------------------------------------------

@@ -28,7 +28,7 @@ from turn_datasets.curation import (
     unmatched_overrides,
 )
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.miner import MinerParams, build_index, clip_rows, iter_clips
+from turn_datasets.miner import MinerParams, build_index, mine_clips
 from turn_datasets.readers import FORMATS, UNITS, discover, read_source
 from turn_datasets.skeleton import LAYOUTS, UP_AXES
 
@@ -228,16 +228,15 @@ def mine_cmd(
 
     for src, seq in progress(sequences(), label="mining sequences"):
         try:
-            _, clips = next(iter_clips([seq], params))
+            clips = mine_clips(seq, params)
         except TurnbenchError as exc:
             bad[src.path] = exc
             continue
-        rows = clip_rows(seq, clips)
         # curation errors (an adjust outside its sequence) are the curator's, not the file's:
         # they fail the run whatever --skip-bad says
-        rows, applied = apply_overrides(seq, rows, overrides, params)
+        clips, applied = apply_overrides(seq, clips, overrides, params)
         state = per_file[src.path]
-        state["rows"].append(rows)
+        state["rows"].append(clips)
         state["applied"].extend(applied)
         state["sequences"] += 1
         state["frames"] += seq.n_frames

@@ -46,7 +46,7 @@ import pandas as pd
 from turn_datasets import __version__
 from turn_datasets._io import sha256_file, typed_frame
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.miner import CLIP_INDEX_DTYPES, MinerParams, clip_rows, measure_clip
+from turn_datasets.miner import MinerParams, SequenceClips, clip_id_of, measure_clip
 from turn_datasets.skeleton import MocapSequence
 
 __all__ = [
@@ -224,18 +224,18 @@ def read_overrides(path: str | os.PathLike[str]) -> Overrides:
 
 def apply_overrides(
     seq: MocapSequence,
-    rows: pd.DataFrame,
+    clips: SequenceClips,
     overrides: Overrides | None,
     params: MinerParams,
-) -> tuple[pd.DataFrame, list[dict[str, Any]]]:
-    """Apply the overrides that match one sequence's clip rows.
+) -> tuple[SequenceClips, list[dict[str, Any]]]:
+    """Apply the overrides that match one sequence's mined clips.
 
     Parameters
     ----------
     seq
-        The sequence the rows were mined from (an ``adjust`` measures its new frames).
-    rows
-        Its clip-index rows (:func:`turn_datasets.miner.clip_rows`).
+        The sequence the clips were mined from (an ``adjust`` measures its new frames).
+    clips
+        Its clips (:func:`turn_datasets.miner.mine_clips`).
     overrides
         The overrides, or None.
     params
@@ -244,9 +244,9 @@ def apply_overrides(
 
     Returns
     -------
-    rows, applied
-        The curated rows (typed as the clip index) and one record per override applied
-        (its fields, plus ``result_clip_id``: the clip's id after it, None when excluded).
+    clips, applied
+        The curated clips, and one record per override applied (its fields, plus
+        ``result_clip_id``: the clip's id after it, None when excluded).
 
     Raises
     ------
@@ -254,17 +254,19 @@ def apply_overrides(
         An ``adjust`` whose frames lie outside the sequence or across a long dropout, naming
         the overrides file and line.
     """
-    if overrides is None or not len(overrides) or rows.empty:
-        return rows, []
-    hits = [overrides.by_id[c] for c in rows["clip_id"] if c in overrides.by_id]
+    if overrides is None or not len(overrides) or not len(clips):
+        return clips, []
+    ids = clips.clip_ids
+    hits = [(i, overrides.by_id[c]) for i, c in enumerate(ids) if c in overrides.by_id]
     if not hits:
-        return rows, []
-    keep = np.ones(len(rows), dtype=bool)
-    replaced: list[pd.DataFrame] = []
+        return clips, []
+    start = clips.start_frame.copy()
+    end = clips.end_frame.copy()
+    angle = clips.angle_deg.copy()
+    net = clips.net_deg.copy()
+    keep = np.ones(len(clips), dtype=bool)
     applied: list[dict[str, Any]] = []
-    position = {c: i for i, c in enumerate(rows["clip_id"])}
-    for ov in hits:
-        i = position[ov.clip_id]
+    for i, ov in hits:
         record = ov.as_dict()
         if ov.decision == "exclude":
             keep[i] = False
@@ -285,24 +287,13 @@ def apply_overrides(
                 raise TurnbenchError(
                     f"cannot adjust {ov.clip_id}: {exc.message}", file=overrides.path, row=ov.line
                 ) from None
-            clip = pd.DataFrame(
-                {
-                    "start_frame": [ov.start_frame],
-                    "end_frame": [ov.end_frame],
-                    "angle_deg": [turn.angle_deg],
-                    "net_deg": [turn.net_deg],
-                    "direction": [turn.direction],
-                }
+            start[i], end[i] = int(ov.start_frame), int(ov.end_frame)
+            angle[i], net[i] = turn.angle_deg, turn.net_deg
+            record["result_clip_id"] = clip_id_of(
+                clips.subject, clips.action, clips.subaction, start[i], end[i]
             )
-            new = clip_rows(seq, clip)
-            keep[i] = False
-            replaced.append(new)
-            record["result_clip_id"] = str(new["clip_id"].iloc[0])
         applied.append(record)
-    parts = [rows[keep], *replaced]
-    out = pd.concat(parts, ignore_index=True) if replaced else rows[keep]
-    out = out.sort_values(["start_frame", "end_frame"], kind="stable")
-    return typed_frame(out, CLIP_INDEX_DTYPES), applied
+    return clips.replace_clips(start[keep], end[keep], angle[keep], net[keep]), applied
 
 
 def unmatched_overrides(

@@ -1,8 +1,8 @@
 """Mine turning clips from motion capture: the Turn-H3.6M rule, automatic and documented.
 
-The paper (Cheng et al., Section 3, "Turn-H3.6M") found its 619 clips (45.2° to 234.7°) by
-searching Human3.6M by hand for runs where the hip vector turns by 45° or more about the
-vertical axis. This module makes that search a rule that any motion capture can be run
+The paper (Cheng et al., "Your Turn", its Turn-H3.6M set and Table 3) found 619 clips
+(45.2° to 234.7°) by searching Human3.6M by hand for runs where the hip vector turns by 45°
+or more about the vertical axis. This module makes that search a rule that any motion capture can be run
 through, so that the clip index can be regenerated and audited.
 
 The rule, per sequence
@@ -32,10 +32,14 @@ The rule, per sequence
    are one turn: a brief sway against the turn, or a hesitation, does not split it. A turn
    the other way, however soon, is a new clip.
 6. **Angle.** A clip's ``angle_deg`` is the net rotation of the (filtered) hip vector from
-   its first frame to its last (``end_frame - 1``), by
-   :func:`turn_datasets.geometry.turning_angle` with ``method="net"``: the magnitude of the
-   signed net rotation, positive (``left``) counter-clockwise seen from above. A candidate
-   is kept when this is at least ``min_turn_deg`` and turns the way its run does.
+   its first frame to its last (``end_frame - 1``): the magnitude of
+   :func:`turn_datasets.geometry.turning_angle` with ``method="net"`` on those frames,
+   positive (``left``) counter-clockwise seen from above. All candidates of a piece are
+   measured at once as differences of the piece's unwrapped yaw from
+   :func:`~turn_datasets.geometry.frame_yaw_deg` (every frame of a prepared piece is usable,
+   so this is exactly what ``turning_angle`` returns on each slice; the tests check it, and
+   :func:`measure_clip` calls ``turning_angle`` itself). A candidate is kept when the angle
+   is at least ``min_turn_deg`` and turns the way its run does.
 
 Sway of 3° to 6° per stride never reaches ``start_speed_deg_s`` after smoothing and never
 adds up to ``min_turn_deg``, so straight walking and standing give no clip (measured on the
@@ -52,6 +56,7 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable, Iterator
 from dataclasses import asdict, dataclass
+from functools import lru_cache
 from types import MappingProxyType
 
 import numpy as np
@@ -83,7 +88,8 @@ __all__ = [
     "find_turns",
     "mine_sequence",
     "measure_clip",
-    "clip_rows",
+    "SequenceClips",
+    "mine_clips",
     "build_index",
     "mine",
     "iter_clips",
@@ -132,7 +138,7 @@ TEST_SUBJECTS = ("S9", "S11")
 # copy geometry makes) to 2 of Human3.6M's 32 joints.
 _HIPS = Layout("hips", 2, MappingProxyType({"left_hip": 0, "right_hip": 1}))
 _SG_POLYORDER = 2
-_BUTTER_ORDER = 2  # applied forwards and backwards: 4th-order magnitude, zero phase
+_BUTTER_ORDER = 2  # applied forwards and backwards: squared magnitude, zero phase
 
 
 @dataclass(frozen=True)
@@ -252,30 +258,82 @@ def find_turns(
         raise TurnbenchError(f"yaw must be one-dimensional, got shape {yaw.shape}")
     if not np.isfinite(yaw).all():
         raise TurnbenchError("yaw holds NaN: bridge or split dropouts first (mine_sequence does)")
-    if not fps_hz > 0:
+    if not (np.isfinite(fps_hz) and fps_hz > 0):
         raise TurnbenchError(f"fps must be positive, got {fps_hz}")
+    start, end, sign = _find_runs(
+        yaw,
+        fps_hz=fps_hz,
+        smooth_s=smooth_s,
+        start_speed_deg_s=start_speed_deg_s,
+        stop_speed_deg_s=stop_speed_deg_s,
+        merge_gap_s=merge_gap_s,
+    )
+    return typed_frame(
+        pd.DataFrame({"start_frame": start, "end_frame": end, "sign": sign}), CANDIDATE_DTYPES
+    )
+
+
+@lru_cache(maxsize=32)
+def _savgol_rate_filters(window: int, fps_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The Savitzky-Golay first-derivative kernel and the two edge operators, computed once.
+
+    Inside, the rate is a convolution with ``scipy.signal.savgol_coeffs``. In the first and
+    last half-window it is the derivative of the quadratic least-squares fit to the first
+    (last) ``window`` samples, evaluated at each sample, which is what
+    ``scipy.signal.savgol_filter(mode="interp")`` does; as that fit is linear in the samples
+    it is a fixed ``(half, window)`` matrix.
+    """
+    kernel = signal.savgol_coeffs(window, _SG_POLYORDER, deriv=1, delta=1.0 / fps_hz, use="conv")
+    half = window // 2
+    t = np.arange(window, dtype=float) / fps_hz
+    vander = np.vander(t, _SG_POLYORDER + 1, increasing=True)  # columns 1, t, t^2
+    fit = np.linalg.pinv(vander)  # samples -> polynomial coefficients
+    powers = np.arange(1, _SG_POLYORDER + 1)
+    deriv_at = powers * t[:, None] ** (powers - 1)  # d/dt of t^k at every sample
+    edge = deriv_at @ fit[1:]  # samples -> derivative at every sample
+    return kernel, edge[:half], edge[-half:]
+
+
+def _yaw_rate(yaw: np.ndarray, window: int, fps_hz: float) -> np.ndarray:
+    """Savitzky-Golay first derivative (degrees per second), as savgol_filter(mode="interp")."""
+    kernel, head, tail = _savgol_rate_filters(window, fps_hz)
+    rate = np.convolve(yaw, kernel, mode="same")
+    half = window // 2
+    rate[:half] = head @ yaw[:window]
+    rate[-half:] = tail @ yaw[-window:]
+    return rate
+
+
+def _find_runs(
+    yaw: np.ndarray,
+    *,
+    fps_hz: float,
+    smooth_s: float,
+    start_speed_deg_s: float,
+    stop_speed_deg_s: float,
+    merge_gap_s: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`find_turns` on arrays: ``(start, end, sign)`` int64 arrays, in time order."""
+    empty = np.zeros(0, dtype=np.int64)
     window = _odd_window(smooth_s, fps_hz)
     if yaw.shape[0] < window:
-        return typed_frame(pd.DataFrame({c: [] for c in CANDIDATE_DTYPES}), CANDIDATE_DTYPES)
-    rate = signal.savgol_filter(
-        yaw, window, _SG_POLYORDER, deriv=1, delta=1.0 / fps_hz, mode="interp"
-    )
-    starts, ends, signs = [], [], []
+        return empty, empty, empty
+    rate = _yaw_rate(yaw, window, fps_hz)
+    starts, ends, signs = [empty], [empty], [empty]
     for sign in (1, -1):
         signed = sign * rate
         a, b = _runs(signed > stop_speed_deg_s)
         if a.size == 0:
             continue
         # a run counts only if it somewhere reaches the start threshold (hysteresis)
-        peak = np.maximum.reduceat(signed, a)
-        keep = peak > start_speed_deg_s
+        keep = np.maximum.reduceat(signed, a) > start_speed_deg_s
         starts.append(a[keep])
         ends.append(b[keep])
-        signs.append(np.full(int(keep.sum()), sign))
-    start = np.concatenate([np.zeros(0, dtype=np.int64), *starts])
+        signs.append(np.full(int(keep.sum()), sign, dtype=np.int64))
+    start = np.concatenate(starts).astype(np.int64)
     if start.size == 0:
-        return typed_frame(pd.DataFrame({c: [] for c in CANDIDATE_DTYPES}), CANDIDATE_DTYPES)
-    end = np.concatenate(ends)
+        return empty, empty, empty
+    end = np.concatenate(ends).astype(np.int64)
     sgn = np.concatenate(signs)
     order = np.argsort(start, kind="stable")
     start, end, sgn = start[order], end[order], sgn[order]
@@ -285,10 +343,7 @@ def find_turns(
     new_group[1:] = (sgn[1:] != sgn[:-1]) | (start[1:] - end[:-1] > _frames(merge_gap_s, fps_hz))
     first = np.flatnonzero(new_group)
     last = np.append(first[1:], start.shape[0]) - 1
-    return typed_frame(
-        pd.DataFrame({"start_frame": start[first], "end_frame": end[last], "sign": sgn[first]}),
-        CANDIDATE_DTYPES,
-    )
+    return start[first], end[last], sgn[first]
 
 
 def _pieces(usable: np.ndarray, max_gap_frames: int) -> list[tuple[int, int]]:
@@ -306,22 +361,50 @@ def _pieces(usable: np.ndarray, max_gap_frames: int) -> list[tuple[int, int]]:
 def _prepare_piece(
     hips: np.ndarray, usable: np.ndarray, fps_hz: float, cutoff_hz: float
 ) -> np.ndarray:
-    """Bridge the gaps of one piece by linear interpolation, then low-pass the hip positions."""
-    out = hips.copy()
+    """Bridge the gaps of one piece by linear interpolation, then low-pass the hip positions.
+
+    Only the ground-plane coordinates are worked on (the frontal vector of equation 1 is
+    projected on the ground); the height of the result is zero.
+    """
+    n = hips.shape[0]
+    xy = np.ascontiguousarray(hips[:, :, :2]).reshape(n, 4)
     bad = ~usable
     if bad.any():
-        idx = np.arange(hips.shape[0])
-        good = idx[usable]
-        flat = out.reshape(hips.shape[0], -1)
-        src = hips.reshape(hips.shape[0], -1)
-        for c in range(flat.shape[1]):
-            flat[bad, c] = np.interp(idx[bad], good, src[usable, c])
-    nyquist = 0.5 * fps_hz
-    if cutoff_hz > 0 and cutoff_hz < 0.9 * nyquist and hips.shape[0] > 3:
-        sos = signal.butter(_BUTTER_ORDER, cutoff_hz, fs=fps_hz, output="sos")
-        padlen = min(3 * (2 * sos.shape[0] + 1), hips.shape[0] - 1)
-        out = signal.sosfiltfilt(sos, out, axis=0, padlen=padlen)
+        idx = np.arange(n)
+        for c in range(4):
+            xy[bad, c] = np.interp(idx[bad], idx[usable], xy[usable, c])
+    if cutoff_hz > 0 and cutoff_hz < 0.45 * fps_hz and n > 3:
+        xy = _zero_phase_lowpass(xy, cutoff_hz, fps_hz)
+    out = np.zeros((n, 2, 3))
+    out[:, :, :2] = xy.reshape(n, 2, 2)
     return out
+
+
+@lru_cache(maxsize=32)
+def _butter(cutoff_hz: float, fps_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Butterworth low-pass coefficients and their steady-state initial conditions, once."""
+    b, a = signal.butter(_BUTTER_ORDER, cutoff_hz, fs=fps_hz)
+    return b, a, signal.lfilter_zi(b, a)
+
+
+def _zero_phase_lowpass(x: np.ndarray, cutoff_hz: float, fps_hz: float) -> np.ndarray:
+    """``scipy.signal.filtfilt(b, a, x, axis=0)`` of a 2nd-order Butterworth, per column.
+
+    The same forward-backward filtering with odd extension and steady-state initial
+    conditions as filtfilt (its default pad of 3 x 3 samples), with the coefficients and
+    initial conditions computed once instead of per call: the miner filters hundreds of
+    pieces.
+    """
+    b, a, zi = _butter(cutoff_hz, fps_hz)
+    pad = min(3 * max(len(a), len(b)), x.shape[0] - 1)
+    xt = x.T
+    ext = np.concatenate(
+        [2 * xt[:, :1] - xt[:, pad:0:-1], xt, 2 * xt[:, -1:] - xt[:, -2 : -pad - 2 : -1]], axis=1
+    )
+    y, _ = signal.lfilter(b, a, ext, axis=1, zi=zi[None, :] * ext[:, :1])
+    y = y[:, ::-1]
+    y, _ = signal.lfilter(b, a, y, axis=1, zi=zi[None, :] * y[:, :1])
+    return np.ascontiguousarray(y[:, ::-1][:, pad : ext.shape[1] - pad].T)
 
 
 def _prepared_pieces(
@@ -336,7 +419,8 @@ def _prepared_pieces(
             f"positions must have shape (frames, {layout.n_joints}, 3) for layout "
             f"{layout.name!r}, got {p.shape}"
         )
-    hips = p[:, [layout.index("left_hip"), layout.index("right_hip")], :].astype(np.float64)
+    hips = np.zeros((p.shape[0], 2, 3))
+    hips[:, :, :2] = p[:, [layout.index("left_hip"), layout.index("right_hip")], :2]
     usable = usable_frames(hips, _HIPS)
     if int(usable.sum()) < 2:
         raise TurnbenchError(
@@ -406,13 +490,36 @@ def mine_sequence(
         merge_gap_s=merge_gap_s,
         position_cutoff_hz=position_cutoff_hz,
     )
-    rows: list[tuple[int, int, float, float, str]] = []
+    start, end, angle, net = _mine_arrays(positions, layout, fps_hz, params)
+    return _sequence_frame(start, end, angle, net)
+
+
+def _sequence_frame(
+    start: np.ndarray, end: np.ndarray, angle: np.ndarray, net: np.ndarray
+) -> pd.DataFrame:
+    frame = pd.DataFrame(
+        {
+            "start_frame": start,
+            "end_frame": end,
+            "angle_deg": angle,
+            "net_deg": net,
+            "direction": [direction_of(v) for v in net],
+        }
+    )
+    return typed_frame(frame, SEQUENCE_CLIP_DTYPES)
+
+
+def _mine_arrays(
+    positions: np.ndarray, layout: Layout, fps_hz: float, params: MinerParams
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`mine_sequence` on arrays: ``(start, end, angle_deg, net_deg)``, in time order."""
+    parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
     for a, piece in _prepared_pieces(positions, layout, fps_hz, params):
         yaw = frame_yaw_deg(piece, _HIPS)
         if not np.isfinite(yaw).all():
-            # filtering cannot create NaN; interpolation fills every gap: keep the guard cheap
+            # interpolation fills every gap and filtering cannot make NaN: a cheap guard
             raise TurnbenchError("the hip yaw is not finite after bridging gaps")
-        cands = find_turns(
+        starts, ends, signs = _find_runs(
             yaw,
             fps_hz=fps_hz,
             smooth_s=params.smooth_s,
@@ -420,14 +527,19 @@ def mine_sequence(
             stop_speed_deg_s=params.stop_speed_deg_s,
             merge_gap_s=params.merge_gap_s,
         )
-        for s, e, sign in cands.itertuples(index=False):
-            if e - s < 2:
-                continue
-            turn = turning_angle(piece[s:e], _HIPS, method="net")
-            if turn.angle_deg >= params.min_turn_deg and np.sign(turn.net_deg) == sign:
-                rows.append((a + int(s), a + int(e), turn.angle_deg, turn.net_deg, turn.direction))
-    frame = pd.DataFrame(rows, columns=list(SEQUENCE_CLIP_DTYPES))
-    return typed_frame(frame, SEQUENCE_CLIP_DTYPES)
+        ok = ends - starts >= 2
+        starts, ends, signs = starts[ok], ends[ok], signs[ok]
+        # Step 6: turning_angle(piece[s:e], method="net") for every candidate at once. Every
+        # frame of a prepared piece is usable, so the net rotation of a slice is the
+        # difference of the piece's unwrapped yaw (geometry's frame_yaw_deg) between the
+        # slice's first and last frames; tests check it equals turning_angle on each slice.
+        net = yaw[ends - 1] - yaw[starts]
+        keep = (np.abs(net) >= params.min_turn_deg) & (np.sign(net) == signs)
+        parts.append((a + starts[keep], a + ends[keep], net[keep]))
+    start = np.concatenate([np.zeros(0, dtype=np.int64), *(p[0] for p in parts)])
+    end = np.concatenate([np.zeros(0, dtype=np.int64), *(p[1] for p in parts)])
+    net = np.concatenate([np.zeros(0), *(p[2] for p in parts)])
+    return start.astype(np.int64), end.astype(np.int64), np.abs(net), net
 
 
 def measure_clip(
@@ -471,43 +583,117 @@ def _natural_key(text: str) -> tuple:
     return tuple((0, int(t), "") if t.isdigit() else (1, 0, t) for t in re.split(r"(\d+)", text))
 
 
-def iter_clips(
-    sequences: Iterable[MocapSequence], params: MinerParams | None = None
-) -> Iterator[tuple[MocapSequence, pd.DataFrame]]:
-    """Mine each sequence in turn, yielding it with its clips (for progress bars).
+@dataclass
+class SequenceClips:
+    """The clips of one sequence with what the index needs to know about the sequence.
 
-    A sequence the miner cannot use raises :class:`TurnbenchError` naming its source file and
-    the sequence (``subject/action``).
+    Arrays, not a DataFrame, so that mining a whole corpus builds one table at the end
+    (:func:`build_index`). ``start_frame``/``end_frame`` are 0-based, end exclusive.
+    """
+
+    subject: str
+    action: str
+    subaction: str
+    fps: float
+    source: str
+    start_frame: np.ndarray
+    end_frame: np.ndarray
+    angle_deg: np.ndarray
+    net_deg: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.start_frame.shape[0])
+
+    @property
+    def clip_ids(self) -> list[str]:
+        return [
+            clip_id_of(self.subject, self.action, self.subaction, s, e)
+            for s, e in zip(self.start_frame.tolist(), self.end_frame.tolist(), strict=True)
+        ]
+
+    def replace_clips(
+        self, start: np.ndarray, end: np.ndarray, angle: np.ndarray, net: np.ndarray
+    ) -> SequenceClips:
+        """The same sequence with other clips, sorted by frames."""
+        order = np.lexsort((end, start))
+        return SequenceClips(
+            self.subject,
+            self.action,
+            self.subaction,
+            self.fps,
+            self.source,
+            np.asarray(start, dtype=np.int64)[order],
+            np.asarray(end, dtype=np.int64)[order],
+            np.asarray(angle, dtype=float)[order],
+            np.asarray(net, dtype=float)[order],
+        )
+
+    def to_frame(self) -> pd.DataFrame:
+        """Its rows of the clip index."""
+        return build_index([self])
+
+
+def mine_clips(seq: MocapSequence, params: MinerParams | None = None) -> SequenceClips:
+    """Mine one sequence as a reader returns it.
+
+    Raises
+    ------
+    TurnbenchError
+        The sequence cannot be mined (no usable hips, a wrong shape), naming its source file
+        and the sequence (``subject/action subaction``).
     """
     params = params or MinerParams()
-    for seq in sequences:
-        try:
-            clips = mine_sequence(
-                seq.positions, layout=seq.layout, fps_hz=seq.fps, **params.as_dict()
-            )
-        except TurnbenchError as exc:
-            item = f"{seq.subject}/{seq.action}" + (f" {seq.subaction}" if seq.subaction else "")
-            raise TurnbenchError(exc.message, file=seq.source or None, item=item) from None
-        yield seq, clips
+    try:
+        start, end, angle, net = _mine_arrays(seq.positions, seq.layout, seq.fps, params)
+    except TurnbenchError as exc:
+        item = f"{seq.subject}/{seq.action}" + (f" {seq.subaction}" if seq.subaction else "")
+        raise TurnbenchError(exc.message, file=seq.source or None, item=item) from None
+    return SequenceClips(
+        seq.subject, seq.action, seq.subaction, float(seq.fps), seq.source, start, end, angle, net
+    )
 
 
-def clip_rows(seq: MocapSequence, clips: pd.DataFrame) -> pd.DataFrame:
-    """The clip-index rows of one sequence's clips (DESIGN.md's columns, typed)."""
-    start = clips["start_frame"].to_numpy(dtype=np.int64)
-    end = clips["end_frame"].to_numpy(dtype=np.int64)
-    angle = clips["angle_deg"].to_numpy(dtype=float)
-    fps = float(seq.fps)
+def build_index(parts: Iterable[SequenceClips]) -> pd.DataFrame:
+    """The clip index (DESIGN.md's columns, in order, typed) from mined sequences.
+
+    Rows are ordered by subject (S2 before S11), action, subaction, source and start frame,
+    so the index does not depend on the order in which the sources were read.
+
+    Raises
+    ------
+    TurnbenchError
+        Two clips with the same id (the same sequence read twice, for example from both a
+        CDF and an h5 copy), naming both sources.
+    """
+    seqs = sorted(
+        (p for p in parts if len(p)),
+        key=lambda p: (
+            _natural_key(p.subject),
+            p.action,
+            _natural_key(p.subaction),
+            p.source,
+        ),
+    )
+    if not seqs:
+        return typed_frame(pd.DataFrame({c: [] for c in CLIP_INDEX_DTYPES}), CLIP_INDEX_DTYPES)
+    counts = [len(p) for p in seqs]
+
+    def per_clip(values: list) -> np.ndarray:
+        return np.repeat(np.asarray(values, dtype=object), counts)
+
+    start = np.concatenate([p.start_frame for p in seqs])
+    end = np.concatenate([p.end_frame for p in seqs])
+    angle = np.concatenate([p.angle_deg for p in seqs])
+    net = np.concatenate([p.net_deg for p in seqs])
+    fps = np.repeat(np.asarray([p.fps for p in seqs], dtype=float), counts)
     duration = (end - start) / fps
     frame = pd.DataFrame(
         {
-            "clip_id": [
-                clip_id_of(seq.subject, seq.action, seq.subaction, s, e)
-                for s, e in zip(start, end, strict=True)
-            ],
-            "subject": seq.subject,
-            "action": seq.action,
-            "subaction": seq.subaction,
-            "split": split_of(seq.subject),
+            "clip_id": [c for p in seqs for c in p.clip_ids],
+            "subject": per_clip([p.subject for p in seqs]),
+            "action": per_clip([p.action for p in seqs]),
+            "subaction": per_clip([p.subaction for p in seqs]),
+            "split": per_clip([split_of(p.subject) for p in seqs]),
             "start_frame": start,
             "end_frame": end,
             "n_frames": end - start,
@@ -516,57 +702,31 @@ def clip_rows(seq: MocapSequence, clips: pd.DataFrame) -> pd.DataFrame:
             "end_s": end / fps,
             "duration_s": duration,
             "angle_deg": angle,
-            "direction": [direction_of(v) for v in clips["net_deg"].to_numpy(dtype=float)],
-            "bin_deg": np.asarray(quantise_deg(angle), dtype=float).astype(np.int64).reshape(-1)
-            if len(angle)
-            else np.zeros(0, dtype=np.int64),
-            "speed_deg_s": np.asarray(angular_speed_deg_s(angle, duration), dtype=float).reshape(
-                -1
-            ),
-            "source": seq.source,
-        },
-        index=pd.RangeIndex(len(start)),
+            "direction": [direction_of(v) for v in net.tolist()],
+            "bin_deg": np.asarray(quantise_deg(angle)).astype(np.int64),
+            "speed_deg_s": angular_speed_deg_s(angle, duration),
+            "source": per_clip([p.source for p in seqs]),
+        }
     )
-    return typed_frame(frame, CLIP_INDEX_DTYPES)
-
-
-def build_index(parts: Iterable[pd.DataFrame]) -> pd.DataFrame:
-    """Concatenate clip rows into the clip index: sorted, ids checked unique.
-
-    Rows are ordered by subject (S2 before S11), action, subaction and start frame, so the
-    index does not depend on the order the sources were read in.
-
-    Raises
-    ------
-    TurnbenchError
-        Two clips with the same id (the same sequence read twice, for example from both a
-        CDF and an h5 copy), naming both sources.
-    """
-    frames = [p for p in parts if len(p)]
-    if not frames:
-        return typed_frame(pd.DataFrame({c: [] for c in CLIP_INDEX_DTYPES}), CLIP_INDEX_DTYPES)
-    index = pd.concat(frames, ignore_index=True)
-    keys = sorted(
-        range(len(index)),
-        key=lambda i: (
-            _natural_key(index.at[i, "subject"]),
-            index.at[i, "action"],
-            _natural_key(index.at[i, "subaction"]),
-            int(index.at[i, "start_frame"]),
-            index.at[i, "source"],
-        ),
-    )
-    index = index.iloc[keys].reset_index(drop=True)
-    dup = index["clip_id"].duplicated(keep=False)
+    dup = frame["clip_id"].duplicated(keep=False)
     if dup.any():
-        first = index.loc[dup, "clip_id"].iloc[0]
-        sources = sorted(set(index.loc[index["clip_id"] == first, "source"]))
+        first = frame.loc[dup, "clip_id"].iloc[0]
+        sources = sorted(set(frame.loc[frame["clip_id"] == first, "source"]))
         raise TurnbenchError(
             f"clip id {first!r} occurs twice: the same subject and action were read from "
             f"{' and '.join(sources)}",
             hint="give each sequence once (one copy of the dataset)",
         )
-    return typed_frame(index, CLIP_INDEX_DTYPES)
+    return typed_frame(frame, CLIP_INDEX_DTYPES)
+
+
+def iter_clips(
+    sequences: Iterable[MocapSequence], params: MinerParams | None = None
+) -> Iterator[tuple[MocapSequence, SequenceClips]]:
+    """Mine each sequence in turn, yielding it with its clips (:func:`mine_clips`)."""
+    params = params or MinerParams()
+    for seq in sequences:
+        yield seq, mine_clips(seq, params)
 
 
 def mine(sequences: Iterable[MocapSequence], **params: float) -> pd.DataFrame:
@@ -591,4 +751,4 @@ def mine(sequences: Iterable[MocapSequence], **params: float) -> pd.DataFrame:
         :func:`turn_datasets.geometry.angular_speed_deg_s`) and ``source``.
     """
     p = MinerParams(**params)
-    return build_index(clip_rows(seq, clips) for seq, clips in iter_clips(sequences, p))
+    return build_index(clips for _, clips in iter_clips(sequences, p))
