@@ -23,7 +23,7 @@ Turn-REMAP-like ELAN sessions (:func:`write_remap_corpus`)
 Skeleton "predictions" (:func:`write_h36m_estimates`, :func:`write_remap_estimates`)
     What a monocular 3D pose estimator would hand a submitter: for each clip of a mined index
     or each turn of a label table, a 17-joint skeleton in camera axes (y down), metres,
-    float32, as MotionBERT writes them, in one ``.npz`` keyed by ``clip_id`` for
+    float32, as 3D pose lifting networks write them, in one ``.npz`` keyed by ``clip_id`` for
     ``turn-eval predict --layout h36m17 --up-axis -y``. Turn-H3.6M's come from its own
     motion capture; each Turn-REMAP turn's skeleton is synthesised with that turn's
     labelled angle (plus the few degrees a 45° label rounds away). Both are degraded by
