@@ -308,6 +308,23 @@ def test_skip_bad_writes_the_index_and_records_the_skipped_files(
     }
 
 
+def test_a_corrupt_file_named_directly_is_listed_or_skipped(corpus, tmp_path, capsys) -> None:
+    broken = tmp_path / "broken.npz"
+    broken.write_bytes(corpus["npz"].read_bytes()[:5000])  # truncated: not even a zip
+    out = tmp_path / "index.csv"
+    code, _, stderr = run(["h36m", "mine", corpus["npz"], broken, "--out", out], capsys)
+    assert code == EXIT_BAD_INPUT
+    assert f"turn-datasets: error: {broken}: " in stderr and "1 of 2 files" in stderr
+    assert not out.exists()
+    code, _, stderr = run(
+        ["h36m", "mine", corpus["npz"], broken, "--out", out, "--skip-bad"], capsys
+    )
+    assert code == 0, stderr
+    assert set(pd.read_csv(out).subject) == {"S11"}
+    manifest = json.loads((tmp_path / "index.manifest.json").read_text())
+    assert [s["path"] for s in manifest["skipped"]] == [str(broken)]
+
+
 def test_never_writes_over_an_input(corpus, tmp_path, capsys) -> None:
     npz = tmp_path / "data_3d_h36m.npz"
     shutil.copy(corpus["npz"], npz)

@@ -6,6 +6,7 @@ Thin: options are parsed here, the work is :mod:`turn_datasets.readers`,
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -29,10 +30,48 @@ from turn_datasets.curation import (
 )
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.miner import MinerParams, build_index, mine_clips
-from turn_datasets.readers import FORMATS, UNITS, discover, read_source
+from turn_datasets.readers import FORMATS, UNITS, SourceFile, discover, read_source
 from turn_datasets.skeleton import LAYOUTS, UP_AXES
 
 _D = MinerParams()
+
+
+def _discover_each(
+    sources: tuple[Path, ...], fmt: str | None, bad: dict[Path, TurnbenchError]
+) -> list[SourceFile]:
+    """Every source file to read, in path order; a named file that cannot even be opened is
+    put in ``bad`` (listed or skipped like any unreadable file) instead of stopping the run.
+    A missing path or a folder with nothing to read is a mistake in the command: it stops it.
+    """
+    found: list[SourceFile] = []
+    for item in sources:
+        try:
+            found.extend(discover([item], fmt=fmt))
+        except TurnbenchError as exc:
+            if not item.is_file():
+                raise
+            bad[item] = exc
+            found.append(SourceFile(item, fmt or "unknown"))
+    seen: set[Path] = set()
+    out: list[SourceFile] = []
+    for src in sorted(found, key=lambda s: (_natural_key(str(s.path)), s.fmt)):
+        key = src.path.resolve()
+        if key not in seen:
+            seen.add(key)
+            out.append(src)
+    return out
+
+
+def _natural_key(text: str) -> tuple:
+    return tuple((0, int(t), "") if t.isdigit() else (1, 0, t) for t in re.split(r"(\d+)", text))
+
+
+def _sha256_or_none(path: Path) -> str | None:
+    # a file that cannot even be opened was already reported as unreadable
+    try:
+        return sha256_file(path)
+    except OSError:
+        return None
 
 
 @h36m.command("mine")
@@ -195,7 +234,8 @@ def mine_cmd(
     jmap = parse_joint_map(joint_map) if joint_map else None
     mpath = manifest_path(out)
     overrides = read_overrides(overrides_path) if overrides_path is not None else None
-    files = discover(list(sources), fmt=fmt)
+    bad: dict[Path, TurnbenchError] = {}
+    files = _discover_each(sources, fmt, bad)
     inputs = [f.path for f in files] + ([overrides_path] if overrides_path else [])
     check_not_input(out, inputs)
     check_not_input(mpath, inputs)
@@ -209,13 +249,14 @@ def mine_cmd(
     }
 
     per_file: dict[Path, dict[str, Any]] = {
-        f.path: {"rows": [], "applied": [], "sequences": 0, "frames": 0, "units": set()}
+        f.path: {"clips": [], "applied": [], "sequences": 0, "frames": 0, "units": set()}
         for f in files
     }
-    bad: dict[Path, TurnbenchError] = {}
 
     def sequences():
         for src in files:
+            if src.path in bad:
+                continue
             try:
                 for seq in read_source(src, **reader_kw):
                     yield src, seq
@@ -236,12 +277,13 @@ def mine_cmd(
         # they fail the run whatever --skip-bad says
         clips, applied = apply_overrides(seq, clips, overrides, params)
         state = per_file[src.path]
-        state["rows"].append(clips)
+        state["clips"].append(clips)
         state["applied"].extend(applied)
         state["sequences"] += 1
         state["frames"] += seq.n_frames
         state["units"].add(seq.units)
 
+    bad = {f.path: bad[f.path] for f in files if f.path in bad}  # in path order
     if bad and not skip_bad:
         for exc in bad.values():
             click.echo(f"turn-datasets: error: {exc}", err=True)
@@ -253,7 +295,7 @@ def mine_cmd(
     if not any(per_file[f.path]["sequences"] for f in good):
         raise TurnbenchError("no sequence could be read from the sources; nothing written")
 
-    index = build_index(rows for f in good for rows in per_file[f.path]["rows"])
+    index = build_index(c for f in good for c in per_file[f.path]["clips"])
     applied = [a for f in good for a in per_file[f.path]["applied"]]
     unmatched = unmatched_overrides(overrides, applied)
     for u in unmatched:
@@ -268,8 +310,8 @@ def mine_cmd(
             {
                 "path": str(f.path),
                 "format": f.fmt,
-                "sha256": sha256_file(f.path),
-                "bytes": f.path.stat().st_size,
+                "sha256": _sha256_or_none(f.path),
+                "bytes": f.path.stat().st_size if f.path.is_file() else None,
                 "status": "skipped" if f.path in bad else "read",
                 "sequences": state["sequences"] if f.path not in bad else 0,
                 "frames": state["frames"] if f.path not in bad else 0,
