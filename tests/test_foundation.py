@@ -121,3 +121,18 @@ def test_every_command_help_has_an_example():
             seen.append(path)
             assert "Example" in (cmd.help or ""), f"{' '.join(path)} --help lacks an example"
     assert seen, "no commands registered"
+
+
+def test_outputs_get_the_umask_permissions_not_owner_only(tmp_path):
+    import os
+
+    old = os.umask(0o022)
+    try:
+        write_csv(pd.DataFrame({"a": [1]}), tmp_path / "x.csv")
+        with staged_dir(tmp_path / "d") as tmp:
+            (tmp / "y.json").write_text("{}")
+            os.chmod(tmp / "y.json", 0o600)
+    finally:
+        os.umask(old)
+    assert (tmp_path / "x.csv").stat().st_mode & 0o777 == 0o644
+    assert (tmp_path / "d" / "y.json").stat().st_mode & 0o777 == 0o644

@@ -35,6 +35,12 @@ __all__ = [
 ]
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it onto ``path`` if the block succeeds."""
@@ -45,6 +51,8 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     tmp_path = Path(tmp)
     try:
         yield tmp_path
+        # mkstemp makes owner-only files; an output should get the user's usual permissions
+        os.chmod(tmp_path, 0o666 & ~_umask())
         os.replace(tmp_path, target)
     finally:
         if tmp_path.exists():
@@ -69,6 +77,7 @@ def staged_dir(out_dir: str | os.PathLike[str]) -> Iterator[Path]:
                 continue
             dst = target / src.relative_to(tmp)
             dst.parent.mkdir(parents=True, exist_ok=True)
+            os.chmod(src, 0o666 & ~_umask())
             os.replace(src, dst)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
