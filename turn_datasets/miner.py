@@ -513,12 +513,17 @@ def _mine_arrays(
     positions: np.ndarray, layout: Layout, fps_hz: float, params: MinerParams
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`mine_sequence` on arrays: ``(start, end, angle_deg, net_deg)``, in time order."""
+    pieces = list(_prepared_pieces(positions, layout, fps_hz, params))
+    # One yaw call for all pieces: unwrapping across a cut only shifts the next piece by whole
+    # turns, and only differences within a piece are used.
+    all_yaw = frame_yaw_deg(np.concatenate([p for _, p in pieces]), _HIPS)
+    if not np.isfinite(all_yaw).all():
+        # interpolation fills every gap and filtering cannot make NaN: a cheap guard
+        raise TurnbenchError("the hip yaw is not finite after bridging gaps")
+    offsets = np.cumsum([0] + [p.shape[0] for _, p in pieces])
     parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
-    for a, piece in _prepared_pieces(positions, layout, fps_hz, params):
-        yaw = frame_yaw_deg(piece, _HIPS)
-        if not np.isfinite(yaw).all():
-            # interpolation fills every gap and filtering cannot make NaN: a cheap guard
-            raise TurnbenchError("the hip yaw is not finite after bridging gaps")
+    for (a, _), lo, hi in zip(pieces, offsets[:-1], offsets[1:], strict=True):
+        yaw = all_yaw[lo:hi]
         starts, ends, signs = _find_runs(
             yaw,
             fps_hz=fps_hz,
