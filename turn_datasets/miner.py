@@ -325,7 +325,9 @@ def _find_runs(
         a, b = _runs(signed > stop_speed_deg_s)
         if a.size == 0:
             continue
-        # a run counts only if it somewhere reaches the start threshold (hysteresis)
+        # A run counts only if it somewhere reaches the start threshold (hysteresis). reduceat
+        # takes each maximum from a run's start to the next run's start; the frames between
+        # are at most stop_speed_deg_s <= start_speed_deg_s, so they cannot change the verdict.
         keep = np.maximum.reduceat(signed, a) > start_speed_deg_s
         starts.append(a[keep])
         ends.append(b[keep])
