@@ -57,6 +57,7 @@ __all__ = [
     "Overrides",
     "read_overrides",
     "apply_overrides",
+    "unmatched_overrides",
     "manifest_path",
     "build_manifest",
     "read_clip_index",
