@@ -150,10 +150,13 @@ def test_cmu_files_parse_with_header_frame_count(cmu_dir: Path, name: str) -> No
     assert motion.fps == 120.0
     # Frame 0 is the T-pose the conversion added: the root neither turned nor tilted.
     np.testing.assert_array_equal(motion.motion[0, 3:6], 0.0)
-    seq = bvh.read_bvh(path)
+    seq = bvh.read_bvh(path, skip_first_frame=False)
     n_end_sites = path.read_text(encoding="latin-1").count("End Site")  # 7 in CMU's files
     assert seq.positions.shape == (frames, 31 + n_end_sites, 3)
     assert bvh.read_bvh(path, skip_first_frame=True).positions.shape[0] == frames - 1
+    # by default the T-pose is recognised as a rest pose and dropped
+    assert bvh.first_frame_is_rest_pose(motion)
+    assert bvh.read_bvh(path).positions.shape[0] == frames - 1
 
 
 @pytest.mark.parametrize("name", CMU_FILES)
@@ -167,7 +170,7 @@ def test_cmu_forward_kinematics_keeps_bone_lengths(cmu_dir: Path, name: str) -> 
             continue
         length = np.linalg.norm(p[:, i] - p[:, joint.parent], axis=1)
         np.testing.assert_allclose(length, np.linalg.norm(joint.offset), atol=1e-9)
-    seq = bvh.read_bvh(cmu_dir / f"{name}.bvh")
+    seq = bvh.read_bvh(cmu_dir / f"{name}.bvh", skip_first_frame=False)
     # root height: Yposition channel in the file, z after conversion
     np.testing.assert_allclose(seq.positions[:, 0, 2], motion.motion[:, 1])
 
@@ -205,8 +208,8 @@ def test_cmu_turn_is_about_90_between_steady_ends(cmu_dir: Path, name: str) -> N
 
 def test_cmu_tpose_frame_is_not_part_of_the_capture(cmu_dir: Path) -> None:
     """69_01 walks facing about -50 deg from the T-pose's heading: keeping frame 0 adds a
-    one-frame jump of that size, which is why dropping it is offered."""
-    kept = bvh.read_bvh(cmu_dir / "69_01.bvh")
+    one-frame jump of that size, which is why it is dropped by default."""
+    kept = bvh.read_bvh(cmu_dir / "69_01.bvh", skip_first_frame=False)
     yaw = geometry.frame_yaw_deg(kept.positions, kept.layout)
     assert abs(yaw[1] - yaw[0]) > 30.0
     assert abs(np.diff(yaw[1:])).max() < 5.0  # 120 fps: a few degrees per frame at most
@@ -283,3 +286,18 @@ def test_duplicate_joint_names(tmp_path: Path) -> None:
 def test_missing_file() -> None:
     with pytest.raises(TurnbenchError, match="cannot read"):
         bvh.parse_bvh("/nonexistent/x.bvh")
+
+
+def test_a_smooth_start_at_zero_orientation_is_not_a_rest_pose(tmp_path: Path) -> None:
+    # root yaw 0, 3, 6, ... degrees: zero at frame 0 but no jump, so every frame is kept
+    path = _write(tmp_path, _hips_bvh(np.linspace(0.0, 90.0, 31)))
+    assert not bvh.first_frame_is_rest_pose(bvh.parse_bvh(path))
+    assert bvh.read_bvh(path).positions.shape[0] == 31
+    # the same file with a T-pose-like first frame: zero root, then a 60-degree jump
+    yaw = np.concatenate([[0.0], 60.0 + np.linspace(0.0, 30.0, 30)])
+    path = _write(tmp_path, _hips_bvh(yaw), name="jump.bvh")
+    assert bvh.first_frame_is_rest_pose(bvh.parse_bvh(path))
+    assert bvh.read_bvh(path).positions.shape[0] == 30
+    # a jump without an exactly zero root orientation is motion, kept
+    path = _write(tmp_path, _hips_bvh(yaw + 0.5), name="moving.bvh")
+    assert not bvh.first_frame_is_rest_pose(bvh.parse_bvh(path))

@@ -136,3 +136,9 @@ def test_outputs_get_the_umask_permissions_not_owner_only(tmp_path):
         os.umask(old)
     assert (tmp_path / "x.csv").stat().st_mode & 0o777 == 0o644
     assert (tmp_path / "d" / "y.json").stat().st_mode & 0o777 == 0o644
+
+
+@pytest.mark.parametrize("pkg", ["turn_datasets", "turn_eval"])
+def test_python_dash_m_runs_the_same_commands(pkg):
+    out = subprocess.run([sys.executable, "-m", pkg, "--help"], capture_output=True, text=True, check=True)
+    assert "Commands:" in out.stdout and ("score" in out.stdout or "h36m" in out.stdout)

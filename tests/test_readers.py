@@ -266,8 +266,10 @@ def test_generic_array_needs_its_description(tmp_path: Path) -> None:
 
 def test_bvh_through_read_source(cmu_dir: Path) -> None:
     src = readers.SourceFile(cmu_dir / "69_25.bvh", "bvh")
-    (kept,) = readers.read_source(src)
+    (kept,) = readers.read_source(src, skip_first_frame=False)
     (dropped,) = readers.read_source(src, skip_first_frame=True, units="in")
+    (auto,) = readers.read_source(src)  # the T-pose is recognised and dropped by default
+    np.testing.assert_array_equal(auto.positions, dropped.positions)
     assert (kept.subject, kept.action, kept.subaction, kept.fps) == (
         "cmu-mocap",
         "69_25",

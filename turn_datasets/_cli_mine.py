@@ -112,9 +112,10 @@ def _sha256_or_none(path: Path) -> str | None:
     help="Length unit of generic arrays (recorded in the manifest; BVH: a label).",
 )
 @click.option(
-    "--skip-first-frame",
-    is_flag=True,
-    help="BVH only: drop frame 0, the T-pose that CMU's BVH conversion adds.",
+    "--skip-first-frame/--keep-first-frame",
+    default=None,
+    help="BVH only: drop or keep frame 0. Default: drop it only when it is a rest pose "
+    "(root rotation exactly zero and a jump to frame 1), the T-pose CMU's conversion adds.",
 )
 @click.option(
     "--joint-map",
@@ -191,7 +192,7 @@ def mine_cmd(
     fps: float | None,
     up_axis: str | None,
     units: str | None,
-    skip_first_frame: bool,
+    skip_first_frame: bool | None,
     joint_map: str | None,
     min_turn_deg: float,
     max_gap_s: float,
@@ -216,7 +217,7 @@ def mine_cmd(
     Example:
       turn-datasets h36m mine /data/human36m --out turn-h36m.csv
       turn-datasets h36m mine data_3d_h36m.npz --out turn-h36m.csv --overrides curation.csv
-      turn-datasets h36m mine cmu/*.bvh --skip-first-frame --out cmu-turns.csv
+      turn-datasets h36m mine cmu/*.bvh --out cmu-turns.csv
       turn-datasets h36m mine poses.npy --layout h36m17 --fps 30 --up-axis y --units m \\
           --out turns.csv
     """

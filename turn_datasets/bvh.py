@@ -24,10 +24,12 @@ Conventions, as the format's authors (Biovision) and its main writers use them:
   of DESIGN.md with :func:`turn_datasets.skeleton.to_z_up`.
 
 CMU's BVH conversion (B. Hahne, 2010), of which real examples are test inputs, writes a
-T-pose as frame 0 that is not part of the capture: the capture starts at frame 1. Frame 0 is
-kept by default (every frame the file holds is returned, so counts equal ``Frames:``); pass
-``skip_first_frame=True`` to drop it. Keeping it matters for turning angles: the T-pose
-faces +z whatever way the subject faces at frame 1, so it adds a spurious jump.
+T-pose as frame 0 that is not part of the capture: the capture starts at frame 1. Keeping it
+matters for turning angles: the T-pose faces +z whatever way the subject faces at frame 1, so
+it adds a spurious jump (a false 50° "turn" at the start of 69_01). By default frame 0 is
+dropped when it *is* such a rest pose (:func:`first_frame_is_rest_pose`: root orientation
+exactly zero, and a jump to frame 1 far larger than any later one).
+``skip_first_frame=True`` always drops it, ``False`` always keeps it.
 
 The joints the turning geometry needs are found by name: :data:`CMU_JOINT_MAP` maps our pair
 names (``left_hip`` ...) to CMU's joint names and can be overridden per joint.
@@ -418,6 +420,28 @@ def build_layout(
     return Layout(name, len(bvh.joints), MappingProxyType(joints))
 
 
+def first_frame_is_rest_pose(bvh: BvhMotion, *, jump_ratio: float = 2.0) -> bool:
+    """True when frame 0 is a rest pose added by a conversion, not captured motion.
+
+    Two signs together: the ROOT's rotation channels are all exactly zero in frame 0 (a real
+    capture never prints an exactly zero orientation on all three axes), and frame 0 is a
+    discontinuity: its largest rotation change to frame 1 is more than ``jump_ratio`` times
+    the 99th percentile of the later frame-to-frame changes. On CMU's five test captures the
+    T-pose jump is 80 to 83 degrees against a later 99th percentile of 6 to 25 degrees; a file
+    that merely starts at zero orientation and moves smoothly is kept.
+    """
+    root = bvh.joints[0]
+    root_cols = [root.channel_start + k for k, c in enumerate(root.channels) if c.endswith("rotation")]
+    if bvh.n_frames < 3 or not root_cols or np.any(bvh.motion[0, root_cols] != 0.0):
+        return False
+    cols = [
+        j.channel_start + k for j in bvh.joints for k, c in enumerate(j.channels) if c.endswith("rotation")
+    ]
+    step = np.abs(np.diff(bvh.motion[:, cols], axis=0))
+    step = np.minimum(step, 360.0 - step).max(axis=1)  # angles wrap at 360
+    return bool(step[0] > jump_ratio * np.percentile(step[1:], 99))
+
+
 @dataclass
 class BvhSequence:
     """What :func:`read_bvh` returns: z-up positions and what is known about them."""
@@ -433,7 +457,7 @@ def read_bvh(
     path: str | os.PathLike[str],
     *,
     joint_map: Mapping[str, str] | None = None,
-    skip_first_frame: bool = False,
+    skip_first_frame: bool | None = None,
 ) -> BvhSequence:
     """Parse a BVH file and return z-up world positions of every joint and End Site.
 
@@ -443,6 +467,7 @@ def read_bvh(
         Overrides of :data:`CMU_JOINT_MAP` (our name -> BVH joint name).
     skip_first_frame
         Drop frame 0 (CMU's conversion writes a T-pose there; the capture starts at frame 1).
+        ``None`` (default): drop it only if it is a rest pose (:func:`first_frame_is_rest_pose`).
 
     Returns
     -------
@@ -452,6 +477,8 @@ def read_bvh(
     """
     bvh = parse_bvh(path)
     layout = build_layout(bvh, joint_map=joint_map)
+    if skip_first_frame is None:
+        skip_first_frame = first_frame_is_rest_pose(bvh)
     if skip_first_frame and bvh.n_frames < 2:
         raise TurnbenchError("only one frame: nothing left after skipping frame 0", file=bvh.path)
     positions = to_z_up(forward_kinematics(bvh), "y")

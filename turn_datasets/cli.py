@@ -58,6 +58,3 @@ def main(args: list[str] | None = None) -> None:
     """Console-script entry point."""
     sys.exit(run_group(cli, "turn-datasets", args))
 
-
-if __name__ == "__main__":
-    main()

@@ -541,7 +541,7 @@ def _read_videopose_npz(path: Path) -> Iterator[MocapSequence]:
 
 
 def _read_bvh(
-    path: Path, *, units: str | None, joint_map: Mapping[str, str] | None, skip_first_frame: bool
+    path: Path, *, units: str | None, joint_map: Mapping[str, str] | None, skip_first_frame: bool | None
 ) -> Iterator[MocapSequence]:
     seq = _bvh.read_bvh(path, joint_map=joint_map, skip_first_frame=skip_first_frame)
     yield MocapSequence(
@@ -633,7 +633,7 @@ def read_source(
     up_axis: str | None = None,
     units: str | None = None,
     joint_map: Mapping[str, str] | None = None,
-    skip_first_frame: bool = False,
+    skip_first_frame: bool | None = None,
 ) -> Iterator[MocapSequence]:
     """Yield the sequences of one source file, one at a time, as z-up float64 positions.
 
@@ -652,8 +652,9 @@ def read_source(
         BVH only: our joint name -> BVH joint name, over CMU's built-in names
         (:data:`turn_datasets.bvh.CMU_JOINT_MAP`).
     skip_first_frame
-        BVH only: drop frame 0, the T-pose that CMU's conversion adds (the capture starts at
-        frame 1). Off by default so that every frame of the file is returned.
+        BVH only: ``True`` drops frame 0, ``False`` keeps it; ``None`` (default) drops it only
+        when it is the rest pose that CMU's conversion adds
+        (:func:`turn_datasets.bvh.first_frame_is_rest_pose`).
 
     Yields
     ------

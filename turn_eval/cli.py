@@ -36,6 +36,3 @@ def main(args: list[str] | None = None) -> None:
     """Console-script entry point."""
     sys.exit(run_group(cli, "turn-eval", args))
 
-
-if __name__ == "__main__":
-    main()
