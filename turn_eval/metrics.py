@@ -446,13 +446,14 @@ class _Engine:
                 f"got {idx.shape}"
             )
         n_rows = idx.shape[0]
-        # How often each resample drew each clip (a row per resample, written contiguously),
-        # then one column per resample for the sparse products.
-        counts = np.empty((n_rows, self.n), dtype=np.float64)
+        # One resample at a time: how often it drew each clip, then its per-segment sums
+        # (the vectors stay in cache; no transposition of a chunk-sized matrix).
+        per_segment = np.empty((self.per_segment.shape[0], n_rows), dtype=np.float64)
+        drawn = np.empty(self.n, dtype=np.float64)
         for r in range(n_rows):
-            counts[r] = np.bincount(idx[r], minlength=self.n)
-        drawn = np.ascontiguousarray(counts.T)
-        totals = self.per_group @ (self.per_segment @ drawn)
+            drawn[:] = np.bincount(idx[r], minlength=self.n)
+            per_segment[:, r] = self.per_segment @ drawn
+        totals = self.per_group @ per_segment
         k, n_cells = self.k, self.k * self.k
         out = []
         with np.errstate(divide="ignore", invalid="ignore"):
