@@ -33,26 +33,10 @@ import numpy as np
 
 from turn_datasets import synth_mocap as sm
 from turn_datasets.miner import MinerParams, build_index, iter_clips
-from turn_datasets.readers import SourceFile, read_source, write_videopose_npz
+from turn_datasets.readers import H36M_ACTIONS, SourceFile, read_source, write_videopose_npz
 
 SUBJECTS = ("S1", "S5", "S6", "S7", "S8", "S9", "S11")
-ACTIONS = (
-    "Directions",
-    "Discussion",
-    "Eating",
-    "Greeting",
-    "Phoning",
-    "Photo",
-    "Posing",
-    "Purchases",
-    "Sitting",
-    "SittingDown",
-    "Smoking",
-    "Waiting",
-    "WalkDog",
-    "Walking",
-    "WalkTogether",
-)
+ACTIONS = H36M_ACTIONS
 FRAMES_PER_SEQUENCE = 4000
 FPS_HZ = 50.0
 CACHE_VERSION = "v1"

@@ -41,6 +41,7 @@ import pandas as pd
 import pympi.Elan as pympi_elan
 
 from turn_datasets._io import atomic_path, typed_frame, write_csv
+from turn_datasets.eaf import ANNOTATION_COLUMNS
 
 __all__ = [
     "ANGLES_DEG",
@@ -97,20 +98,7 @@ TRUTH_COLUMNS = {
 }
 #: One row per annotation written on a turn tier (the columns of ``eaf.read_annotations``
 #: plus the planted ``turn_id``).
-WRITTEN_COLUMNS = {
-    "session": "str",
-    "file": "str",
-    "tier": "str",
-    "annotator": "str",
-    "participant": "str",
-    "start_s": "float64",
-    "end_s": "float64",
-    "angle_deg": "float64",
-    "scenario": "str",
-    "location": "str",
-    "value": "str",
-    "turn_id": "str",
-}
+WRITTEN_COLUMNS = {**ANNOTATION_COLUMNS, "turn_id": "str"}
 PARTICIPANT_COLUMNS = {
     "subject": "str",
     "cohort": "str",
