@@ -452,3 +452,28 @@ def test_stats_on_the_mined_index(corpus, tmp_path, capsys) -> None:
 def test_help_has_an_example(command, capsys) -> None:
     code, stdout, _ = run(["h36m", command, "--help"], capsys)
     assert code == 0 and "Example:" in stdout
+
+
+def test_cmu_captures_mined_with_no_option_find_exactly_the_described_turns(cmu_dir, tmp_path):
+    """A curator runs the command on the real CMU files as they are: the conversion's T-pose
+    (frame 0) is recognised, so the straight walk 69_01 gives no false clip, and each
+    described 90-degree turn is one clip in its direction (DESCRIPTIONS.txt)."""
+    from turn_datasets.cli import main
+
+    out = tmp_path / "cmu.csv"
+    files = [str(cmu_dir / f"{n}.bvh") for n in ("16_18", "16_21", "69_01", "69_20", "69_25")]
+    with pytest.raises(SystemExit) as exit_info:
+        main(["h36m", "mine", *files, "--out", str(out)])
+    assert exit_info.value.code == 0
+    index = pd.read_csv(out)
+    assert sorted(zip(index["action"], index["direction"], strict=True)) == [
+        ("16_18", "left"),
+        ("69_20", "right"),
+        ("69_25", "left"),
+    ]
+    assert index["angle_deg"].between(85.0, 115.0).all()
+    # keeping the T-pose brings the false clip back: the default is what prevents it
+    kept = tmp_path / "kept.csv"
+    with pytest.raises(SystemExit):
+        main(["h36m", "mine", str(cmu_dir / "69_01.bvh"), "--keep-first-frame", "--out", str(kept)])
+    assert len(pd.read_csv(kept)) == 1
