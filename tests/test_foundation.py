@@ -104,7 +104,11 @@ def test_console_scripts_have_version_and_help_with_example(script):
 
 
 def _all_commands(group: click.Group, prefix=()):
-    for name, cmd in sorted(group.commands.items()):
+    ctx = click.Context(group)
+    for name in group.list_commands(ctx):
+        cmd = group.get_command(ctx, name)
+        assert cmd is not None, f"{' '.join(prefix + (name,))} is listed but its module defines no such command"
+        assert cmd.name == name
         if isinstance(cmd, click.Group):
             yield from _all_commands(cmd, prefix + (name,))
         else:
@@ -142,3 +146,30 @@ def test_outputs_get_the_umask_permissions_not_owner_only(tmp_path):
 def test_python_dash_m_runs_the_same_commands(pkg):
     out = subprocess.run([sys.executable, "-m", pkg, "--help"], capture_output=True, text=True, check=True)
     assert "Commands:" in out.stdout and ("score" in out.stdout or "h36m" in out.stdout)
+
+
+def test_lazy_command_maps_name_every_registered_command():
+    """A command module registering a name its group's map lacks would be unreachable."""
+    import importlib
+
+    from turn_datasets._cli import LazyGroup
+    from turn_datasets.cli import h36m, remap
+    from turn_eval.cli import cli as eval_cli
+
+    for group in (h36m, remap, eval_cli):
+        assert isinstance(group, LazyGroup)
+        for module in set(group.lazy_commands.values()):
+            importlib.import_module(module)
+        assert sorted(group.commands) == sorted(group.lazy_commands), group.name
+
+
+def test_a_command_loads_only_its_own_module():
+    code = (
+        "import sys; from turn_datasets.cli import main\n"
+        "try:\n    main(['h36m', 'mine', '--help'])\nexcept SystemExit:\n    pass\n"
+        "print('LOADED', sorted(m for m in sys.modules if m.startswith(('sklearn', 'pympi', 'turn_datasets._cli_'))))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    loaded = out.stdout.split("LOADED", 1)[1]
+    assert "_cli_mine" in loaded
+    assert "sklearn" not in loaded and "pympi" not in loaded and "_cli_agreement" not in loaded

@@ -6,8 +6,9 @@ Exit codes: 0 ok, 2 bad input (a :class:`TurnbenchError` or a usage error), 3 fa
 
 from __future__ import annotations
 
+import importlib
 import sys
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import TypeVar
 
@@ -26,6 +27,7 @@ __all__ = [
     "wrote",
     "progress",
     "format_option",
+    "LazyGroup",
 ]
 
 EXIT_OK = 0
@@ -99,3 +101,25 @@ def format_option(default: str = "md", choices: tuple[str, ...] = ("md", "json",
         show_default=True,
         help="How to print the result on stdout.",
     )
+
+
+class LazyGroup(click.Group):
+    """A click group whose commands are imported only when one is asked for.
+
+    ``lazy_commands`` maps a command name to the module that defines it; importing that
+    module registers the command on this group (``@group.command(...)``). So
+    ``turn-datasets h36m mine`` loads the miner but not scikit-learn or pympi, which only
+    other commands need, and ``--version`` loads no command at all.
+    """
+
+    def __init__(self, *args, lazy_commands: Mapping[str, str] | None = None, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.lazy_commands = dict(lazy_commands or {})
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted(set(super().list_commands(ctx)) | set(self.lazy_commands))
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        if cmd_name not in self.commands and cmd_name in self.lazy_commands:
+            importlib.import_module(self.lazy_commands[cmd_name])
+        return super().get_command(ctx, cmd_name)

@@ -1,7 +1,7 @@
 """``turn-datasets``: curate Turn-H3.6M (``h36m ...``) and Turn-REMAP (``remap ...``).
 
 This module only builds the command groups; each command lives in a ``_cli_*`` module that
-parses its options, calls the library and prints.
+parses its options, calls the library and prints, and is imported only when it is used.
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import sys
 import click
 
 from turn_datasets import __version__
-from turn_datasets._cli import run_group
+from turn_datasets._cli import LazyGroup, run_group
 
 CONTEXT_SETTINGS = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
 
@@ -28,7 +28,15 @@ def cli() -> None:
     """
 
 
-@cli.group(context_settings=CONTEXT_SETTINGS)
+@cli.group(
+    cls=LazyGroup,
+    context_settings=CONTEXT_SETTINGS,
+    lazy_commands={
+        "mine": "turn_datasets._cli_mine",
+        "stats": "turn_datasets._cli_mine",
+        "export-clips": "turn_datasets._cli_export",
+    },
+)
 def h36m() -> None:
     """Turn-H3.6M: mine turning clips from motion capture, curate and summarise them.
 
@@ -39,7 +47,16 @@ def h36m() -> None:
     """
 
 
-@cli.group(context_settings=CONTEXT_SETTINGS)
+@cli.group(
+    cls=LazyGroup,
+    context_settings=CONTEXT_SETTINGS,
+    lazy_commands={
+        "inspect": "turn_datasets._cli_labels",
+        "labels": "turn_datasets._cli_labels",
+        "stats": "turn_datasets._cli_labels",
+        "agreement": "turn_datasets._cli_agreement",
+    },
+)
 def remap() -> None:
     """Turn-REMAP: labels from ELAN exports and the inter-rater agreement audit.
 
@@ -50,8 +67,7 @@ def remap() -> None:
     """
 
 
-# Commands register themselves on the groups above.
-from turn_datasets import _cli_agreement, _cli_export, _cli_labels, _cli_mine  # noqa: E402,F401
+# Each command registers itself on its group when its module is imported (LazyGroup).
 
 
 def main(args: list[str] | None = None) -> None:

@@ -1,6 +1,7 @@
 """``turn-eval``: score, compare and produce turning-angle predictions.
 
-This module only builds the command group; each command lives in a ``_cli_*`` module.
+This module only builds the command group; each command lives in a ``_cli_*`` module,
+imported only when it is used.
 """
 
 from __future__ import annotations
@@ -10,12 +11,20 @@ import sys
 import click
 
 from turn_datasets import __version__
-from turn_datasets._cli import run_group
+from turn_datasets._cli import LazyGroup, run_group
 
 CONTEXT_SETTINGS = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
 
 
-@click.group(context_settings=CONTEXT_SETTINGS)
+@click.group(
+    cls=LazyGroup,
+    context_settings=CONTEXT_SETTINGS,
+    lazy_commands={
+        "score": "turn_eval._cli_score",
+        "compare": "turn_eval._cli_compare",
+        "predict": "turn_eval._cli_predict",
+    },
+)
 @click.version_option(__version__, prog_name="turn-eval")
 def cli() -> None:
     """Score turning-angle predictions against Turn-H3.6M or Turn-REMAP.
@@ -28,8 +37,7 @@ def cli() -> None:
     """
 
 
-# Commands register themselves on the group above.
-from turn_eval import _cli_compare, _cli_predict, _cli_score  # noqa: E402,F401
+# Each command registers itself on the group when its module is imported (LazyGroup).
 
 
 def main(args: list[str] | None = None) -> None:
