@@ -437,3 +437,80 @@ def test_real_one_tier_per_annotator_through_a_schema(real_eaf_dir: Path, tmp_pa
     assert set(df["participant"]) == {"speaker"}
     assert set(df["angle_deg"]) == {90.0}
     assert set(df["value"]) == {"S"}
+
+
+# ---------------------------------------------------------------------------------------
+# The ELAN template (annotations/turn-remap.etf)
+
+TEMPLATE = Path(__file__).resolve().parents[1] / "annotations" / "turn-remap.etf"
+# The issue's controlled vocabularies, written out here rather than read from the schema.
+ISSUE_ANGLES = ["90", "135", "180", "225", "270", "315", "360"]
+ISSUE_SCENARIOS = ["scripted", "clinical", "free-living"]
+# EAF 3.0 (EAFv3.0.xsd): the children of ANNOTATION_DOCUMENT come in this order.
+EAF_ORDER = ["HEADER", "TIME_ORDER", "TIER", "LINGUISTIC_TYPE", "LOCALE", "LANGUAGE",
+             "CONSTRAINT", "CONTROLLED_VOCABULARY", "LEXICON_REF", "REF_LINK_SET",
+             "EXTERNAL_REF"]
+
+
+def test_template_is_an_elan_document_pympi_reads() -> None:
+    root = ET.parse(TEMPLATE).getroot()
+    assert root.tag == "ANNOTATION_DOCUMENT"
+    # Attributes the EAF 3.0 schema requires.
+    assert {"AUTHOR", "DATE", "VERSION"} <= set(root.attrib) and root.get("VERSION") == "3.0"
+    order = [EAF_ORDER.index(child.tag) for child in root]
+    assert order == sorted(order)
+    eaf = load_eaf(TEMPLATE)  # pympi-ling, after the safety checks
+    cvs = {
+        cv_id: [values[0][0] for values, _ext in entries.values()]
+        for cv_id, (_desc, entries, _ext_ref) in eaf.controlled_vocabularies.items()
+    }
+    assert cvs["turn_angle"] == ISSUE_ANGLES
+    assert cvs["scenario"] == ISSUE_SCENARIOS
+    assert cvs["location"]  # rooms: the issue names the vocabulary, not its values
+    # Each tier's type picks its vocabulary, so ELAN offers the list while labelling.
+    lt = {t: eaf.tiers[t][2]["LINGUISTIC_TYPE_REF"] for t in eaf.tiers}
+    assert {t: eaf.linguistic_types[lt[t]]["CONTROLLED_VOCABULARY_REF"] for t in eaf.tiers} == {
+        "Turn": "turn_angle", "Scenario": "scenario", "Location": "location"
+    }
+    assert all(eaf.linguistic_types[x]["TIME_ALIGNABLE"] == "true" for x in lt.values())
+
+
+def test_session_started_from_the_template_parses(tmp_path: Path) -> None:
+    import pympi.Elan
+
+    # As saved before anything is labelled: no turns, no error, and inspect says why.
+    blank = tmp_path / "blank.eaf"
+    blank.write_bytes(TEMPLATE.read_bytes())
+    assert read_annotations(blank).empty
+    info = inspect_eaf(blank)
+    assert info["turn_tiers"] == [{"tier": "Turn", "annotator": None, "participant": None}]
+    assert any("names no rater" in n for n in info["notes"])
+    assert {c["tier"] for k in ("location", "scenario") for c in info["context_tiers"][k]} == {
+        "Location", "Scenario"
+    }
+
+    # Labelled as the README says: the template's Turn tier renamed and given its rater and
+    # participant, a second rater's tier added with the type "turn", context spans marked;
+    # values picked from the lists carry ELAN 3.0 CVE_REF links.
+    eaf = pympi.Elan.Eaf(str(TEMPLATE))
+    eaf.rename_tier("Turn", "Turn c1 PD01")
+    eaf.tiers["Turn c1 PD01"][2].update(ANNOTATOR="c1", PARTICIPANT="PD01")
+    eaf.add_tier("Turn c2 PD01", ling="turn", part="PD01", ann="c2")
+    eaf.add_annotation("Turn c1 PD01", 2000, 3500, "180")
+    eaf.add_annotation("Turn c2 PD01", 2100, 3400, "180")
+    eaf.add_annotation("Turn c1 PD01", 8000, 9000, "90")
+    eaf.add_annotation("Scenario", 0, 6000, "clinical")
+    eaf.add_annotation("Scenario", 6000, 12000, "free-living")
+    eaf.add_annotation("Location", 0, 12000, "hallway")
+    # The template's own empty "Turn" tier is also kept in a copy that added tiers instead.
+    eaf.add_tier("Turn", ling="turn")
+    path = tmp_path / "pair01_day1.eaf"
+    pympi.Elan.to_eaf(str(path), eaf)
+    add_cve_refs(path, {"clinical": "scenario_clinical", "hallway": "location_hallway"})
+    df = read_annotations(path)
+    assert df[["session", "tier", "annotator", "participant", "start_s", "end_s",
+               "angle_deg", "scenario", "location"]].values.tolist() == [
+        ["pair01_day1", "Turn c1 PD01", "c1", "PD01", 2.0, 3.5, 180.0, "clinical", "hallway"],
+        ["pair01_day1", "Turn c1 PD01", "c1", "PD01", 8.0, 9.0, 90.0, "free-living", "hallway"],
+        ["pair01_day1", "Turn c2 PD01", "c2", "PD01", 2.1, 3.4, 180.0, "clinical", "hallway"],
+    ]

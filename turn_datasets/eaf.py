@@ -466,6 +466,12 @@ def _file_rows(doc: _Document, schema: Schema) -> list[dict[str, Any]]:
     for r in roles:
         if r.role != "turn":
             continue
+        tier_anns = _tier_annotations(eaf, r.tier, times)
+        if not tier_anns:
+            # An empty turn tier holds no turn to attribute: the template's "Turn" tier, left
+            # without rater and participant beside the tiers a clinician did fill, must not
+            # stop the parse (inspect still notes it).
+            continue
         if not r.annotator:
             raise TurnbenchError(
                 "turn tier names no rater",
@@ -491,9 +497,7 @@ def _file_rows(doc: _Document, schema: Schema) -> list[dict[str, Any]]:
                 tier=r.tier,
             )
         seen[key] = r.tier
-        anns = _checked_intervals(
-            doc, r.tier, _tier_annotations(eaf, r.tier, times), allow_overlap=False
-        )
+        anns = _checked_intervals(doc, r.tier, tier_anns, allow_overlap=False)
         for a in anns:
             angle = _parse_value(doc, r.tier, a, schema.turn_angle)
             rows.append(
@@ -545,14 +549,16 @@ def read_annotations(
         ``angle_deg`` is the vocabulary angle (the paper's 90° to 360° in 45° steps),
         ``scenario`` and ``location`` come from the context annotation overlapping the turn
         most (a participant's own context tiers before shared ones; empty if none overlaps),
-        ``value`` is the annotation's text as written. A file without turn tiers adds no rows.
+        ``value`` is the annotation's text as written. A file without turn tiers adds no rows,
+        and so does an empty turn tier (such as the template's ``Turn`` tier left unnamed).
 
     Raises
     ------
     TurnbenchError
         Naming the file, tier and time: a value outside the vocabulary, overlapping turns on
-        one tier, an end not after its start, an unaligned turn, a turn tier without rater or
-        participant, two tiers of one rater for one participant, two files of one session;
+        one tier, an end not after its start, an unaligned turn, a turn tier with annotations
+        but without rater or participant, two tiers of one rater for one participant, two
+        files of one session;
         and the refusals of :func:`load_eaf`.
     """
     schema = schema if schema is not None else load_schema()
