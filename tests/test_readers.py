@@ -505,6 +505,14 @@ def test_wrong_shapes(tmp_path: Path) -> None:
     np.savez(npz, other=np.zeros(3))
     with pytest.raises(TurnbenchError, match="no 'positions_3d'"):
         list(readers.read_source(readers.SourceFile(npz, "videopose-npz")))
+    # the right shape but text instead of numbers: named, not a traceback from float()
+    npz = tmp_path / "data_3d_h36m.npz"
+    payload = np.empty((), dtype=object)
+    payload[()] = {"S1": {"Walking": np.full((4, 32, 3), "x")}}
+    np.savez(npz, positions_3d=payload)
+    with pytest.raises(TurnbenchError, match="dtype <U1, expected numbers") as exc:
+        list(readers.read_source(readers.SourceFile(npz, "videopose-npz")))
+    assert (exc.value.where.file, exc.value.where.item) == (str(npz), "S1/Walking")
 
 
 @pytest.mark.parametrize("problem", ["nan", "coincident", "inf", "empty", "one-frame"])
@@ -570,3 +578,68 @@ def test_videopose_npz_stored_uncompressed_reads_the_same(tmp_path: Path) -> Non
 def test_read_source_takes_one_file_not_a_folder(tmp_path: Path) -> None:
     with pytest.raises(TurnbenchError, match="reads one file"):
         list(readers.read_source(tmp_path))
+
+
+def test_a_damaged_npy_header_names_the_file(tmp_path: Path) -> None:
+    # The header dict cut before its closing brackets: numpy's header parser raises
+    # tokenize.TokenError, not one of the usual ValueError/OSError.
+    header = "{'descr': '<f8', 'fortran_order': False, 'shape': (10, 32, 3"
+    header += " " * (118 - len(header) - 1) + "\n"
+    path = tmp_path / "S1" / "walk.npy"
+    path.parent.mkdir()
+    path.write_bytes(
+        b"\x93NUMPY\x01\x00" + len(header).to_bytes(2, "little") + header.encode()
+        + np.zeros(960).tobytes()
+    )  # fmt: skip
+    with pytest.raises(TurnbenchError, match="truncated or corrupt") as exc:
+        list(readers.read_source(path, layout="h36m32", fps=50, up_axis="z", units="mm"))
+    assert exc.value.where.file == str(path)
+
+
+def _damaged_copies(data: bytes, *, seed: int, n: int):
+    """``(is_cut, bytes)``: cuts at evenly spaced lengths, then copies with one to three bytes
+    overwritten."""
+    for k in range(1, 10):
+        yield True, data[: len(data) * k // 10]
+    rng = np.random.default_rng(seed)
+    for _ in range(n):
+        damaged = bytearray(data)
+        for _ in range(int(rng.integers(1, 4))):
+            damaged[int(rng.integers(len(damaged)))] = int(rng.integers(256))
+        yield False, bytes(damaged)
+
+
+@pytest.mark.parametrize("fmt", ["cdf", "h36m-h5", "videopose-npz", "array-npz", "array-npy"])
+def test_damaged_files_fail_with_one_error_naming_the_file(tmp_path: Path, fmt: str) -> None:
+    """Whatever the parsing library raises on damaged bytes (h5py a RuntimeError, zlib an
+    error, numpy a TokenError, cdflib a MemoryError were all met), the reader reports the
+    file as unreadable; a damaged copy may also still read (a flipped coordinate byte)."""
+    x = _walking_h36m(20)
+    path = {
+        "cdf": tmp_path / "S1" / "D3_Positions" / "Walking.cdf",
+        "h36m-h5": tmp_path / "S1" / "3D_positions" / "Walking.h5",
+        "videopose-npz": tmp_path / "data_3d_h36m.npz",
+        "array-npz": tmp_path / "S1" / "poses.npz",
+        "array-npy": tmp_path / "S1" / "poses.npy",
+    }[fmt]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if fmt == "cdf":
+        readers.write_h36m_cdf(path, x)
+    elif fmt == "h36m-h5":
+        readers.write_h36m_h5(path, x)
+    elif fmt == "videopose-npz":
+        readers.write_videopose_npz(path, {"S1": {"Walking": x / 1000}})
+    elif fmt == "array-npz":
+        np.savez_compressed(path, a=x)
+    else:
+        np.save(path, x)
+    src = readers.SourceFile(path, fmt.split("-")[0] if fmt.startswith("array") else fmt)
+    kw = {"layout": "h36m32", "fps": 50, "up_axis": "z", "units": "mm"}
+    for is_cut, data in _damaged_copies(path.read_bytes(), seed=len(fmt), n=150):
+        path.write_bytes(data)
+        try:
+            list(readers.read_source(src, **kw))
+        except TurnbenchError as exc:
+            assert exc.where.file == str(path), str(exc)
+        else:
+            assert not is_cut, f"a copy cut to {len(data)} bytes was read without error"

@@ -38,9 +38,7 @@ from __future__ import annotations
 
 import os
 import re
-import struct
 import zipfile
-import zlib
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -211,6 +209,15 @@ def _natural_key(text: str) -> tuple:
 
 # --- finding the files --------------------------------------------------------------------
 
+# What a library may raise when it parses a truncated or corrupt file. Truncating and
+# flipping bytes of files of every format met ValueError, OSError, EOFError, KeyError,
+# IndexError from all of them, but also h5py's RuntimeError (a damaged symbol table),
+# cdflib's MemoryError and OverflowError (a record size read from garbage), zlib.error (a
+# damaged deflate stream) and tokenize.TokenError (a damaged .npy header), and unpickling
+# VideoPose3D's dict can raise anything. So each read site wraps the library call alone (no
+# code of ours inside) and reports any exception from it as an unreadable file, naming it.
+_CORRUPT = (Exception,)
+
 
 @dataclass(frozen=True)
 class SourceFile:
@@ -225,7 +232,7 @@ def _npz_members(path: Path) -> list[str] | None:
     try:
         with zipfile.ZipFile(path) as zf:
             return [n[:-4] if n.endswith(".npy") else n for n in zf.namelist()]
-    except (zipfile.BadZipFile, OSError):
+    except _CORRUPT:
         return None
 
 
@@ -233,7 +240,7 @@ def _h5_has_root_dataset(path: Path, name: str) -> bool | None:
     try:
         with h5py.File(path, "r") as fh:
             return isinstance(fh.get(name), h5py.Dataset)
-    except OSError:
+    except _CORRUPT:
         return None
 
 
@@ -407,6 +414,10 @@ def _checked_positions(
         )
     if p.shape[0] == 0:
         raise TurnbenchError("the sequence has no frames", file=path, item=item)
+    if not (np.issubdtype(p.dtype, np.floating) or np.issubdtype(p.dtype, np.integer)):
+        raise TurnbenchError(
+            f"positions have dtype {p.dtype}, expected numbers", file=path, item=item
+        )
     p = np.ascontiguousarray(p, dtype=np.float64)
     if np.isinf(p).any():
         raise TurnbenchError("positions hold infinite values (corrupt?)", file=path, item=item)
@@ -422,9 +433,6 @@ def _checked_positions(
             item=item,
         )
     return p
-
-
-_CORRUPT = (ValueError, OSError, EOFError, KeyError, IndexError, struct.error, zlib.error)
 
 
 def _read_cdf(path: Path) -> Iterator[MocapSequence]:
@@ -461,18 +469,20 @@ def _read_cdf(path: Path) -> Iterator[MocapSequence]:
 def _read_h36m_h5(path: Path) -> Iterator[MocapSequence]:
     subject = h36m_subject_of(path)
     action, subaction = _action_of(path.stem, path)
+    stored, names = None, []
     try:
         with h5py.File(path, "r") as fh:
             dset = fh.get(_H36M_H5_DATASET)
-            if not isinstance(dset, h5py.Dataset):
-                raise TurnbenchError(
-                    f"no dataset {_H36M_H5_DATASET!r} (datasets: {sorted(fh)})", file=path
-                )
-            stored = np.asarray(dset[()])
+            if isinstance(dset, h5py.Dataset):
+                stored = np.asarray(dset[()])
+            else:
+                names = sorted(fh)
     except _CORRUPT as exc:
         raise TurnbenchError(
             f"cannot read HDF5 (truncated or corrupt?): {exc}", file=path
         ) from None
+    if stored is None:
+        raise TurnbenchError(f"no dataset {_H36M_H5_DATASET!r} (datasets: {names})", file=path)
     if stored.ndim != 2 or stored.shape[0] != 96:
         raise TurnbenchError(
             f"dataset {_H36M_H5_DATASET!r} has shape {stored.shape}, expected (96, N)",
@@ -502,18 +512,19 @@ def _action_of(name: str, path: Path, item: str | None = None) -> tuple[str, str
 
 def _read_videopose_npz(path: Path) -> Iterator[MocapSequence]:
     # allow_pickle: positions_3d is a pickled dict; only loaded from a file the user named
+    data, members = None, []
     try:
         with np.load(path, allow_pickle=True) as archive:
-            if _VIDEOPOSE_KEY not in archive.files:
-                raise TurnbenchError(
-                    f"no {_VIDEOPOSE_KEY!r} in this npz (it holds {sorted(archive.files)})",
-                    file=path,
-                )
-            data = archive[_VIDEOPOSE_KEY]
-    except (*_CORRUPT, zipfile.BadZipFile) as exc:
+            if _VIDEOPOSE_KEY in archive.files:
+                data = archive[_VIDEOPOSE_KEY]
+            else:
+                members = sorted(archive.files)
+    except _CORRUPT as exc:
         raise TurnbenchError(
             f"cannot read this npz (truncated or corrupt?): {exc}", file=path
         ) from None
+    if data is None:
+        raise TurnbenchError(f"no {_VIDEOPOSE_KEY!r} in this npz (it holds {members})", file=path)
     if data.dtype == object and data.shape == ():
         data = data.item()
     if not isinstance(data, dict) or not all(isinstance(v, dict) for v in data.values()):
@@ -541,7 +552,11 @@ def _read_videopose_npz(path: Path) -> Iterator[MocapSequence]:
 
 
 def _read_bvh(
-    path: Path, *, units: str | None, joint_map: Mapping[str, str] | None, skip_first_frame: bool | None
+    path: Path,
+    *,
+    units: str | None,
+    joint_map: Mapping[str, str] | None,
+    skip_first_frame: bool | None,
 ) -> Iterator[MocapSequence]:
     seq = _bvh.read_bvh(path, joint_map=joint_map, skip_first_frame=skip_first_frame)
     yield MocapSequence(
@@ -861,7 +876,7 @@ def iter_arrays(path: str | os.PathLike[str]) -> Iterator[tuple[str, np.ndarray]
     if suffix == ".npy":
         try:
             array = np.load(p, allow_pickle=False)
-        except (ValueError, OSError, EOFError) as exc:
+        except _CORRUPT as exc:
             raise TurnbenchError(
                 f"cannot read .npy (truncated or corrupt?): {exc}", file=p
             ) from None
@@ -870,7 +885,7 @@ def iter_arrays(path: str | os.PathLike[str]) -> Iterator[tuple[str, np.ndarray]
     if suffix == ".npz":
         try:
             archive = np.load(p, allow_pickle=False)
-        except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
+        except _CORRUPT as exc:
             raise TurnbenchError(
                 f"cannot read .npz (truncated or corrupt?): {exc}", file=p
             ) from None
@@ -881,7 +896,7 @@ def iter_arrays(path: str | os.PathLike[str]) -> Iterator[tuple[str, np.ndarray]
             for key in keys:
                 try:
                     array = archive[key]
-                except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
+                except _CORRUPT as exc:
                     raise TurnbenchError(
                         f"cannot read this array (pickled, truncated or corrupt?): {exc}",
                         file=p,
@@ -891,16 +906,21 @@ def iter_arrays(path: str | os.PathLike[str]) -> Iterator[tuple[str, np.ndarray]
         return
     try:
         fh = h5py.File(p, "r")
-    except OSError as exc:
+    except _CORRUPT as exc:
         raise TurnbenchError(f"cannot read HDF5 (truncated or corrupt?): {exc}", file=p) from None
     with fh:
-        names = _h5_dataset_names(fh)
+        try:
+            names = _h5_dataset_names(fh)
+        except _CORRUPT as exc:
+            raise TurnbenchError(
+                f"cannot list the datasets (truncated or corrupt?): {exc}", file=p
+            ) from None
         if not names:
             raise TurnbenchError("the HDF5 file holds no dataset", file=p)
         for name in names:
             try:
                 array = fh[name][()]
-            except (OSError, TypeError, ValueError) as exc:
+            except _CORRUPT as exc:
                 raise TurnbenchError(
                     f"cannot read this dataset (truncated or corrupt?): {exc}", file=p, item=name
                 ) from None
