@@ -310,7 +310,7 @@ def _bad_value_copy(synth, tmp_path: Path) -> Path:
 @pytest.mark.parametrize(
     "case",
     ["missing", "bad_value", "review_without_out_dir", "unknown_rater", "min_overlap_zero",
-     "not_eaf"],
+     "min_overlap_nan", "min_kappa_nan", "not_eaf"],
 )
 def test_bad_input_exit_2_nothing_written(synth, tmp_path, capsys, case):
     folder = synth.paths[0].parent
@@ -321,6 +321,9 @@ def test_bad_input_exit_2_nothing_written(synth, tmp_path, capsys, case):
         "review_without_out_dir": [folder, "--review-eaf"],
         "unknown_rater": [folder, "--raters", "clinician1", "zed"],
         "min_overlap_zero": [folder, "--min-overlap", "0"],
+        # NaN passes click's FloatRange unless refused; a NaN gate would fail every audit.
+        "min_overlap_nan": [folder, "--min-overlap", "nan"],
+        "min_kappa_nan": [folder, "--min-kappa", "nan"],
         "not_eaf": [synth.participants_path],
     }[case]
     if case != "review_without_out_dir":
@@ -333,6 +336,8 @@ def test_bad_input_exit_2_nothing_written(synth, tmp_path, capsys, case):
     if case == "bad_value":
         assert "'100' is not in the turn_angle vocabulary" in err
         assert synth.paths[1].name in err and "tier 'Turn" in err
+    if case.endswith("_nan"):
+        assert "must be a number, not nan" in err
     if case == "unknown_rater":
         assert "'zed' has no annotations" in err
 

@@ -222,6 +222,20 @@ def test_labels_failures_leave_old_outputs_alone(capsys, tmp_path: Path) -> None
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".release")]
 
 
+@pytest.mark.parametrize("value", ["nan", "0", "1.5"])
+def test_labels_bad_min_overlap_is_a_usage_error(capsys, tmp_path: Path, value: str) -> None:
+    # "nan" passes click's FloatRange unless refused (every comparison with NaN is false).
+    d = _eaf_dir(tmp_path, disagree=False)
+    out = tmp_path / "o" / "labels.csv"
+    code, stdout, err = run(
+        capsys, "remap", "labels", d, "--participants", _participants(tmp_path),
+        "--min-overlap", value, "--out", out,
+    )
+    assert code == EXIT_BAD_INPUT and stdout == ""
+    assert "--min-overlap" in err and "Traceback" not in err
+    assert not out.parent.exists()
+
+
 def test_labels_refuses_to_overwrite_an_input(capsys, tmp_path: Path) -> None:
     d = _eaf_dir(tmp_path, disagree=False)
     p = _participants(tmp_path)

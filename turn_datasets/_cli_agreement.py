@@ -12,6 +12,7 @@ import click
 
 from turn_datasets import __version__
 from turn_datasets._cli import format_option, info, progress, warn, wrote
+from turn_datasets._cli_labels import min_overlap_option, reject_nan
 from turn_datasets._io import (
     check_not_input,
     staged_dir,
@@ -46,7 +47,9 @@ REVIEW_DIR = "review"
 
 
 @remap.command("agreement", context_settings=CONTEXT_SETTINGS)
-@click.argument("inputs", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.argument(
+    "inputs", nargs=-1, required=True, metavar="EAF_OR_DIR...", type=click.Path(path_type=Path)
+)
 @click.option(
     "--schema",
     "schema_path",
@@ -61,17 +64,12 @@ REVIEW_DIR = "review"
     metavar="A B",
     help="The two raters to audit (default: the two present besides the consensus rater).",
 )
-@click.option(
-    "--min-overlap",
-    type=click.FloatRange(0.0, 1.0, min_open=True),
-    default=0.6,
-    show_default=True,
-    help="Link two turns when overlap / longer duration is at least this (as ELAN).",
-)
+@min_overlap_option
 @click.option(
     "--min-kappa",
     type=click.FloatRange(-1.0, 1.0),
     default=None,
+    callback=reject_nan,
     help="Gate: exit 3 after the report when Cohen's kappa is below this (or undefined).",
 )
 @format_option(default="md", choices=("md", "json"))

@@ -5,6 +5,7 @@ Parses options, calls :mod:`turn_datasets.eaf` and :mod:`turn_datasets.labels`, 
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import click
@@ -38,6 +39,25 @@ _schema_option = click.option(
     type=click.Path(dir_okay=False, path_type=Path),
     default=None,
     help="Annotation schema TOML for files in another convention (default: the shipped one).",
+)
+
+
+def reject_nan(ctx: click.Context, param: click.Parameter, value: float | None) -> float | None:
+    """Click callback: a NaN passes click's FloatRange (every comparison is false); refuse it."""
+    if value is not None and math.isnan(value):
+        raise click.BadParameter("must be a number, not nan", ctx=ctx, param=param)
+    return value
+
+
+#: ``--min-overlap`` of ``labels`` and ``agreement``: one matching rule for both.
+min_overlap_option = click.option(
+    "--min-overlap",
+    type=click.FloatRange(0.0, 1.0, min_open=True),
+    default=0.6,
+    show_default=True,
+    callback=reject_nan,
+    help="Two raters' turns are one when overlap / longer duration is at least this (as "
+    "ELAN's reliability check).",
 )
 
 
@@ -90,13 +110,7 @@ def inspect_cmd(
     help="CSV: subject, cohort (PD or HC), pair, sex, age, years_since_diagnosis.",
 )
 @_schema_option
-@click.option(
-    "--min-overlap",
-    type=click.FloatRange(0.0, 1.0, min_open=True),
-    default=0.6,
-    show_default=True,
-    help="Two raters' turns are one when overlap / longer duration is at least this (as ELAN).",
-)
+@min_overlap_option
 @click.option(
     "--resolve",
     type=click.Choice(RESOLVE_CHOICES),
