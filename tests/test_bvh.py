@@ -283,6 +283,13 @@ def test_duplicate_joint_names(tmp_path: Path) -> None:
         bvh.parse_bvh(_write(tmp_path, text))
 
 
+def test_empty_file(tmp_path: Path) -> None:
+    path = _write(tmp_path, "\n  \n")
+    with pytest.raises(TurnbenchError) as exc:
+        bvh.parse_bvh(path)
+    assert str(exc.value) == f"{path}: the file is empty"
+
+
 def test_missing_file() -> None:
     with pytest.raises(TurnbenchError, match="cannot read"):
         bvh.parse_bvh("/nonexistent/x.bvh")
@@ -298,6 +305,10 @@ def test_a_smooth_start_at_zero_orientation_is_not_a_rest_pose(tmp_path: Path) -
     path = _write(tmp_path, _hips_bvh(yaw), name="jump.bvh")
     assert bvh.first_frame_is_rest_pose(bvh.parse_bvh(path))
     assert bvh.read_bvh(path).positions.shape[0] == 30
+    # channel names are matched without regard to case (some writers print "Zrotation",
+    # others "ZRotation")
+    path = _write(tmp_path, _hips_bvh(yaw).replace("rotation", "Rotation"), name="caps.bvh")
+    assert bvh.first_frame_is_rest_pose(bvh.parse_bvh(path))
     # a jump without an exactly zero root orientation is motion, kept
     path = _write(tmp_path, _hips_bvh(yaw + 0.5), name="moving.bvh")
     assert not bvh.first_frame_is_rest_pose(bvh.parse_bvh(path))

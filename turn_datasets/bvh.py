@@ -147,6 +147,8 @@ class _Lines:
             tokens = self.lines[self.i - 1].split()
             if tokens:
                 return tokens, self.i
+        if not any(line.strip() for line in self.lines):
+            raise TurnbenchError("the file is empty", file=self.path)
         raise TurnbenchError(
             f"file ends where {what} was expected (truncated?)", file=self.path, row=self.i
         )
@@ -431,11 +433,18 @@ def first_frame_is_rest_pose(bvh: BvhMotion, *, jump_ratio: float = 2.0) -> bool
     that merely starts at zero orientation and moves smoothly is kept.
     """
     root = bvh.joints[0]
-    root_cols = [root.channel_start + k for k, c in enumerate(root.channels) if c.endswith("rotation")]
+    root_cols = [
+        root.channel_start + k
+        for k, c in enumerate(root.channels)
+        if c.lower().endswith("rotation")
+    ]
     if bvh.n_frames < 3 or not root_cols or np.any(bvh.motion[0, root_cols] != 0.0):
         return False
     cols = [
-        j.channel_start + k for j in bvh.joints for k, c in enumerate(j.channels) if c.endswith("rotation")
+        j.channel_start + k
+        for j in bvh.joints
+        for k, c in enumerate(j.channels)
+        if c.lower().endswith("rotation")
     ]
     step = np.abs(np.diff(bvh.motion[:, cols], axis=0))
     step = np.minimum(step, 360.0 - step).max(axis=1)  # angles wrap at 360
