@@ -66,6 +66,15 @@ def _natural_key(text: str) -> tuple:
     return tuple((0, int(t), "") if t.isdigit() else (1, 0, t) for t in re.split(r"(\d+)", text))
 
 
+def _check_out_folder(out: Path) -> None:
+    """Fail before mining, not after, when --out cannot be made: a file where a folder is."""
+    for folder in out.parents:
+        if folder.exists():
+            if not folder.is_dir():
+                raise TurnbenchError("is a file, so --out cannot be written under it", file=folder)
+            return
+
+
 def _sha256_or_none(path: Path) -> str | None:
     # a file that cannot even be opened was already reported as unreadable
     try:
@@ -234,6 +243,7 @@ def mine_cmd(
         raise TurnbenchError(f"--fps must be positive, got {fps}")
     jmap = parse_joint_map(joint_map) if joint_map else None
     mpath = manifest_path(out)
+    _check_out_folder(out)
     overrides = read_overrides(overrides_path) if overrides_path is not None else None
     bad: dict[Path, TurnbenchError] = {}
     files = _discover_each(sources, fmt, bad)
@@ -333,9 +343,15 @@ def mine_cmd(
         n_frames=sum(per_file[f.path]["frames"] for f in good),
     )
     # Both files or neither: each is written to a temporary file and renamed at the end.
-    with atomic_path(out) as tmp_index, atomic_path(mpath) as tmp_manifest:
-        index.to_csv(tmp_index, index=False, lineterminator="\n")
-        tmp_manifest.write_text(to_json_text(manifest), encoding="utf-8", newline="\n")
+    try:
+        with atomic_path(out) as tmp_index, atomic_path(mpath) as tmp_manifest:
+            index.to_csv(tmp_index, index=False, lineterminator="\n")
+            tmp_manifest.write_text(to_json_text(manifest), encoding="utf-8", newline="\n")
+    except OSError as exc:
+        # a folder that cannot be made or written (a file in the way, no permission, full)
+        raise TurnbenchError(
+            f"cannot write the clip index: {exc.strerror or exc}", file=out
+        ) from None
     if skipped:
         warn(f"skipped {len(skipped)} unreadable file(s), listed in {mpath}")
     info(
