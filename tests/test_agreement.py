@@ -488,3 +488,49 @@ def test_review_copy_of_real_exports_keeps_everything(real_eaf_dir, tmp_path, na
     text_out = out.read_text(encoding="utf-8")
     assert text_out.count("CVE_REF=") == text_src.count("CVE_REF=")
     assert "MEDIA_DESCRIPTOR" not in text_out
+
+    # Privacy: no header field of the source is left, read with the standard library.
+    import xml.etree.ElementTree as ET
+
+    src_root, out_root = ET.parse(src).getroot(), ET.parse(out).getroot()
+    urls = [
+        v for el in src_root.iter() if el.tag in ("MEDIA_DESCRIPTOR", "LINKED_FILE_DESCRIPTOR")
+        for k, v in el.attrib.items() if k.endswith("URL") or k == "EXTRACTED_FROM"
+    ]
+    assert all(u not in text_out for u in urls)
+    assert out_root.get("AUTHOR") == "" and out_root.get("DATE") == "1970-01-01T00:00:00+00:00"
+    header = out_root.find("HEADER")
+    assert header is None or not header.get("MEDIA_FILE")
+    counters = [] if header is None else header.findall("PROPERTY")
+    # Only ELAN's (or pympi's) annotation counter stays, past every id in the copy, so ELAN
+    # never hands out one of the new ids again.
+    assert {p.get("NAME") for p in counters} <= {"lastUsedAnnotationId", "lastUsedAnnotation"}
+    ids = [el.get("ANNOTATION_ID") for el in out_root.iter()
+           if el.tag in ("ALIGNABLE_ANNOTATION", "REF_ANNOTATION")]
+    assert len(ids) == len(set(ids))
+    numeric = [int(i[1:]) for i in ids if i[:1] == "a" and i[1:].isdigit()]
+    assert all(int(p.text) >= max(numeric) for p in counters)
+    src_counters = {p.get("NAME"): int(p.text) for p in src_root.iter("PROPERTY")
+                    if p.get("NAME") in ("lastUsedAnnotationId", "lastUsedAnnotation")}
+    # The two new annotations take the next ids after the source's ids and counter.
+    new_ids = sorted(int(el.get("ANNOTATION_ID")[1:]) for t in out_root.iter("TIER")
+                     if t.get("TIER_ID") == "Disagreement"
+                     for el in t.iter("ALIGNABLE_ANNOTATION"))
+    src_ids = [int(el.get("ANNOTATION_ID")[1:]) for el in src_root.iter()
+               if el.tag in ("ALIGNABLE_ANNOTATION", "REF_ANNOTATION")
+               and el.get("ANNOTATION_ID")[1:].isdigit()]
+    first = max([*src_ids, *src_counters.values()]) + 1
+    assert new_ids == [first, first + 1]
+    assert {p.get("NAME"): int(p.text) for p in counters} == {k: first + 1 for k in src_counters}
+
+    # With keep_media_paths the header is the source's (its counter moved on).
+    kept = write_review_eaf(src, tmp_path / ("kept_" + name), rows, rater_a="ann",
+                            rater_b="bob", keep_media_paths=True)
+    kept_root = ET.parse(kept).getroot()
+    assert all(u in kept.read_text(encoding="utf-8") for u in urls)
+    for key in ("AUTHOR", "DATE"):
+        assert kept_root.get(key) == src_root.get(key)
+    kept_props = [(p.get("NAME"), p.text) for p in kept_root.iter("PROPERTY")
+                  if p.get("NAME") not in src_counters]
+    assert kept_props == [(p.get("NAME"), p.text) for p in src_root.iter("PROPERTY")
+                          if p.get("NAME") not in src_counters]

@@ -993,6 +993,10 @@ def write_confusion_png(audit: AgreementAudit, path: str | os.PathLike[str]) -> 
 _XSI = "http://www.w3.org/2001/XMLSchema-instance"
 REVIEW_TIER = "Disagreement"
 REVIEW_ANNOTATOR = "turnbench"
+#: Header properties that count annotation ids: ELAN writes ``lastUsedAnnotationId``,
+#: pympi-ling ``lastUsedAnnotation``. The review copy keeps them past its new ids.
+_ID_PROPERTIES = ("lastUsedAnnotationId", "lastUsedAnnotation")
+_NEUTRAL_DATE = "1970-01-01T00:00:00+00:00"
 
 
 def _review_spans(rows: pd.DataFrame, *, rater_a: str, rater_b: str) -> list[tuple[int, int, str]]:
@@ -1044,9 +1048,11 @@ def write_review_eaf(
     with ``tier_per_participant``; ``PARTICIPANT`` set), whose
     annotations span both raters' intervals and read ``A: 90 / B: 135``. Everything else is
     kept as written (XML is edited directly: pympi-ling would drop ELAN 3.0 ``CVE_REF`` links
-    when writing the file back). Without ``keep_media_paths`` the media and linked-file
-    descriptors and the document's author are removed, as from every turnbench output.
-    The source is only read.
+    when writing the file back), and ELAN's annotation counter (``lastUsedAnnotationId``) is
+    moved past the new ids. Without ``keep_media_paths`` the header goes, as from every
+    turnbench output: media and linked-file descriptors, ``MEDIA_FILE``, the author, the
+    date (set to 1970-01-01) and every header property but the counter. The source is only
+    read.
 
     Parameters
     ----------
@@ -1060,7 +1066,7 @@ def write_review_eaf(
         Name the tiers after their participant (for sessions with several participants,
         even if only one of them has disagreements, so the names do not depend on that).
     keep_media_paths
-        Keep the header's media paths and author.
+        Keep the header as it is (media paths, author, date, properties).
     """
     src = Path(source)
     if Path(target).resolve() == src.resolve():
@@ -1074,12 +1080,23 @@ def write_review_eaf(
     ET.register_namespace("xsi", _XSI)
 
     header = root.find("HEADER")
-    if header is not None and not keep_media_paths:
-        for tag in ("MEDIA_DESCRIPTOR", "LINKED_FILE_DESCRIPTOR"):
-            for el in header.findall(tag):
-                header.remove(el)
+    if not keep_media_paths:
+        # What inspect shows only with --keep-media-paths goes: media and linked files, the
+        # author, the date, and header properties other than ELAN's annotation counter.
+        if header is not None:
+            for tag in ("MEDIA_DESCRIPTOR", "LINKED_FILE_DESCRIPTOR"):
+                for el in header.findall(tag):
+                    header.remove(el)
+            for prop in header.findall("PROPERTY"):
+                if prop.get("NAME") not in _ID_PROPERTIES:
+                    header.remove(prop)
+            if header.get("MEDIA_FILE"):
+                header.set("MEDIA_FILE", "")
         if "AUTHOR" in root.attrib:
             root.set("AUTHOR", "")
+        if "DATE" in root.attrib:
+            # ELAN requires a date; a fixed one says nothing about the recording.
+            root.set("DATE", _NEUTRAL_DATE)
 
     time_order = root.find("TIME_ORDER")
     if time_order is None:
@@ -1091,7 +1108,15 @@ def write_review_eaf(
         for tag in ("ALIGNABLE_ANNOTATION", "REF_ANNOTATION")
         for el in root.iter(tag)
     ]
-    aid_next = _max_numeric_id(ann_ids, "a") + 1
+    counters = [
+        prop for prop in (header.findall("PROPERTY") if header is not None else [])
+        if prop.get("NAME") in _ID_PROPERTIES
+    ]
+    # Past every id in the file and past ELAN's counter, so no id is ever given twice.
+    aid_next = max(
+        [_max_numeric_id(ann_ids, "a")]
+        + [int(p.text.strip()) for p in counters if p.text and p.text.strip().isdigit()]
+    ) + 1
 
     children = list(root)
     tier_ids = {el.get("TIER_ID") for el in root.findall("TIER")}
@@ -1151,11 +1176,9 @@ def write_review_eaf(
     lt.tail = "\n\t"
     root.insert((last_lt if last_lt is not None else insert_at + len(new_tiers) - 1) + 1, lt)
 
-    if header is not None:
-        for prop in header.findall("PROPERTY"):
-            if prop.get("NAME") == "lastUsedAnnotation":
-                # ELAN numbers new annotations after this one.
-                prop.text = str(aid_next - 1)
+    for prop in counters:
+        # ELAN numbers new annotations after this one.
+        prop.text = str(aid_next - 1)
 
     with atomic_path(target) as tmp:
         tree.write(str(tmp), encoding="UTF-8", xml_declaration=True)
