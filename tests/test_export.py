@@ -266,3 +266,73 @@ def test_read_clip_index_dtypes(tmp_path: Path) -> None:
     assert df["start_frame"].dtype == np.int64 and df["fps"].dtype == np.float64
     assert df["subaction"].tolist() == ["1", ""]
     assert isinstance(df, pd.DataFrame)
+
+
+def _failing_ffmpeg(tmp_path: Path, *, fail_on_cut: int) -> Path:
+    """An ffmpeg that is the real one, except that its ``fail_on_cut``-th cut (an encode to
+    libx264; probes only copy) writes part of its output and then fails, as a full disk or a
+    killed encoder would."""
+    real = imageio_ffmpeg.get_ffmpeg_exe()
+    counter = tmp_path / "cuts"
+    script = tmp_path / "ffmpeg"
+    script.write_text(
+        "#!/bin/sh\n"
+        'case "$*" in *libx264*)\n'
+        f'  n=$(($(cat "{counter}" 2>/dev/null || echo 0) + 1)); echo $n > "{counter}"\n'
+        f"  if [ $n -eq {fail_on_cut} ]; then\n"
+        f'    "{real}" "$@"; echo "Error writing trailer: No space left on device" >&2; exit 1\n'
+        "  fi;;\n"
+        "esac\n"
+        f'exec "{real}" "$@"\n'
+    )
+    script.chmod(0o755)
+    return script
+
+
+def test_ffmpeg_failing_midway_leaves_the_out_dir_as_it_was(
+    tmp_path: Path, videos: Path, capsys, monkeypatch
+) -> None:
+    # three cuts in index order: Walking by both cameras, then Photo; the third fails
+    index = _index(tmp_path / "index.csv", [WALK, PHOTO])
+    out = tmp_path / "clips"
+    out.mkdir()
+    earlier = out / "earlier.mp4"  # a file from an earlier export stays untouched
+    earlier.write_bytes(b"kept")
+    (tmp_path / "bin").mkdir()
+    fake = _failing_ffmpeg(tmp_path / "bin", fail_on_cut=3)
+    monkeypatch.setattr(export.imageio_ffmpeg, "get_ffmpeg_exe", lambda: str(fake))
+    code, stdout, stderr = run(
+        ["h36m", "export-clips", index, "--videos", videos, "--out-dir", out], capsys
+    )
+    assert code == EXIT_BAD_INPUT and stdout == ""
+    assert "Traceback" not in stderr
+    last_video = videos / "S1" / "Videos" / f"TakingPhoto.{CAMERAS[0]}.mp4"
+    assert stderr.strip().splitlines()[-1] == (
+        f"turn-datasets: error: {last_video}: ffmpeg failed to cut frames: "
+        "Error writing trailer: No space left on device"
+    )
+    assert (tmp_path / "bin" / "cuts").read_text().strip() == "3"  # two cuts made, then it failed
+    # neither the two good cuts, nor the half-written third, nor the staging folder
+    assert [p.name for p in out.iterdir()] == ["earlier.mp4"]
+    assert earlier.read_bytes() == b"kept"
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
+
+
+def test_out_is_an_alias_of_out_dir_and_a_file_there_is_refused(
+    tmp_path: Path, videos: Path, capsys
+) -> None:
+    index = _index(tmp_path / "index.csv", [PHOTO])
+    out = tmp_path / "clips"
+    code, _, stderr = run(["h36m", "export-clips", index, "--videos", videos, "--out", out], capsys)
+    assert code == 0, stderr
+    assert [p.name for p in out.iterdir()] == [f"S1_Photo_0-25.{CAMERAS[0]}.mp4"]
+    a_file = tmp_path / "notes.txt"
+    a_file.write_text("x")
+    for target in (a_file, a_file / "clips"):
+        code, _, stderr = run(
+            ["h36m", "export-clips", index, "--videos", videos, "--out-dir", target], capsys
+        )
+        assert code == EXIT_BAD_INPUT
+        assert stderr.strip() == (
+            f"turn-datasets: error: {a_file}: is a file, so --out-dir cannot be made there"
+        )

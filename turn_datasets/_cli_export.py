@@ -22,9 +22,12 @@ from turn_datasets.cli import h36m
 )
 @click.option(
     "--out-dir",
+    "--out",
+    "out_dir",
     required=True,
     type=click.Path(path_type=Path),
-    help="Folder for the cuts, named {clip_id}.{camera}.mp4 (created if needed).",
+    help="Folder for the cuts, named {clip_id}.{camera}.mp4 (created if needed); all cuts "
+    "are written or, if one fails, none.",
 )
 @click.option(
     "--camera",

@@ -34,7 +34,7 @@ from pathlib import Path
 import imageio_ffmpeg
 import pandas as pd
 
-from turn_datasets._io import atomic_path, check_not_input
+from turn_datasets._io import atomic_path, check_not_input, staged_dir
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.readers import parse_h36m_action
 
@@ -335,8 +335,9 @@ def export_clips(
     """Cut every clip of the index out of every camera's video into ``out_dir``.
 
     Everything is checked before the first cut (the index, a video for every clip, frames
-    inside every video), so a bad input leaves ``out_dir`` untouched; each clip file is
-    then written atomically and its frame count checked.
+    inside every video). The cuts are then made in a temporary folder beside ``out_dir``,
+    each one's frame count checked, and moved into ``out_dir`` only when all succeeded: a
+    bad input, or ffmpeg failing midway, leaves ``out_dir`` as it was.
 
     Parameters
     ----------
@@ -377,28 +378,37 @@ def export_clips(
             hint="pass --skip-missing to cut the others",
         )
     out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise TurnbenchError("--out-dir is a file, not a folder", file=out)
+    for folder in (out, *out.parents):
+        if folder.exists():
+            if not folder.is_dir():
+                raise TurnbenchError("is a file, so --out-dir cannot be made there", file=folder)
+            break
     inputs = [index_path, *sorted({job.video for job in plan.jobs})]
     for job in plan.jobs:
         check_not_input(out / job.out_name, inputs)
     exe = imageio_ffmpeg.get_ffmpeg_exe()
-    for job in progress(plan.jobs):
-        path = cut_clip(
-            job.video,
-            out / job.out_name,
-            start_frame=job.start_frame,
-            n_frames=job.n_frames,
-            video_fps=job.video_fps,
-            crf=crf,
-            ffmpeg=exe,
-        )
-        got = probe_video(path, ffmpeg=exe).n_frames
-        if got != job.n_frames:
-            path.unlink()
-            raise TurnbenchError(
-                f"the cut of clip {job.clip_id} has {got} frames, expected {job.n_frames} "
-                "(variable frame rate video?)",
-                file=job.video,
-            )
+    try:
+        # All cuts or none: they are made in a temporary folder beside out_dir and moved in
+        # only when every one succeeded, so ffmpeg failing on the tenth clip leaves out_dir
+        # as it was (files already there are kept; cuts of the same name are replaced).
+        with staged_dir(out) as stage:
+            for job in progress(plan.jobs):
+                path = cut_clip(
+                    job.video,
+                    stage / job.out_name,
+                    start_frame=job.start_frame,
+                    n_frames=job.n_frames,
+                    video_fps=job.video_fps,
+                    crf=crf,
+                    ffmpeg=exe,
+                )
+                got = probe_video(path, ffmpeg=exe).n_frames
+                if got != job.n_frames:
+                    raise TurnbenchError(
+                        f"the cut of clip {job.clip_id} has {got} frames, expected "
+                        f"{job.n_frames} (variable frame rate video?)",
+                        file=job.video,
+                    )
+    except OSError as exc:
+        raise TurnbenchError(f"cannot write the cuts: {exc.strerror or exc}", file=out) from None
     return plan
