@@ -339,6 +339,8 @@ def test_inspect_every_real_file(real_eaf_dir: Path, name: str) -> None:
     text = json.dumps(result)
     assert "MEDIA_URL" not in text and "header" not in result
     assert ".wav" not in text and ".mpg" not in text
+    # No URL or path from inside the file (media, linked files, external vocabularies).
+    assert "file:" not in text and "/Users/" not in text and "/home/" not in text
     # And no turn rows, without error.
     assert read_annotations(path).empty
 
@@ -399,8 +401,14 @@ def test_real_unknown_version_and_external_vocabulary(real_eaf_dir: Path) -> Non
     cv_ext = {c.get("CV_ID"): c.get("EXT_REF") for c in root.iter("CONTROLLED_VOCABULARY")}
     vocab = {v["id"]: v for v in inspect_eaf(fables)["vocabularies"]}
     assert vocab["MarkerType"]["external"] is True
-    assert vocab["MarkerType"]["url"] == ext[cv_ext["MarkerType"]]
-    assert vocab["MarkerType"]["url"].endswith("fables_cv.ecv")
+    # The file's reference is file:/home/<a person>/Documents/ELAN/fables_cv.ecv: by default
+    # only the file name is shown, the full path with keep_media_paths.
+    full = ext[cv_ext["MarkerType"]]
+    assert full.startswith("file:/home/") and full.endswith("/fables_cv.ecv")
+    assert vocab["MarkerType"]["url"] == "fables_cv.ecv"
+    assert "/home/" not in json.dumps(inspect_eaf(fables))
+    kept = {v["id"]: v for v in inspect_eaf(fables, keep_media_paths=True)["vocabularies"]}
+    assert kept["MarkerType"]["url"] == full
     assert vocab["MarkerType"]["entries"] == []
     assert vocab["Languages"]["external"] is False
 

@@ -71,9 +71,10 @@ def test_inspect_every_real_file_markdown_and_json(capsys, real_eaf_dir: Path) -
     for f in files:
         assert f"## {f.name}" in out
     assert out.count("Turn tiers: **none**.") == len(files)
-    assert "external: file:/home/tuananh/Documents/ELAN/fables_cv.ecv" in out
-    # Privacy: no media path unless asked.
-    assert "r03_v20_s5.wav" not in out and "elan-example1" not in out
+    # Privacy: no media path unless asked, and an external vocabulary by its file name only
+    # (its path, file:/home/tuananh/..., names a person).
+    assert "| MarkerType | external: fables_cv.ecv |" in out
+    assert "r03_v20_s5.wav" not in out and "elan-example1" not in out and "/home/" not in out
     small = [real_eaf_dir / "pygamma_MaureenMarvinRobin.eaf", real_eaf_dir / "speach_test.eaf"]
     code, out, err = run(capsys, "remap", "inspect", *small, "--format", "json")
     assert code == EXIT_OK, err
@@ -89,6 +90,12 @@ def test_inspect_keep_media_paths(capsys, real_eaf_dir: Path) -> None:
     )
     assert code == EXIT_OK
     assert "file:///Users/Shared/MPI/DemoMaterial/yele/r03_v20_s5.wav" in out
+    code, out, _ = run(
+        capsys, "remap", "inspect", real_eaf_dir / "speach_fables_01_03_aesop_64kb.eaf",
+        "--keep-media-paths",
+    )
+    assert code == EXIT_OK
+    assert "external: file:/home/tuananh/Documents/ELAN/fables_cv.ecv" in out
 
 
 def test_inspect_turn_file_shows_roles(capsys, tmp_path: Path) -> None:

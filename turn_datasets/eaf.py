@@ -582,14 +582,24 @@ def read_annotations(
 # Inspect
 
 
-def _vocabularies(eaf: pympi.Elan.Eaf) -> list[dict[str, Any]]:
+def _url_name(url: str) -> str:
+    """The last part of a URL or path (``file:/home/ann/cv/rooms.ecv`` -> ``rooms.ecv``)."""
+    return url.replace("\\", "/").rstrip("/").rsplit("/", 1)[-1]
+
+
+def _vocabularies(eaf: pympi.Elan.Eaf, *, keep_media_paths: bool) -> list[dict[str, Any]]:
     out: list[dict[str, Any]] = []
     for cv_id, (descriptions, entries, ext_ref) in eaf.controlled_vocabularies.items():
         description = next((str(d[1]).strip() for d in descriptions if d[1]), "")
         item: dict[str, Any] = {"id": cv_id, "description": description}
         if ext_ref:
             ref = eaf.external_refs.get(ext_ref)
-            item.update(external=True, url=None if ref is None else ref[1], entries=[])
+            url = None if ref is None else str(ref[1])
+            if url is not None and not keep_media_paths:
+                # An external vocabulary is often a local file whose path names a person
+                # (file:/home/<name>/...): its file name is enough to find it.
+                url = _url_name(url)
+            item.update(external=True, url=url, entries=[])
         else:
             texts = []
             for values, _ext in entries.values():
@@ -632,15 +642,17 @@ def inspect_eaf(
     schema
         The convention used to name turn and context tiers (default schema if ``None``).
     keep_media_paths
-        Also report the header (author, date, media and linked file paths). Off by default:
-        outputs carry subject ids, never paths that may name people or places.
+        Also report the header (author, date, media and linked file paths) and the full
+        location of external vocabularies. Off by default: outputs carry subject ids, never
+        paths that may name people or places.
 
     Returns
     -------
     dict
         ``file, session, format, tiers`` (each ``tier, type, constraint, time_alignable,
         parent, annotator, participant, vocabulary, annotations, unaligned, start_s, end_s,
-        role``), ``vocabularies`` (``id, description, external, url, entries``),
+        role``), ``vocabularies`` (``id, description, external, url, entries``; the
+        ``url`` of an external vocabulary is only its file name without ``keep_media_paths``),
         ``turn_tiers``, ``context_tiers`` (``location``, ``scenario``), ``notes``, and
         ``header`` with ``keep_media_paths``.
     """
@@ -719,7 +731,7 @@ def inspect_eaf(
         "session": doc.path.stem,
         "format": doc.version or None,
         "tiers": tiers,
-        "vocabularies": _vocabularies(eaf),
+        "vocabularies": _vocabularies(eaf, keep_media_paths=keep_media_paths),
         "turn_tiers": turn_tiers,
         "context_tiers": context,
         "notes": notes,
