@@ -83,6 +83,40 @@ def test_pelvic_sway_amplitude_and_frequency(sway_deg: float) -> None:
     assert freqs[np.argmax(power)] == pytest.approx(1.25 / 1.40, abs=0.01)
 
 
+def _stride_amplitude_deg(positions: np.ndarray, freq_hz: float) -> float:
+    """Amplitude of the hip vector's yaw at ``freq_hz``, by a least-squares sinusoid.
+
+    The yaw is a hand-written atan2 of left hip minus right hip on the ground plane (not
+    geometry's), fitted with a constant + sin + cos at the stride frequency by numpy's lstsq.
+    """
+    d = positions[:, LH, :2] - positions[:, RH, :2]
+    yaw = np.degrees(np.unwrap(np.arctan2(d[:, 1], d[:, 0])))
+    t = np.arange(yaw.shape[0]) / FPS
+    design = np.column_stack(
+        [np.ones_like(t), np.sin(2 * np.pi * freq_hz * t), np.cos(2 * np.pi * freq_hz * t)]
+    )
+    (_, a, b), *_ = np.linalg.lstsq(design, yaw, rcond=None)
+    return float(np.hypot(a, b))
+
+
+@pytest.mark.parametrize("sway_deg", [3.0, 4.5, 6.0])
+def test_sway_survives_the_default_noise_and_wander(sway_deg: float) -> None:
+    # As the miner's corpus is generated: 10 mm joint noise and the postural wander on.
+    # Noise of 10 mm on each coordinate of two hips 264 mm apart moves the yaw by about
+    # sqrt(2) * 10 / 264 rad = 3.1 deg per frame, yet over 29 s (1450 frames) the fitted
+    # amplitude is off by only about 3.1 * sqrt(2 / 1450) = 0.12 deg: half the peak to peak
+    # asked for must come out within 0.4 deg.
+    seq = sm.generate_sequence(
+        seed=21, segments=[sm.Segment.walk(30.0, 1.25)], sway_deg=sway_deg, start_heading_deg=0.0
+    )
+    stride_hz = 1.25 / 1.40  # step 0.45 + 0.2 * 1.25 = 0.70 m, two steps a stride
+    amplitude = _stride_amplitude_deg(seq.positions[int(1 * FPS) :], stride_hz)
+    assert amplitude == pytest.approx(sway_deg / 2, abs=0.4)
+    # Standing, the same fit finds no rotation at that frequency beyond the noise.
+    still = sm.generate_sequence(seed=21, segments=[sm.Segment.stand(30.0)], sway_deg=sway_deg)
+    assert _stride_amplitude_deg(still.positions, stride_hz) < 0.4
+
+
 def test_standing_has_no_sway_and_does_not_move() -> None:
     seq = _clean([sm.Segment.stand(4.0)], sway_deg=6.0)
     yaw = frame_yaw_deg(seq.positions, H36M32)
