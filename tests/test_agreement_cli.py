@@ -389,3 +389,35 @@ def test_console_script(synth):
     assert done.returncode == EXIT_GATE
     assert done.stdout.startswith("# Inter-rater agreement")
     assert done.stderr.strip().splitlines()[-1].startswith("turn-datasets: gate failed:")
+
+
+def test_no_header_field_reaches_any_output(synth, tmp_path, capsys):
+    # The generator's files carry a clinician's media path, an author and a date in their
+    # header (read here from the XML); none of it may reach labels, annotations.csv, the
+    # audit's files, its stdout or the review copies without --keep-media-paths.
+    import xml.etree.ElementTree as ET
+
+    root = ET.parse(synth.paths[0]).getroot()
+    secrets = [root.get("AUTHOR"), root.get("DATE")] + [
+        v for el in root.iter() if el.tag in ("MEDIA_DESCRIPTOR", "LINKED_FILE_DESCRIPTOR")
+        for k, v in el.attrib.items() if k.endswith("URL")
+    ]
+    assert len(secrets) >= 3 and all(secrets)
+    folder = synth.paths[0].parent
+    labels = tmp_path / "release" / "labels.csv"
+    code = run_group(cli, "turn-datasets", ["remap", "labels", str(folder), "--participants",
+                                            str(synth.participants_path), "--out", str(labels)])
+    assert code == EXIT_OK
+    printed = capsys.readouterr().out
+    for fmt in ("md", "json"):
+        code, out, err = run([folder, "--bootstrap", "0", "--format", fmt, "--out-dir",
+                              tmp_path / f"audit-{fmt}", "--review-eaf"], capsys)
+        assert code == EXIT_OK, err
+        printed += out
+    written = [p for p in tmp_path.rglob("*") if p.is_file() and p.suffix != ".png"]
+    assert {p.name for p in written} >= {"labels.csv", "annotations.csv", "agreement.json",
+                                         "pairs.csv", "disagreements.csv"}
+    assert any(p.suffix == ".eaf" for p in written)
+    for text in [printed, *(p.read_text(encoding="utf-8") for p in written)]:
+        for secret in secrets:
+            assert secret not in text
