@@ -10,17 +10,21 @@ from __future__ import annotations
 import base64
 import json
 import re
+import shutil
+from html.parser import HTMLParser
 from pathlib import Path
 
 import pandas as pd
 import pytest
 
+from turn_datasets._cli import run_group
 from turn_datasets.demo_corpus import (
     write_h36m_corpus,
     write_h36m_estimates,
     write_remap_corpus,
     write_remap_estimates,
 )
+from turn_eval import cli as eval_cli
 from turn_eval import demo
 from turn_eval.degrade import degrade_skeleton
 
@@ -44,10 +48,20 @@ def test_every_result_listed_exists(ran) -> None:
     for what, path in results.items():
         assert Path(path).exists(), what
         assert out in Path(path).parents or Path(path) == out / "report.html"
-    # the run ends by saying where each result is
+    # the run ends by saying where each result is, the generated corpus included
     tail = printed[printed.index("Where each result is:") :]
     for path in results.values():
         assert str(path) in tail
+    listed = set(results.values())
+    for rel in (
+        "corpus/h36m",
+        "corpus/h36m/planted.csv",
+        "corpus/remap/eaf",
+        "corpus/remap/participants.csv",
+        "h36m/compare.json",
+        "remap/compare.json",
+    ):
+        assert out / rel in listed, rel
 
 
 def test_it_runs_the_commands_users_run(ran) -> None:
@@ -142,6 +156,103 @@ def test_miner_check_against_planted_turns(ran) -> None:
     # the issue's target for the miner: at least 98% of planted turns of 60° or more found
     big = matched[matched["angle_deg"] >= 60.0]
     assert big["found"].mean() >= 0.98
+
+
+def test_miner_check_names_the_planted_range(ran) -> None:
+    # the first row's label is the range of the planted hip rotations, read from planted.csv
+    out, _, _ = ran
+    planted = pd.read_csv(out / "corpus" / "h36m" / "planted.csv")
+    low, high = planted["angle_deg"].min(), planted["angle_deg"].max()
+    rows = (out / "h36m" / "miner-check.md").read_text(encoding="utf-8").splitlines()
+    assert rows[2].startswith(f"| all ({low:.0f}° to {high:.0f}°) | {len(planted)} |")
+
+
+class _Tags(HTMLParser):
+    def __init__(self) -> None:
+        super().__init__(convert_charrefs=True)
+        self.tags: list[tuple[str, dict]] = []
+        self.text: list[str] = []
+
+    def handle_starttag(self, tag, attrs):
+        self.tags.append((tag, dict(attrs)))
+
+    def handle_data(self, data):
+        self.text.append(data)
+
+
+def test_hostile_group_names_in_a_reference_stay_text(ran, tmp_path: Path) -> None:
+    """A room or subject named like markup, scored by the real command, is text in the page."""
+    out = tmp_path / "demo-output"
+    shutil.copytree(ran[0], out)
+    labels = pd.read_csv(out / "remap" / "labels.csv", keep_default_na=False)
+    hostile_room = "<script>alert(1)</script>"
+    hostile_subject = '"><img src=x onerror=alert(2)>'
+    labels["location"] = [hostile_room if i % 2 else "kitchen" for i in range(len(labels))]
+    labels["subject"] = [
+        hostile_subject if i % 3 == 0 else s for i, s in enumerate(labels["subject"])
+    ]
+    labels.to_csv(out / "remap" / "labels.csv", index=False)
+    for method in demo.METHODS:
+        code = run_group(
+            eval_cli.cli,
+            "turn-eval",
+            [
+                "score",
+                str(out / "remap" / f"predictions-{method}.csv"),
+                "--reference",
+                str(out / "remap" / "labels.csv"),
+                "--out-dir",
+                str(out / "remap" / f"scores-{method}"),
+                "--plots",
+                "--bootstrap",
+                "20",
+            ],
+        )
+        assert code == 0
+    text = demo.write_report(out).read_text(encoding="utf-8")
+    assert hostile_room not in text and "<img src=x" not in text
+    page = _Tags()
+    page.feed(text)
+    names = [t for t, _ in page.tags]
+    assert "script" not in names
+    # every image is one of the embedded PNGs, none is the planted one
+    for tag, attrs in page.tags:
+        if tag == "img":
+            assert attrs["src"].startswith("data:image/png;base64,")
+        assert "onerror" not in attrs
+    # ... and a reader sees the names as they are, as table headings
+    seen = "".join(page.text)
+    assert hostile_room in seen and hostile_subject in seen
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--seed", "-1"], "--seed: -1 is below 0"),
+        (["--bootstrap", "0"], "--bootstrap: 0 is below 1"),
+        (["--seed", "x"], "'x' is not a whole number"),
+    ],
+)
+def test_bad_options_stop_before_any_work(tmp_path: Path, capsys, args, message) -> None:
+    with pytest.raises(SystemExit) as exc:
+        demo.main(["--out-dir", str(tmp_path / "out"), "--quick", *args])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_an_unwritable_out_dir_is_one_line_and_exit_2(tmp_path: Path, capsys) -> None:
+    a_file = tmp_path / "taken"
+    a_file.write_text("not a folder", encoding="utf-8")
+    assert demo.main(["--out-dir", str(a_file), "--quick"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"error: {a_file}: --out-dir is a file, not a folder"]
+    # a folder below a file cannot be made: the OS's error, in one line
+    assert demo.main(["--out-dir", str(a_file / "below"), "--quick"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("demo failed:") and str(a_file) in err[0]
+    assert a_file.read_text(encoding="utf-8") == "not a folder"
 
 
 def test_match_planted_by_hand() -> None:

@@ -28,7 +28,7 @@ import io
 import shlex
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import click
@@ -46,6 +46,7 @@ from turn_datasets.demo_corpus import (
     write_remap_corpus,
     write_remap_estimates,
 )
+from turn_datasets.errors import TurnbenchError
 from turn_eval import cli as eval_cli
 from turn_eval.degrade import degrade_skeleton
 from turn_eval.report import Report, load_json
@@ -144,8 +145,11 @@ def _miner_check(planted: pd.DataFrame, index: pd.DataFrame) -> tuple[pd.DataFra
         "median start error (s) | median end error (s) |",
         "|---|---:|---:|---:|---:|---:|---:|",
     ]
+    # The range is the planted hips' own: the generator asks for 48° to 233° of heading, and
+    # the pelvic sway at a turn's ends moves the hip rotation a few degrees either way.
+    low, high = planted["angle_deg"].min(), planted["angle_deg"].max()
     for label, rows in (
-        ("all (48° to 233°)", matched),
+        (f"all ({low:.0f}° to {high:.0f}°)", matched),
         ("at least 60°", matched[matched["angle_deg"] >= 60.0]),
     ):
         found = rows[rows["found"]]
@@ -225,6 +229,10 @@ def run_demo(
         f"{len(remap.participants)} participants, {len(remap.truth)} planted turns, in "
         f"{corpus / 'remap'}"
     )
+    results["Demo motion capture (three H3.6M layouts)"] = corpus / "h36m"
+    results["Turns planted in the motion capture"] = h36m.planted_path
+    results["Demo ELAN sessions"] = corpus / "remap" / "eaf"
+    results["Participants table"] = remap.participants_path
 
     _say("\n# 2. Turn-H3.6M: mine the clip index, summarise it (Table 3)")
     index_path = h36m_dir / "turn-h36m.csv"
@@ -350,6 +358,7 @@ def run_demo(
         _eval([*args, "--out", str(folder / "compare.md")], show=True)
         _eval([*args, "--format", "json", "--out", str(folder / "compare.json")])
         results[f"{names[key]}: paper vs net"] = folder / "compare.md"
+        results[f"{names[key]}: paper vs net (JSON)"] = folder / "compare.json"
 
     _say("\n# 7. The report")
     report_path = write_report(out, seed=seed)
@@ -502,7 +511,23 @@ def write_report(out_dir: str | Path, *, seed: int = DEMO_SEED) -> Path:
     return report.write(out / "report.html")
 
 
+def _int_at_least(low: int) -> Callable[[str], int]:
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+        if value < low:
+            raise argparse.ArgumentTypeError(f"{value} is below {low}")
+        return value
+
+    return parse
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    """Exit 0 when every step ran; 1 when a step's command failed (its message says which);
+    2 for a bad option or an output folder that cannot be written (one line, no traceback).
+    """
     parser = argparse.ArgumentParser(
         prog="python -m turn_eval.demo",
         description="Run the whole turnbench pipeline on the bundled synthetic corpus.",
@@ -511,17 +536,30 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--out-dir", type=Path, default=Path("demo-output"), help="Where everything goes."
     )
-    parser.add_argument("--seed", type=int, default=DEMO_SEED, help="Seed of the corpus.")
-    parser.add_argument("--bootstrap", type=int, default=1000, help="Bootstrap resamples.")
+    # checked here, not after minutes of work: numpy seeds are non-negative, and the
+    # comparison's paired bootstrap needs at least one resample
+    parser.add_argument(
+        "--seed", type=_int_at_least(0), default=DEMO_SEED, help="Seed of the corpus (>= 0)."
+    )
+    parser.add_argument(
+        "--bootstrap", type=_int_at_least(1), default=1000, help="Bootstrap resamples (>= 1)."
+    )
     parser.add_argument(
         "--quick", action="store_true", help="A small corpus: every step in a few seconds."
     )
     args = parser.parse_args(argv)
+    if args.out_dir.exists() and not args.out_dir.is_dir():
+        click.echo(f"error: {args.out_dir}: --out-dir is a file, not a folder", err=True)
+        return 2
     try:
         run_demo(args.out_dir, seed=args.seed, bootstrap=args.bootstrap, quick=args.quick)
     except DemoFailed as exc:
         click.echo(f"demo failed: {exc}", err=True)
         return 1
+    except (TurnbenchError, OSError) as exc:
+        # a folder that cannot be written, a disk that is full: one line, as the commands say it
+        click.echo(f"demo failed: {exc}", err=True)
+        return 2
     return 0
 
 
