@@ -66,7 +66,18 @@ def test_json_report(synth, capsys):
     assert doc["unmatched"] == unmatched
     p_o = float((matched["a_angle_deg"] == matched["b_angle_deg"]).mean())
     assert doc["percent_agreement"] == pytest.approx(p_o)  # a fraction, not a percentage
-    assert 0 < doc["kappa"] < 1 and 0 < doc["kappa_linear"] <= 1
+    # Cohen's kappa from the planted angles: p_e = sum over angles of A's share x B's share.
+    pa = matched["a_angle_deg"].value_counts(normalize=True)
+    pb = matched["b_angle_deg"].value_counts(normalize=True)
+    p_e = float(sum(pa.get(x, 0.0) * pb.get(x, 0.0) for x in set(pa.index) | set(pb.index)))
+    assert doc["kappa"] == pytest.approx((p_o - p_e) / (1 - p_e))
+    # Linear weights: 1 - sum |i - j| p_ij / sum |i - j| pa_i pb_j over the 45-degree bins.
+    steps = {x: i for i, x in enumerate([90.0, 135.0, 180.0, 225.0, 270.0, 315.0, 360.0])}
+    i = matched["a_angle_deg"].map(steps).to_numpy()
+    j = matched["b_angle_deg"].map(steps).to_numpy()
+    observed = float(np.abs(i - j).mean())
+    expected = float(np.abs(i[:, None] - j[None, :]).mean())  # every A with every B
+    assert doc["kappa_linear"] == pytest.approx(1 - observed / expected)
     lo, hi = doc["kappa_ci95"]
     assert lo <= doc["kappa"] <= hi
     assert doc["labels_deg"] == [90, 135, 180, 225, 270, 315, 360]
@@ -289,6 +300,19 @@ def test_pygamma_file_through_a_schema(real_eaf_dir, tmp_path, capsys):
     assert code == EXIT_GATE
     assert "kappa is undefined (no matched pairs)" in err
     assert "Kappa: no matched pairs." in out
+
+    # No two annotations of different raters overlap at all (gaps of 0.505 s Maureen ->
+    # Marvin, 0.316 s Marvin -> Maureen, 0.368 s Maureen -> Robin), so even the smallest
+    # threshold links nothing.
+    code, out, err = run(
+        [src, "--schema", schema, "--raters", "Maureen", "Robin", "--min-overlap", "0.001",
+         "--format", "json"], capsys
+    )
+    assert code == EXIT_OK, err
+    doc = json.loads(out)
+    assert doc["matched"] == 0 and doc["unmatched"] == {"Maureen": 2, "Robin": 1}
+    assert doc["confusion"] == [[0]]
+    assert doc["kappa_with_unmatched"] == pytest.approx(-0.8)
 
 
 # ---------------------------------------------------------------------------------------
