@@ -6,7 +6,6 @@ Thin: options are parsed here, the work is :mod:`turn_datasets.readers`,
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 from typing import Any
 
@@ -30,7 +29,14 @@ from turn_datasets.curation import (
 )
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.miner import MinerParams, build_index, mine_clips
-from turn_datasets.readers import FORMATS, UNITS, SourceFile, discover, read_source
+from turn_datasets.readers import (
+    FORMATS,
+    UNITS,
+    SourceFile,
+    discover,
+    read_source,
+    sorted_sources,
+)
 from turn_datasets.skeleton import LAYOUTS, UP_AXES
 
 _D = MinerParams()
@@ -52,18 +58,7 @@ def _discover_each(
                 raise
             bad[item] = exc
             found.append(SourceFile(item, fmt or "unknown"))
-    seen: set[Path] = set()
-    out: list[SourceFile] = []
-    for src in sorted(found, key=lambda s: (_natural_key(str(s.path)), s.fmt)):
-        key = src.path.resolve()
-        if key not in seen:
-            seen.add(key)
-            out.append(src)
-    return out
-
-
-def _natural_key(text: str) -> tuple:
-    return tuple((0, int(t), "") if t.isdigit() else (1, 0, t) for t in re.split(r"(\d+)", text))
+    return sorted_sources(found)
 
 
 def _check_out_folder(out: Path) -> None:

@@ -47,6 +47,7 @@ from turn_datasets import __version__
 from turn_datasets._io import sha256_file, typed_frame
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.miner import MinerParams, SequenceClips, clip_id_of, measure_clip
+from turn_datasets.readers import natural_key
 from turn_datasets.skeleton import MocapSequence
 
 __all__ = [
@@ -324,10 +325,6 @@ def _counts(series: pd.Series, key=None) -> dict[str, int]:
     return {str(n): int(counts[n]) for n in names}
 
 
-def _natural_key(text: str) -> tuple:
-    return tuple((0, int(t), "") if t.isdigit() else (1, 0, t) for t in re.split(r"(\d+)", text))
-
-
 def build_manifest(
     *,
     index: pd.DataFrame,
@@ -361,7 +358,7 @@ def build_manifest(
             "clips": int(len(index)),
             "per_bin_deg": {str(b): int(by_bin[b]) for b in sorted(by_bin.index)},
             "per_split": _counts(index["split"].fillna("")),
-            "per_subject": _counts(index["subject"], key=_natural_key),
+            "per_subject": _counts(index["subject"], key=natural_key),
             "per_action": _counts(index["action"]),
             "per_direction": _counts(index["direction"]),
         },
@@ -432,7 +429,7 @@ def clip_stats(index: pd.DataFrame, by: str) -> pd.DataFrame:
         }
     )
     order = sorted(
-        frame.index, key=(lambda v: v) if by == "bin_deg" else (lambda v: _natural_key(str(v)))
+        frame.index, key=(lambda v: v) if by == "bin_deg" else (lambda v: natural_key(str(v)))
     )
     frame = frame.loc[order]
     names = [str(v) for v in frame.index]

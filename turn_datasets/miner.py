@@ -74,6 +74,7 @@ from turn_datasets.geometry import (
     turning_angle,
     usable_frames,
 )
+from turn_datasets.readers import natural_key
 from turn_datasets.skeleton import Layout, MocapSequence
 
 __all__ = [
@@ -586,10 +587,6 @@ def measure_clip(
     )
 
 
-def _natural_key(text: str) -> tuple:
-    return tuple((0, int(t), "") if t.isdigit() else (1, 0, t) for t in re.split(r"(\d+)", text))
-
-
 @dataclass
 class SequenceClips:
     """The clips of one sequence with what the index needs to know about the sequence.
@@ -675,9 +672,9 @@ def build_index(parts: Iterable[SequenceClips]) -> pd.DataFrame:
     seqs = sorted(
         (p for p in parts if len(p)),
         key=lambda p: (
-            _natural_key(p.subject),
+            natural_key(p.subject),
             p.action,
-            _natural_key(p.subaction),
+            natural_key(p.subaction),
             p.source,
         ),
     )

@@ -69,6 +69,8 @@ __all__ = [
     "UNITS",
     "SourceFile",
     "discover",
+    "natural_key",
+    "sorted_sources",
     "read_source",
     "iter_arrays",
     "parse_h36m_action",
@@ -202,9 +204,13 @@ def h36m_subject_of(path: str | os.PathLike[str]) -> str:
     )
 
 
-def _natural_key(text: str) -> tuple:
-    """Sort "S2" before "S11" (digit runs compare as numbers)."""
-    return tuple(int(t) if t.isdigit() else t for t in re.split(r"(\d+)", text))
+def natural_key(text: str) -> tuple:
+    """Sort key putting "S2" before "S11": runs of digits compare as numbers, the rest as text.
+
+    The one ordering of subjects, actions and file paths in the index, the manifest and the
+    statistics.
+    """
+    return tuple((0, int(t), "") if t.isdigit() else (1, 0, t) for t in re.split(r"(\d+)", text))
 
 
 # --- finding the files --------------------------------------------------------------------
@@ -386,10 +392,14 @@ def discover(
             found.append(SourceFile(item, kind))
         else:
             raise TurnbenchError("no such file or folder", file=item)
-    found.sort(key=lambda s: (_natural_key(str(s.path)), s.fmt))
+    return sorted_sources(found)
+
+
+def sorted_sources(found: Iterable[SourceFile]) -> list[SourceFile]:
+    """Source files sorted by path (:func:`natural_key`), each file once (by its real path)."""
     out: list[SourceFile] = []
     seen: set[Path] = set()
-    for src in found:
+    for src in sorted(found, key=lambda s: (natural_key(str(s.path)), s.fmt)):
         key = src.path.resolve()
         if key not in seen:
             seen.add(key)
@@ -531,9 +541,9 @@ def _read_videopose_npz(path: Path) -> Iterator[MocapSequence]:
         raise TurnbenchError(
             f"{_VIDEOPOSE_KEY!r} is not a dict subject -> action -> array", file=path
         )
-    for subject in sorted(data, key=lambda s: _natural_key(str(s))):
+    for subject in sorted(data, key=lambda s: natural_key(str(s))):
         actions = data[subject]
-        for name in sorted(actions, key=lambda a: _natural_key(str(a))):
+        for name in sorted(actions, key=lambda a: natural_key(str(a))):
             item = f"{subject}/{name}"
             action, subaction = _action_of(str(name), path, item)
             array = np.asarray(actions[name])
