@@ -15,6 +15,7 @@ import pandas as pd
 import pytest
 
 from turn_datasets.demo_corpus import (
+    DEMO_SEED,
     H36M_BIN_MIX,
     camera_axes_m,
     write_clip_npz,
@@ -27,6 +28,7 @@ from turn_datasets.errors import TurnbenchError
 from turn_datasets.geometry import turning_angle
 from turn_datasets.readers import discover, iter_arrays, read_source
 from turn_datasets.skeleton import H36M17, to_z_up
+from turn_datasets.synth_eaf import ANGLE_MIX, SCENARIO_MIX
 from turn_eval.degrade import degrade_skeleton
 
 SMALL = {"Walking": (4, 5), "Directions": (1, 1)}
@@ -182,3 +184,45 @@ def test_remap_estimates_carry_the_labelled_angle(tmp_path: Path) -> None:
     # clips land within a bin's half-width (22.5°) of their label
     assert np.mean(everything < 22.5) > 0.6
     assert np.median(everything) < 20.0
+
+
+def test_remap_corpus_has_table_2s_mix_and_raters_who_disagree_like_people(tmp_path: Path) -> None:
+    """The corpus ``make demo`` writes (default seed and size), checked against the issue."""
+    remap = write_remap_corpus(tmp_path, seed=DEMO_SEED)
+    truth = remap.truth
+    # 12 PD-HC pairs, two sessions each; 58 turns per participant (1392, the paper's 1386)
+    assert len(remap.paths) == 24
+    assert remap.participants["cohort"].value_counts().to_dict() == {"PD": 12, "HC": 12}
+    n = len(truth)
+    assert n == 24 * 58
+    # Table 2's mix: each share within four binomial standard deviations of the asked one
+    # (sd = sqrt(p (1 - p) / 1392), at most 0.0134)
+    for column, mix in (("angle_deg", ANGLE_MIX), ("scenario", SCENARIO_MIX)):
+        share = truth[column].value_counts(normalize=True)
+        for value, p in mix.items():
+            key = float(value) if column == "angle_deg" else value
+            assert abs(share.get(key, 0.0) - p) < 4 * np.sqrt(p * (1 - p) / n), (column, value)
+    # The two raters, read from what was written into the files (synth_eaf's tests check the
+    # files hold exactly that), linked by the turn they label
+    written = remap.written
+    a = written[written["annotator"] == remap.raters[0]].set_index("turn_id")
+    b = written[written["annotator"] == remap.raters[1]].set_index("turn_id")
+    both = a.merge(b, left_index=True, right_index=True, suffixes=("_a", "_b"))
+    # about half of the turns labelled by both (the paper: about half)
+    assert 0.4 < len(both) / n < 0.6
+    # Boundaries: each rater's is the truth plus N(0, 0.15 s) clipped at +-0.3 s, so the two
+    # differ by sd sqrt(2) * 0.15 = 0.212 s: median |difference| 0.6745 * 0.212 = 0.143 s
+    # (a little less after clipping), P(|difference| > 0.2 s) = 2 (1 - Phi(0.943)) = 0.35,
+    # never more than 0.6 s. "A few hundred milliseconds", and never identical.
+    for edge in ("start_s", "end_s"):
+        diff = (both[f"{edge}_b"] - both[f"{edge}_a"]).abs()
+        assert 0.10 < diff.median() < 0.18, edge
+        assert 0.25 < (diff > 0.2).mean() < 0.45, edge
+        assert diff.max() <= 0.6 + 1e-9, edge
+        assert (diff > 0).mean() > 0.9, edge
+    # Angles: 2.5% of double-labelled turns planted as disagreements, one 45° step apart or
+    # (a quarter of them) two; binomial sd at n ~ 680 is 0.6%
+    differ = both["angle_deg_a"] != both["angle_deg_b"]
+    assert 0.01 < differ.mean() < 0.05
+    steps = set((both["angle_deg_a"] - both["angle_deg_b"]).abs()[differ])
+    assert steps <= {45.0, 90.0}

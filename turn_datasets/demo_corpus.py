@@ -9,16 +9,18 @@ Turn-H3.6M-like motion capture (:func:`write_h36m_corpus`)
     ``"Walking 1"``, as on disk) of several actions, 50 Hz, the 32-joint layout, millimetres,
     z up, made by :func:`turn_datasets.synth_mocap.generate_sequence`: walking with pelvic
     sway, standing, pivot and walking turns, joint noise and a few capture dropouts. Turns
-    are planted with magnitudes from 48° to 233°, drawn per 45° bin with the shares of
+    are planted with heading changes from 48° to 233°, drawn per 45° bin with the shares of
     :data:`H36M_BIN_MIX` (most turns small, as in the paper's Table 3), more of them in the
-    walking actions than in the standing ones. The files are written in all three layouts
+    walking actions than in the standing ones; the hips' own rotation over a planted turn
+    (``planted.csv``'s ``angle_deg``) differs from the heading change by the pelvic sway at
+    its ends, a few degrees (43° to 229° with the default seed). The files are written in all three layouts
     Human3.6M is distributed in: S1 as the original release's CDF (with S1's own spellings
     ``TakingPhoto`` and ``WalkingDog``), S5 as 3d-pose-baseline's h5, the other subjects in
     one VideoPose3D ``data_3d_h36m.npz``. ``planted.csv`` lists every planted turn.
 Turn-REMAP-like ELAN sessions (:func:`write_remap_corpus`)
     :func:`turn_datasets.synth_eaf.write_sessions`: 12 PD-HC pairs, two sessions each, two
-    clinicians on about half of the sessions with boundary jitter, a few planted angle
-    disagreements and missed turns, a consensus tier, scenario and location tiers and the
+    clinicians on about half of the sessions with boundary jitter (0.15 s per boundary), a few
+    planted angle disagreements (2.5%) and missed turns (3%), a consensus tier, scenario and location tiers and the
     participants table; the angle and scenario mix of the paper's Table 2.
 Skeleton "predictions" (:func:`write_h36m_estimates`, :func:`write_remap_estimates`)
     What a monocular 3D pose estimator would hand a submitter: for each clip of a mined index
@@ -51,6 +53,7 @@ import pandas as pd
 
 from turn_datasets._io import atomic_path, typed_frame, write_csv
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.geometry import direction_of, quantise_deg
 from turn_datasets.readers import (
     discover,
     read_source,
@@ -239,7 +242,8 @@ def write_h36m_corpus(
     n_frames = n_sequences = 0
     for subject in subjects:
         for action, (lo, hi) in actions.items():
-            # S11 lacks "Directions 2" in some copies of the release; so does the demo's.
+            # S11 lacks its second Directions trial in some copies of the release; so does
+            # the demo's (only "Directions", no "Directions 1").
             trials = ("",) if (subject == "S11" and action == "Directions") else ("", " 1")
             for trial in trials:
                 rng = np.random.default_rng(_stable_seed(seed, subject, action, trial))
@@ -286,8 +290,8 @@ def write_h36m_corpus(
                             "start_frame": p["start_frame"],
                             "end_frame": p["end_frame"],
                             "angle_deg": p["angle_deg"].abs().round(3),
-                            "direction": np.where(p["angle_deg"] > 0, "left", "right"),
-                            "bin_deg": (45 * np.floor(p["angle_deg"].abs() / 45 + 0.5)).astype(int),
+                            "direction": [direction_of(a) for a in p["angle_deg"]],
+                            "bin_deg": quantise_deg(p["angle_deg"].abs().to_numpy()).astype(int),
                             "kind": p["kind"],
                             "duration_s": p["duration_s"],
                         }
@@ -315,7 +319,8 @@ def write_remap_corpus(
     folder given to ``remap labels`` holds only sessions).
 
     About 58 turns per participant over two sessions (the paper: 1386 turns of 24 people),
-    two raters on about half, jitter 0.15 s, 3% angle disagreements and 3% missed turns.
+    two raters on about half, jitter 0.15 s per boundary, 2.5% angle disagreements and 3%
+    missed turns (:func:`turn_datasets.synth_eaf.write_sessions`'s defaults).
     """
     out = Path(out_dir)
     eaf_dir = out / "eaf"
