@@ -1,4 +1,5 @@
-"""Build small ELAN files with pympi-ling for the label tests (values known by construction)."""
+"""Build small ELAN files with pympi-ling for the label tests (values known by construction),
+and name the real ELAN exports the tests read."""
 
 from __future__ import annotations
 
@@ -8,6 +9,19 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import pympi.Elan
+
+#: The real ELAN exports in ../shared/data/real-eaf (SOURCE.md there says where each is from).
+REAL_FILES = [
+    "poio_example.eaf",
+    "poio_turkish.eaf",
+    "pygamma_MaureenMarvinRobin.eaf",
+    "pympi_sample_2.7.eaf",
+    "pympi_sample_2.8.eaf",
+    "pympi_sample_3.0.eaf",
+    "speach_fables_01_03_aesop_64kb.eaf",
+    "speach_test.eaf",
+    "speach_test2.eaf",
+]
 
 
 @dataclass

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
+from _eaf_builder import REAL_FILES
 
 from turn_datasets.agreement import MATCH_COLUMNS, match_annotations
 
@@ -439,20 +440,7 @@ def test_synthetic_lower_min_overlap_matches_the_shifted_pairs(synth):
 # Review copies of real ELAN exports
 
 
-@pytest.mark.parametrize(
-    "name",
-    [
-        "poio_example.eaf",
-        "poio_turkish.eaf",
-        "pygamma_MaureenMarvinRobin.eaf",
-        "pympi_sample_2.7.eaf",
-        "pympi_sample_2.8.eaf",
-        "pympi_sample_3.0.eaf",
-        "speach_fables_01_03_aesop_64kb.eaf",
-        "speach_test.eaf",
-        "speach_test2.eaf",
-    ],
-)
+@pytest.mark.parametrize("name", REAL_FILES)
 def test_review_copy_of_real_exports_keeps_everything(real_eaf_dir, tmp_path, name):
     from turn_datasets._io import sha256_file
     from turn_datasets.agreement import write_review_eaf

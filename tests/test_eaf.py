@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
-from _eaf_builder import Tier, add_cve_refs, write_eaf
+from _eaf_builder import REAL_FILES, Tier, add_cve_refs, write_eaf
 
 from turn_datasets.eaf import (
     ANNOTATION_COLUMNS,
@@ -19,19 +19,6 @@ from turn_datasets.eaf import (
 )
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.schema import load_schema
-
-REAL_FILES = [
-    "poio_example.eaf",
-    "poio_turkish.eaf",
-    "pygamma_MaureenMarvinRobin.eaf",
-    "pympi_sample_2.7.eaf",
-    "pympi_sample_2.8.eaf",
-    "pympi_sample_3.0.eaf",
-    "speach_fables_01_03_aesop_64kb.eaf",
-    "speach_test.eaf",
-    "speach_test2.eaf",
-]
-
 
 # ---------------------------------------------------------------------------------------
 # Turn rows from a file built with known values
