@@ -15,8 +15,10 @@ Each ``benchmarks/bench_*.py`` defines ``run() -> dict`` with
     (``"<= 1.5"``, ``"< 200"``, ``">= 2"``).
 
 Optional keys ``baseline`` (what the ratio divides by) and ``seconds`` (the measured time)
-are printed when given; ``wall_s`` is the benchmark's whole run, setup and baseline included. The table goes to stdout as Markdown; a benchmark that raises is
-listed as ``error`` with its message and does not stop the others. The exit code is 0 once
+are printed when given; ``wall_s`` is the benchmark's whole run, setup and baseline
+included. The table goes to stdout as Markdown, and nothing else does (what a benchmark
+prints goes to stderr); a benchmark that raises is listed as ``error`` with its message and
+does not stop the others. The exit code is 0 once
 the table is printed (timings vary between machines; the table is the result), or 1 with
 ``--strict`` when any benchmark failed its target or raised.
 
@@ -29,6 +31,7 @@ Example::
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib.util
 import math
 import operator
@@ -118,7 +121,9 @@ def run_one(path: Path) -> Row:
     row = Row(benchmark=name)
     start = time.perf_counter()
     try:
-        result = _load(path).run()
+        # stdout is the table's alone: whatever a benchmark prints goes to stderr
+        with contextlib.redirect_stdout(sys.stderr):
+            result = _load(path).run()
         row.wall_s = time.perf_counter() - start
         if not isinstance(result, dict):
             raise TypeError(f"run() returned {type(result).__name__}, expected a dict")

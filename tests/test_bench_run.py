@@ -48,7 +48,19 @@ def bench_dir(tmp_path: Path) -> Path:
         "    return {'what': 'score | rows', 'size': '100,000 rows', 'ratio': 250.0,\n"
         "            'target': '< 200'}\n",
     )
-    _bench(tmp_path, "broken", "def run():\n    raise RuntimeError('no data')\n")
+    _bench(
+        tmp_path,
+        "broken",
+        "def run():\n    print('| chatter |')\n    raise RuntimeError('no data')\n",
+    )
+    _bench(
+        tmp_path,
+        "chatty",
+        "print('loading')\n"
+        "def run():\n"
+        "    print('| warming up | not a row |')\n"
+        "    return {'what': 'talk', 'size': '1', 'ratio': 1.0, 'target': 2}\n",
+    )
     (tmp_path / "helper.py").write_text("raise SystemExit('must not be imported')\n")
     return tmp_path
 
@@ -56,6 +68,7 @@ def bench_dir(tmp_path: Path) -> Path:
 def test_discover_finds_only_bench_files_in_name_order(bench_dir: Path) -> None:
     assert [p.name for p in run.discover(bench_dir)] == [
         "bench_broken.py",
+        "bench_chatty.py",
         "bench_fast.py",
         "bench_slow.py",
     ]
@@ -94,7 +107,10 @@ def test_one_table_with_pass_fail_and_error(bench_dir: Path, capsys) -> None:
     body = {
         line.split("|")[1].strip(): [c.strip() for c in line.split("|")[1:-1]] for line in out[2:]
     }
-    assert len(out) == 2 + 3
+    # a header, its rule and one row per benchmark: what the benchmarks print is not here
+    assert len(out) == 2 + 4
+    assert "chatter" not in "\n".join(out) and "warming up" not in "\n".join(out)
+    assert body["chatty"][7] == "pass"
     assert body["fast"][1:8] == [
         "add numbers",
         "10 rows",
@@ -133,5 +149,9 @@ def test_command_line_prints_only_the_table_on_stdout(bench_dir: Path) -> None:
         check=False,
     )
     assert proc.returncode == 0
-    assert all(line.startswith("|") for line in proc.stdout.strip().splitlines())
+    lines = proc.stdout.strip().splitlines()
+    assert all(line.startswith("|") for line in lines)
+    assert len(lines) == 2 + 4
     assert "running bench_fast.py" in proc.stderr
+    # what the benchmarks printed went to stderr
+    assert "loading" in proc.stderr and "| warming up | not a row |" in proc.stderr
