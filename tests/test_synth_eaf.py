@@ -134,6 +134,16 @@ def test_truth_kinds_are_what_they_say(synth):
         assert (both[f"{side}_start_s"] - both["start_s"]).abs().max() <= 0.3 + 1e-9
         assert (both[f"{side}_end_s"] - both["end_s"]).abs().max() <= 0.3 + 1e-9
     assert (both["a_start_s"] != both["b_start_s"]).mean() > 0.9
+    # ... and really a few hundred ms, not a token millisecond: for errors drawn with sd
+    # 0.15 s the median |error| is 0.674 x 0.15 = 0.10 s (half-normal), the sd about 0.15 s.
+    errors = np.concatenate([
+        (both[f"{side}_{edge}_s"] - both[f"{edge}_s"]).to_numpy()
+        for side in ("a", "b") for edge in ("start", "end")
+    ])
+    assert 0.07 < np.median(np.abs(errors)) < 0.15
+    assert 0.10 < errors.std() < 0.20
+    # Angle slips are mostly to the next bin (far_disagreement_fraction 0.25 by default).
+    assert (gap == 45.0).sum() > (gap == 90.0).sum()
 
 
 def _ratio(a0, a1, b0, b1):
