@@ -133,6 +133,8 @@ def test_directory_and_file_without_turn_tiers(tmp_path: Path) -> None:
     _session(tmp_path, "S01")
     write_eaf(tmp_path / "S09.eaf", [Tier("speech", annotations=[(0, 100, "hello")])])
     (tmp_path / "notes.txt").write_text("not an eaf", encoding="utf-8")
+    # A macOS resource fork copied along with S01.eaf: binary, not ELAN, skipped.
+    (tmp_path / "._S01.eaf").write_bytes(b"\x00\x05\x16\x07\x00\x02\x00\x00Mac OS X")
     assert [p.name for p in expand_eaf_paths(tmp_path)] == ["S01.eaf", "S09.eaf"]
     df = read_annotations(tmp_path)
     assert set(df["session"]) == {"S01"}

@@ -164,6 +164,9 @@ def load_eaf(path: str | PathLike[str]) -> pympi.Elan.Eaf:
 def expand_eaf_paths(paths_or_dirs: str | PathLike[str] | Iterable[str | PathLike[str]]) -> list[Path]:
     """Files given, and the ``.eaf`` files directly inside folders given (sorted by name).
 
+    Hidden files in a folder (names starting with ``.``) are skipped; a file named on its own
+    is always taken.
+
     Raises
     ------
     TurnbenchError
@@ -179,8 +182,14 @@ def expand_eaf_paths(paths_or_dirs: str | PathLike[str] | Iterable[str | PathLik
     for item in items:
         p = Path(item)
         if p.is_dir():
+            # Hidden files are skipped: macOS leaves "._name.eaf" resource forks (binary, not
+            # ELAN) beside every file copied to a shared drive.
             found = sorted(
-                (c for c in p.iterdir() if c.is_file() and c.suffix.lower() == ".eaf"),
+                (
+                    c
+                    for c in p.iterdir()
+                    if c.is_file() and c.suffix.lower() == ".eaf" and not c.name.startswith(".")
+                ),
                 key=lambda c: c.name,
             )
             if not found:
