@@ -88,7 +88,7 @@ REVIEW_DIR = "review"
 @click.option(
     "--keep-media-paths",
     is_flag=True,
-    help="Keep media paths and author in the review copies (removed by default).",
+    help="Keep the header (media paths, author, date) in the review copies (emptied by default).",
 )
 @click.option(
     "--bootstrap",
