@@ -164,6 +164,22 @@ def test_generic_arrays_with_their_options(corpus, tmp_path, capsys) -> None:
     assert not (tmp_path / "x.csv").exists()
 
 
+def test_format_forces_one_reader(corpus, tmp_path, capsys) -> None:
+    # The tree holds S1 as CDF and S9 as 3d-pose-baseline h5: --format h36m-h5 takes S9 alone
+    # (its one planted 180-degree turn).
+    out = tmp_path / "h5-only.csv"
+    code, _, stderr = run(
+        ["h36m", "mine", corpus["tree"], "--format", "h36m-h5", "--out", out], capsys
+    )
+    assert code == 0, stderr
+    index = pd.read_csv(out)
+    assert index["subject"].tolist() == ["S9"] and index["source"].tolist() == [str(corpus["h5"])]
+    # a named file whose suffix does not fit the forced format is listed as unreadable
+    code, _, stderr = run(["h36m", "mine", corpus["npz"], "--format", "cdf", "--out", out], capsys)
+    assert code == EXIT_BAD_INPUT
+    assert f"turn-datasets: error: {corpus['npz']}: a cdf file should end in .cdf" in stderr
+
+
 # --- curation ---------------------------------------------------------------------------
 
 
@@ -474,6 +490,26 @@ def test_stats_on_the_mined_index(corpus, tmp_path, capsys) -> None:
     (tmp_path / "s.csv").write_text(stdout)
     table = pd.read_csv(tmp_path / "s.csv", dtype={"group": str})
     assert table[(table.table == "bin") & (table.group == "Total")].clips.iloc[0] == 6
+
+
+def test_every_miner_parameter_is_an_option_with_its_default_unit_and_sentence(capsys) -> None:
+    # issue 3: "Every parameter has a default, a unit in its name, and a sentence in --help"
+    import dataclasses
+
+    from turn_datasets._cli_mine import mine_cmd
+
+    options = {o.name: o for o in mine_cmd.params}
+    for field in dataclasses.fields(MinerParams):
+        option = options[field.name]
+        assert f"--{field.name.replace('_', '-')}" in option.opts
+        assert option.default == field.default and option.show_default
+        assert field.name.endswith(("_deg", "_s", "_hz", "_deg_s")), field.name
+        assert option.help and option.help.endswith("."), field.name
+    code, stdout, _ = run(["h36m", "mine", "--help"], capsys)
+    assert code == 0
+    flat = " ".join(stdout.split())  # click wraps the help text
+    assert "--min-turn-deg FLOAT Smallest net hip rotation of a clip, in degrees" in flat
+    assert "[default: 45.0]" in flat
 
 
 @pytest.mark.parametrize("command", ["mine", "stats"])
