@@ -7,6 +7,7 @@ fresh temporary folder that the notebook makes for itself.
 from __future__ import annotations
 
 import asyncio
+import re
 import subprocess
 from pathlib import Path
 
@@ -67,15 +68,31 @@ def executed() -> dict[str, nbformat.NotebookNode]:
     return books
 
 
+def _header(text: str, first: str) -> set[str]:
+    """The cells of the first Markdown table row that starts with ``| first |``."""
+    line = next(x for x in text.splitlines() if x.startswith(f"| {first} |"))
+    return {c.strip() for c in line.strip().strip("|").split("|")}
+
+
 def test_reproduce_paper_tables(executed) -> None:
     nb = executed["reproduce_paper_tables.ipynb"]
     text = _text_of(nb)
+    # Table 3: the five bins of Turn-H3.6M (45° to 225°) and a total
     assert "Table 3: clips per angle bin" in text
-    # Tables 4 and 5: metrics as rows, groups as columns, then Avg. and # Turns
-    for needle in ("Acc. (%)", "MAE (°)", "WPrec (%)", "Avg.", "# Turns", "free-living", "PD"):
+    assert _header(text, "Bin (°)") >= {"Bin (°)", "Clips", "Min (°)", "Max (°)", "Mean (°)"}
+    for row in ("| 45 |", "| 90 |", "| 135 |", "| 180 |", "| 225 |", "| **Total** |"):
+        assert row in text, row
+    # Tables 4 and 5: metrics as rows, groups as columns, then Avg. and # Turns: Turn-H3.6M by
+    # its seven subjects, Turn-REMAP by the three scenarios and by cohort
+    for needle in ("Acc. (%)", "MAE (°)", "WPrec (%)", "MAE speed (°/s)", "# Turns"):
         assert needle in text, needle
-    # Figure 5 and the other plots are shown
-    assert _images_of(nb) >= 2
+    subjects = {"S1", "S5", "S6", "S7", "S8", "S9", "S11"}
+    assert _header(text, "subject") == {"subject", *subjects, "Avg."}
+    assert _header(text, "scenario") == {"scenario", "scripted", "clinical", "free-living", "Avg."}
+    assert _header(text, "cohort") == {"cohort", "PD", "HC", "Avg."}
+    # Figure 5 (a: predicted angles per bin, b: absolute errors) and the two other plots
+    assert "predicted_by_bin.png" in text and "abs_error.png" in text
+    assert _images_of(nb) >= 4
     assert "McNemar" in text and "signature" in text
 
 
@@ -87,7 +104,15 @@ def test_agreement_audit(executed) -> None:
     audit_line = next(line for line in text.splitlines() if line.startswith("kappa from the audit"))
     sk_line = next(line for line in text.splitlines() if line.startswith("kappa by scikit-learn"))
     assert audit_line.split(":")[1].strip() == sk_line.split(":")[1].strip()
-    assert "Disagreement" in text  # the review EAF's tier was read back
+    # the review EAF's Disagreement tier, read back from the session of an angle disagreement:
+    # one annotation saying what each rater wrote, both angles from the vocabulary
+    marks = re.findall(
+        r"^Disagreement \S+: +[\d.]+- *[\d.]+ s  clinician1: (\d+) / clinician2: (\d+)$",
+        text,
+        flags=re.MULTILINE,
+    )
+    assert any(a != b for a, b in marks)
+    assert all(int(a) % 45 == 0 and 90 <= int(a) <= 360 for pair in marks for a in pair)
     assert "gate failed" in text  # the stricter gate fails, as the notebook shows
     assert "Table 2: turns per scenario and angle" in text
     assert _images_of(nb) >= 1
@@ -96,9 +121,17 @@ def test_agreement_audit(executed) -> None:
 def test_submitting_predictions(executed) -> None:
     nb = executed["submitting_predictions.ipynb"]
     text = _text_of(nb)
-    assert "refused:" in text and "duplicate" in text.lower()
-    assert "'accuracy'" in text
-    assert "signature: turnbench-compare" in text
+    # the broken copy is refused on the duplicated line: the file has a header and the
+    # reference's clips, the last one replaced by a copy of the first (line 2)
+    refused = re.search(
+        r"refused: broken\.csv:(\d+): duplicate clip_id '[^']+', first on line 2", text
+    )
+    assert refused
+    scored = re.search(r"\{'n': (\d+), 'accuracy'", text)
+    assert scored and int(refused.group(1)) == int(scored.group(1)) + 1
+    # the comparison is of the same clips as the score
+    signature = re.search(r"signature: turnbench-compare\|n:(\d+)\|", text)
+    assert signature and signature.group(1) == scored.group(1)
 
 
 @pytest.mark.parametrize("name", NAMES)
