@@ -511,7 +511,10 @@ def test_review_copy_of_real_exports_keeps_everything(real_eaf_dir, tmp_path, na
     assert new_ids == [first, first + 1]
     assert {p.get("NAME"): int(p.text) for p in counters} == {k: first + 1 for k in src_counters}
 
-    # With keep_media_paths the header is the source's (its counter moved on).
+    # With keep_media_paths the header is the source's (its counter moved on). The 2.8 and
+    # 3.0 samples have a header of the same kind as 2.7's (2.4 MB each): once is enough.
+    if name in ("pympi_sample_2.8.eaf", "pympi_sample_3.0.eaf"):
+        return
     kept = write_review_eaf(src, tmp_path / ("kept_" + name), rows, rater_a="ann",
                             rater_b="bob", keep_media_paths=True)
     kept_root = ET.parse(kept).getroot()
