@@ -127,11 +127,19 @@ def test_report_is_one_self_contained_page_with_everything(ran) -> None:
     text = (out / "report.html").read_text(encoding="utf-8")
     assert "<script" not in text.lower() and "<link" not in text.lower()
     sources = re.findall(r'src="([^"]+)"', text)
-    # 4 figures per method and set, plus the agreement confusion matrix
-    assert len(sources) >= 2 * 2 * 2 + 1
+    # every PNG the demo wrote is on the page, byte for byte: `score --plots` writes 4 per
+    # method and set (2 x 2 x 4 = 16), the audit its confusion matrix (1)
+    pngs = sorted(out.glob("*/scores-*/*.png")) + sorted(out.glob("remap/agreement/*.png"))
+    assert len(pngs) == 2 * 2 * 4 + 1
+    assert len(sources) == len(pngs)
+    embedded = set()
     for src in sources:
         assert src.startswith("data:image/png;base64,")
-        assert base64.b64decode(src.split(",", 1)[1]).startswith(b"\x89PNG")
+        embedded.add(base64.b64decode(src.split(",", 1)[1]))
+    assert embedded == {p.read_bytes() for p in pngs}
+    # nothing is fetched from elsewhere: no address at all outside the embedded images
+    assert not re.search(r"(?:https?:|ftp:|file:|//)[^\s\"<]", re.sub(r"data:[^\"]+", "", text))
+    assert "url(" not in text and "@import" not in text
     for needle in (
         "Table 3: clips per angle bin",
         "Table 1: subjects and turns per cohort",
