@@ -662,7 +662,7 @@ class AgreementAudit:
     disagreements
         :data:`DISAGREEMENT_COLUMNS` rows of the audited pair (``disagreements.csv``).
     settings
-        ``min_overlap, bootstrap, seed, ci`` as used.
+        ``min_overlap, bootstrap, seed, ci, consensus_annotator`` as used.
     """
 
     overall: PairStats
