@@ -263,6 +263,25 @@ def test_an_unwritable_out_dir_is_one_line_and_exit_2(tmp_path: Path, capsys) ->
     assert a_file.read_text(encoding="utf-8") == "not a folder"
 
 
+def test_disagreements_table_for_the_page(tmp_path: Path) -> None:
+    path = tmp_path / "disagreements.csv"
+    path.write_text(
+        "session,participant,kind,angle_a_deg,angle_b_deg,file\n"
+        "s1,NA,angle,135.0,180.0,/home/me/s1.eaf\n"
+        "None,P2,unmatched,,90.0,/home/me/None.eaf\n",
+        encoding="utf-8",
+    )
+    df = demo._disagreements_table(path)
+    assert list(df.columns) == ["session", "participant", "kind", "angle_a_deg", "angle_b_deg"]
+    assert df.to_dict("list") == {
+        "session": ["s1", "None"],
+        "participant": ["NA", "P2"],
+        "kind": ["angle", "unmatched"],
+        "angle_a_deg": ["135", "–"],
+        "angle_b_deg": ["180", "90"],
+    }
+
+
 def test_match_planted_by_hand() -> None:
     planted = pd.DataFrame(
         {

@@ -431,8 +431,11 @@ def _scores_section(report: Report, title: str, folder: Path, groupings: Sequenc
 
 
 def _disagreements_table(path: Path, *, max_rows: int = 60) -> pd.DataFrame:
-    """The disagreements for the page: no file paths, angles as whole degrees."""
-    df = pd.read_csv(path)
+    """The disagreements for the page: no file paths, angles as whole degrees.
+
+    Only an empty cell is missing: a participant or session called ``NA`` or ``None`` is a name.
+    """
+    df = pd.read_csv(path, keep_default_na=False, na_values=[""])
     df = df.drop(columns=[c for c in ("file",) if c in df.columns]).head(max_rows)
     for col in [c for c in df.columns if c.startswith("angle_")]:
         df[col] = df[col].map(lambda v: "–" if pd.isna(v) else f"{v:.0f}")
