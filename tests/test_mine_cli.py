@@ -411,15 +411,16 @@ S1_Walking_0-50,S1,Walking,,train,0,50,50,50.0,0.0,1.0,1.0,50.0,left,45,50.0,a
 S1_Walking_100-200,S1,Walking,,train,100,200,100,50.0,2.0,4.0,2.0,60.0,right,45,30.0,a
 S9_Walking_0-100,S9,Walking,,test,0,100,100,50.0,0.0,2.0,2.0,80.0,left,90,40.0,b
 S9_WalkDog_0-150,S9,WalkDog,,test,0,150,150,50.0,0.0,3.0,3.0,100.0,left,90,33.3,b
-S11_WalkDog_0-50,S11,WalkDog,,test,0,50,50,50.0,0.0,1.0,1.0,120.0,right,90,120.0,c
+S11_WalkDog_0-50,S11,WalkDog,,test,0,50,50,50.0,0.0,1.0,1.0,110.0,right,90,110.0,c
 S11_Walking_0-200,S11,Walking,,test,0,200,200,50.0,0.0,4.0,4.0,200.0,left,180,50.0,c
 """
-# By hand: bin 45: 2 clips, 50-60, mean 55.0, duration (1+2)/2 = 1.50 s;
-# bin 90: 3 clips, 80-120, mean 100.0, duration (2+3+1)/3 = 2.00 s;
+# Bins by hand, 45 * floor(angle / 45 + 0.5): 50, 60 -> 45; 80, 100, 110 -> 90; 200 -> 180.
+# bin 45: 2 clips, 50-60, mean 55.0, duration (1+2)/2 = 1.50 s;
+# bin 90: 3 clips, 80-110, mean 290/3 = 96.67, duration (2+3+1)/3 = 2.00 s;
 # bin 180: 1 clip, 200, duration 4.00 s;
-# Total: 6 clips, 50-200, mean 610/6 = 101.67, duration 13/6 = 2.1667 s.
-# Subjects: S1 2 (mean 55.0), S9 2 (mean 90.0), S11 2 (mean 160.0), S9 before S11.
-# Actions: WalkDog 2 (100, 120: mean 110.0), Walking 4 (50, 60, 80, 200: mean 97.5).
+# Total: 6 clips, 50-200, mean 600/6 = 100.0, duration 13/6 = 2.1667 s.
+# Subjects: S1 2 (mean 55.0), S9 2 (mean 90.0), S11 2 (mean 155.0), S9 before S11.
+# Actions: WalkDog 2 (100, 110: mean 105.0), Walking 4 (50, 60, 80, 200: mean 97.5).
 
 
 def test_stats_markdown_is_table_3_by_hand(tmp_path, capsys) -> None:
@@ -428,12 +429,12 @@ def test_stats_markdown_is_table_3_by_hand(tmp_path, capsys) -> None:
     assert code == 0, stderr
     lines = stdout.splitlines()
     assert "| 45 | 2 | 50.0 | 60.0 | 55.0 | 1.50 |" in lines
-    assert "| 90 | 3 | 80.0 | 120.0 | 100.0 | 2.00 |" in lines
+    assert "| 90 | 3 | 80.0 | 110.0 | 96.7 | 2.00 |" in lines
     assert "| 180 | 1 | 200.0 | 200.0 | 200.0 | 4.00 |" in lines
-    assert "| **Total** | 6 | 50.0 | 200.0 | 101.7 | 2.17 |" in lines
+    assert "| **Total** | 6 | 50.0 | 200.0 | 100.0 | 2.17 |" in lines
     subjects = [ln.split(" | ")[0].strip("| ") for ln in lines if re.match(r"\| S\d", ln)]
     assert subjects == ["S1", "S9", "S11"]
-    assert "| WalkDog | 2 | 100.0 | 120.0 | 110.0 | 2.00 |" in lines
+    assert "| WalkDog | 2 | 100.0 | 110.0 | 105.0 | 2.00 |" in lines
     assert "| Walking | 4 | 50.0 | 200.0 | 97.5 | 2.25 |" in lines
 
 
@@ -453,7 +454,7 @@ def test_stats_csv_and_json(tmp_path, capsys) -> None:
         "mean_duration_s",
     ]
     total = table[(table.table == "bin") & (table.group == "Total")].iloc[0]
-    assert total.clips == 6 and total.mean_deg == pytest.approx(610 / 6)
+    assert total.clips == 6 and total.mean_deg == pytest.approx(600 / 6)
     assert total.mean_duration_s == pytest.approx(13 / 6)
     assert table[table.table == "bin"].group.tolist() == ["45", "90", "180", "Total"]
     code, stdout, _ = run(["h36m", "stats", index, "--format", "json"], capsys)
@@ -461,11 +462,11 @@ def test_stats_csv_and_json(tmp_path, capsys) -> None:
     assert doc["table3"]["90"] == {
         "clips": 3,
         "min_deg": 80.0,
-        "max_deg": 120.0,
-        "mean_deg": 100.0,
+        "max_deg": 110.0,
+        "mean_deg": pytest.approx(290 / 3),
         "mean_duration_s": 2.0,
     }
-    assert doc["subject"]["S11"]["mean_deg"] == 160.0
+    assert doc["subject"]["S11"]["mean_deg"] == 155.0
 
 
 def test_stats_refuses_a_bad_index(tmp_path, capsys) -> None:
@@ -477,6 +478,17 @@ def test_stats_refuses_a_bad_index(tmp_path, capsys) -> None:
     assert (
         stderr.strip() == f"turn-datasets: error: {bad}:5: angle_deg 'abc' is not a finite number"
     )
+    # a bin that is not the angle's nearest multiple of 45 (80 -> 90, not 135), a negative
+    # angle, a zero duration: each names its line
+    for old, new, line, message in (
+        (",80.0,left,90,", ",80.0,left,135,", 4, "bin_deg 135 is not the nearest multiple"),
+        (",60.0,right,45,", ",-60.0,right,45,", 3, "angle_deg -60 is negative"),
+        (",4.0,200.0,left", ",0.0,200.0,left", 7, "duration_s 0 is not positive"),
+    ):
+        bad = _write(tmp_path / "bad.csv", HAND_INDEX.replace(old, new))
+        code, _, stderr = run(["h36m", "stats", bad], capsys)
+        assert code == EXIT_BAD_INPUT
+        assert stderr.strip().startswith(f"turn-datasets: error: {bad}:{line}: {message}")
     not_index = _write(tmp_path / "other.csv", "a,b\n1,2\n")
     code, _, stderr = run(["h36m", "stats", not_index], capsys)
     assert code == EXIT_BAD_INPUT and "not a clip index" in stderr

@@ -46,6 +46,7 @@ import pandas as pd
 from turn_datasets import __version__
 from turn_datasets._io import sha256_file, typed_frame
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.geometry import quantise_deg
 from turn_datasets.miner import MinerParams, SequenceClips, clip_id_of, measure_clip
 from turn_datasets.readers import natural_key
 from turn_datasets.skeleton import MocapSequence
@@ -382,8 +383,10 @@ def read_clip_index(path: str | os.PathLike[str]) -> pd.DataFrame:
     Raises
     ------
     TurnbenchError
-        A missing or unreadable file, a missing column, or a row whose ``angle_deg``,
-        ``duration_s`` or ``bin_deg`` is not a finite number (naming the file line).
+        A missing or unreadable file, a missing column, or a row (naming its file line)
+        whose ``angle_deg``, ``duration_s`` or ``bin_deg`` is not a finite number, whose
+        angle is negative or duration not positive, or whose ``bin_deg`` is not
+        :func:`turn_datasets.geometry.quantise_deg` of its angle.
     """
     p = Path(path)
     if not p.is_file():
@@ -406,6 +409,22 @@ def read_clip_index(path: str | os.PathLike[str]) -> pd.DataFrame:
                 f"{col} {frame[col].iloc[i]!r} is not a finite number", file=p, row=i + 2
             )
         frame[col] = values.astype(float)
+    # Table 3 groups by bin_deg: a bin that is not the angle's nearest multiple of 45 (an
+    # angle edited by hand, a column shifted) would put a clip in the wrong row unnoticed.
+    checks = (
+        (frame["angle_deg"] < 0, "angle_deg {} is negative (it is a magnitude)", "angle_deg"),
+        (frame["duration_s"] <= 0, "duration_s {} is not positive", "duration_s"),
+        (
+            frame["bin_deg"] != quantise_deg(frame["angle_deg"].to_numpy()),
+            "bin_deg {} is not the nearest multiple of 45 to angle_deg",
+            "bin_deg",
+        ),
+    )
+    for bad, message, col in checks:
+        if bad.any():
+            i = int(np.flatnonzero(bad.to_numpy())[0])
+            value = frame[col].iloc[i]
+            raise TurnbenchError(message.format(f"{value:g}"), file=p, row=i + 2)
     return frame
 
 
