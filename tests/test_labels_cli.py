@@ -264,6 +264,18 @@ def test_labels_no_turn_tiers(capsys, tmp_path: Path, real_eaf_dir: Path) -> Non
     assert code == EXIT_BAD_INPUT
     assert "no turn annotations" in err and "remap inspect" in err
     assert not (tmp_path / "o").exists()
+    # A session saved from the template before labelling: its "Turn" tier is there, empty.
+    blank = tmp_path / "S01.eaf"
+    blank.write_bytes((Path(__file__).resolve().parents[1] / "annotations" / "turn-remap.etf")
+                      .read_bytes())
+    for command in (["labels", "--participants", _participants(tmp_path), "--out",
+                     tmp_path / "o" / "labels.csv"], ["agreement"]):
+        code, out, err = run(capsys, "remap", command[0], blank, *command[1:])
+        assert code == EXIT_BAD_INPUT and out == ""
+        last = err.strip().splitlines()[-1]
+        assert last.startswith(f"turn-datasets: error: {blank}: no turn annotations in 1 file")
+        assert "holds an annotation" in last
+    assert not (tmp_path / "o").exists()
 
 
 # ---------------------------------------------------------------------------------------

@@ -12,7 +12,7 @@ import click
 
 from turn_datasets import __version__
 from turn_datasets._cli import format_option, info, progress, warn, wrote
-from turn_datasets._cli_labels import min_overlap_option, reject_nan
+from turn_datasets._cli_labels import min_overlap_option, no_turns_error, reject_nan
 from turn_datasets._io import (
     check_not_input,
     staged_dir,
@@ -29,7 +29,7 @@ from turn_datasets.agreement import (
 )
 from turn_datasets.cli import CONTEXT_SETTINGS, remap
 from turn_datasets.eaf import expand_eaf_paths, read_annotations
-from turn_datasets.errors import GateFailed, TurnbenchError
+from turn_datasets.errors import GateFailed
 from turn_datasets.schema import load_schema
 
 #: Files written into --out-dir (review copies go to its ``review/`` folder).
@@ -135,11 +135,7 @@ def agreement(
         list(progress(paths, label="reading ELAN files")), schema=schema
     )
     if annotations.empty:
-        raise TurnbenchError(
-            f"no turn annotations in {len(paths)} file(s): no tier matches "
-            f"{schema.turn_tier_regex.pattern!r}",
-            hint="see `turn-datasets remap inspect`, or map the tiers with --schema",
-        )
+        raise no_turns_error(paths, schema)
     audit = audit_agreement(
         annotations,
         raters=raters,

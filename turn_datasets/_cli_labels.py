@@ -28,7 +28,7 @@ from turn_datasets.labels import (
     table2,
     turns_per_location,
 )
-from turn_datasets.schema import load_schema
+from turn_datasets.schema import Schema, load_schema
 
 #: The raw per-rater rows are written beside the labels under this name (DESIGN.md).
 ANNOTATIONS_NAME = "annotations.csv"
@@ -59,6 +59,16 @@ min_overlap_option = click.option(
     help="Two raters' turns are one when overlap / longer duration is at least this (as "
     "ELAN's reliability check).",
 )
+
+
+def no_turns_error(paths: list[Path], schema: Schema) -> TurnbenchError:
+    """The error for files that yield no turn at all (``labels`` and ``agreement``)."""
+    return TurnbenchError(
+        f"no turn annotations in {len(paths)} file(s): no tier whose name matches "
+        f"{schema.turn_tier_regex.pattern!r} holds an annotation",
+        file=str(paths[0]) if len(paths) == 1 else None,
+        hint="see `turn-datasets remap inspect`, or map the tiers with --schema",
+    )
 
 
 @remap.command("inspect", context_settings=CONTEXT_SETTINGS)
@@ -168,12 +178,7 @@ def labels_cmd(
         paths, schema=schema, iterate=lambda ps: progress(ps, label="reading ELAN files")
     )
     if annotations.empty:
-        raise TurnbenchError(
-            f"no turn annotations in {len(paths)} file(s): no tier matches "
-            f"{schema.turn_tier_regex.pattern!r}",
-            file=str(paths[0]) if len(paths) == 1 else None,
-            hint="see `turn-datasets remap inspect`, or map the tiers with --schema",
-        )
+        raise no_turns_error(paths, schema)
 
     def list_unresolved(pending: pd.DataFrame) -> None:
         # Every disagreement before the one-line error, so one review pass can fix them all.
