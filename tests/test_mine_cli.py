@@ -271,6 +271,25 @@ def test_override_header_and_adjust_outside_the_sequence(corpus, tmp_path, capsy
     assert not out.exists()
 
 
+def test_adjusting_a_clip_onto_another_is_refused(corpus, tmp_path, capsys) -> None:
+    plain = tmp_path / "plain.csv"
+    assert _mine(corpus, plain, capsys)[0] == 0
+    first, second = pd.read_csv(plain)["clip_id"][:2]  # S1's two turns
+    start, end = first.rsplit("_", 1)[1].split("-")
+    curation = _write(
+        tmp_path / "curation.csv",
+        f"clip_id,decision,start_frame,end_frame,note\n{second},adjust,{start},{end},\n",
+    )
+    out = tmp_path / "index.csv"
+    code, _, stderr = _mine(corpus, out, capsys, "--overrides", curation)
+    assert code == EXIT_BAD_INPUT
+    assert stderr.strip().splitlines()[-1:] == [  # after the progress bar's label
+        f"turn-datasets: error: {curation}:2: adjusting {second} to frames {start}-{end} makes "
+        "it the same clip as another one of its sequence; exclude one of them instead"
+    ]
+    assert not out.exists()
+
+
 # --- bad input --------------------------------------------------------------------------
 
 

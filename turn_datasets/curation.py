@@ -254,8 +254,8 @@ def apply_overrides(
     Raises
     ------
     TurnbenchError
-        An ``adjust`` whose frames lie outside the sequence or across a long dropout, naming
-        the overrides file and line.
+        An ``adjust`` whose frames lie outside the sequence or across a long dropout, or
+        are those of another kept clip of the sequence, naming the overrides file and line.
     """
     if overrides is None or not len(overrides) or not len(clips):
         return clips, []
@@ -296,6 +296,16 @@ def apply_overrides(
                 clips.subject, clips.action, clips.subaction, start[i], end[i]
             )
         applied.append(record)
+    # An adjust onto the frames of another clip of the sequence would give two clips one id.
+    pairs = list(zip(start[keep].tolist(), end[keep].tolist(), strict=True))
+    for _, ov in hits:
+        if ov.decision == "adjust" and pairs.count((int(ov.start_frame), int(ov.end_frame))) > 1:
+            raise TurnbenchError(
+                f"adjusting {ov.clip_id} to frames {ov.start_frame}-{ov.end_frame} makes it "
+                "the same clip as another one of its sequence; exclude one of them instead",
+                file=overrides.path,
+                row=ov.line,
+            )
     return clips.replace_clips(start[keep], end[keep], angle[keep], net[keep]), applied
 
 
