@@ -643,3 +643,20 @@ def test_damaged_files_fail_with_one_error_naming_the_file(tmp_path: Path, fmt: 
             assert exc.where.file == str(path), str(exc)
         else:
             assert not is_cut, f"a copy cut to {len(data)} bytes was read without error"
+
+
+def test_relative_paths_from_inside_the_tree(tmp_path: Path, monkeypatch) -> None:
+    # A curator inside S7/MyPoseFeatures/D3_Positions runs `h36m mine .`: the folder names
+    # above the working directory still give the layout and the subject.
+    d3 = tmp_path / "S7" / "MyPoseFeatures" / "D3_Positions"
+    readers.write_h36m_cdf(d3 / "Walking 1.cdf", _walking_h36m(6))
+    np.save(tmp_path / "S7" / "poses.npy", _walking_h36m(6))
+    monkeypatch.chdir(d3)
+    (src,) = readers.discover(["."])
+    assert src.fmt == "cdf"
+    (seq,) = readers.read_source(src)
+    assert (seq.subject, seq.action, seq.subaction) == ("S7", "Walking", "1")
+    # a generic array named without a folder takes the working directory's name as subject
+    monkeypatch.chdir(tmp_path / "S7")
+    (arr,) = readers.read_source("poses.npy", layout="h36m32", fps=50, up_axis="z", units="mm")
+    assert (arr.subject, arr.action, arr.source) == ("S7", "poses", "poses.npy")

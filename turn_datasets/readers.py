@@ -194,7 +194,7 @@ _SUBJECT_RE = re.compile(r"^S\d+$")
 
 def h36m_subject_of(path: str | os.PathLike[str]) -> str:
     """The Human3.6M subject (``"S9"``) of a file: the nearest ``S<n>`` folder above it."""
-    for parent in Path(path).parents:
+    for parent in Path(path).absolute().parents:
         if _SUBJECT_RE.match(parent.name):
             return parent.name
     raise TurnbenchError(
@@ -283,9 +283,9 @@ def _detect_in_folder(path: Path) -> str | None:
     suffix = path.suffix.lower()
     if suffix == ".bvh":
         return "bvh"
-    if suffix == ".cdf" and path.parent.name == "D3_Positions":
+    if suffix == ".cdf" and path.absolute().parent.name == "D3_Positions":
         return "cdf"
-    if suffix in (".h5", ".hdf5") and path.parent.name == "3D_positions":
+    if suffix in (".h5", ".hdf5") and path.absolute().parent.name == "3D_positions":
         return "h36m-h5"
     if suffix == ".npz":
         members = _npz_members(path)
@@ -570,7 +570,7 @@ def _read_bvh(
 ) -> Iterator[MocapSequence]:
     seq = _bvh.read_bvh(path, joint_map=joint_map, skip_first_frame=skip_first_frame)
     yield MocapSequence(
-        subject=path.parent.name,
+        subject=path.absolute().parent.name,
         action=path.stem,
         subaction="",
         positions=_checked_positions(seq.positions, seq.layout, path=path, item=None),
@@ -638,7 +638,7 @@ def _read_arrays(
             )
         positions = to_z_up(np.asarray(array, dtype=np.float64), up_axis)
         yield MocapSequence(
-            subject=path.parent.name,
+            subject=path.absolute().parent.name,
             action=path.stem if single else f"{path.stem}.{key.replace('/', '.')}",
             subaction="",
             positions=_checked_positions(positions, lay, path=path, item=item),
