@@ -226,3 +226,31 @@ def test_remap_corpus_has_table_2s_mix_and_raters_who_disagree_like_people(tmp_p
     assert 0.01 < differ.mean() < 0.05
     steps = set((both["angle_deg_a"] - both["angle_deg_b"]).abs()[differ])
     assert steps <= {45.0, 90.0}
+
+
+def test_remap_estimates_keep_the_camera_and_worsen_free_living(tmp_path: Path) -> None:
+    """One camera per participant's session; free-living gets 30 to 110 mm of depth error
+    and 0.3 dropouts per second, scripted 20 to 80 mm and 0.05, clinical in between."""
+    remap = write_remap_corpus(tmp_path / "remap", seed=4, n_pairs=1)
+    labels = remap.truth.rename(columns={"turn_id": "clip_id"})
+    calls: list[dict] = []
+
+    def spy(positions, layout, **kw):
+        calls.append(kw)
+        return degrade_skeleton(positions, layout, **kw)
+
+    write_remap_estimates(labels, tmp_path / "est.npz", degrade=spy, seed=4)
+    expected = {
+        (20.0, 80.0, 0.05),  # scripted
+        (22.0, 90.0, 0.1),  # clinical
+        (30.0, 110.0, 0.3),  # free-living
+    }
+    by_camera: dict[tuple, set] = {}
+    for kw in calls:
+        key = (kw["depth_sd_facing_mm"], kw["depth_sd_away_mm"], kw["dropout_rate_per_s"])
+        by_camera.setdefault(tuple(kw["camera_position_mm"]), set()).add(key)
+    # 1 pair x 2 sessions x 2 participants = 4 cameras, each seeing the three scenarios
+    n_groups = labels.groupby(["session", "subject"]).ngroups
+    assert n_groups == 4
+    assert len(by_camera) == n_groups
+    assert all(seen == expected for seen in by_camera.values())

@@ -30,8 +30,10 @@ Skeleton "predictions" (:func:`write_h36m_estimates`, :func:`write_remap_estimat
     motion capture; each Turn-REMAP turn's skeleton is synthesised with that turn's
     labelled angle (plus the few degrees a 45° label rounds away). Both are degraded by
     :func:`turn_eval.degrade.degrade_skeleton`-style errors (joint noise, depth error growing
-    with the angle to the camera, occlusion dropouts); free-living recordings get a farther
-    camera and more occlusion than scripted ones, as home videos do.
+    with the angle to the camera, occlusion dropouts). A participant's session keeps one
+    camera; its free-living recordings get a larger depth error (30 to 110 mm against 20 to
+    80 mm) and six times the dropouts of its scripted ones, as home videos do
+    (:data:`_REMAP_DEGRADE`).
 
 The degradation lives in :mod:`turn_eval.degrade`; ``turn_datasets`` may not import
 ``turn_eval`` (DESIGN.md), so the two estimate writers take the degrading function as an
@@ -130,7 +132,8 @@ _H36M_CAMERAS_MM = (
     (-3800.0, -4300.0, 1550.0),
     (4000.0, -4000.0, 1600.0),
 )
-#: Degradation per REMAP scenario: free-living video is farther, more occluded, less sure.
+#: Degradation per REMAP scenario, the camera unchanged: free-living video is less sure of
+#: depth (as if farther) and more occluded.
 _REMAP_DEGRADE: Mapping[str, Mapping[str, float]] = {
     "scripted": {"depth_sd_facing_mm": 20.0, "depth_sd_away_mm": 80.0, "dropout_rate_per_s": 0.05},
     "clinical": {"depth_sd_facing_mm": 22.0, "depth_sd_away_mm": 90.0, "dropout_rate_per_s": 0.1},
