@@ -525,3 +525,19 @@ def test_review_copy_of_real_exports_keeps_everything(real_eaf_dir, tmp_path, na
                   if p.get("NAME") not in src_counters]
     assert kept_props == [(p.get("NAME"), p.text) for p in src_root.iter("PROPERTY")
                           if p.get("NAME") not in src_counters]
+
+
+def test_markdown_tables_survive_pipes_in_names():
+    import re
+
+    from turn_datasets.agreement import audit_agreement
+
+    odd = HAND.replace({"annotator": {"ann": "ann|x"}, "session": {"s1": "s|1"}})
+    md = audit_agreement(odd, n_bootstrap=0).to_markdown()
+    assert "ann\\|x" in md and "s\\|1" in md
+    # Every row of a table has as many cell separators (unescaped "|") as its header.
+    for block in md.split("\n\n"):
+        rows = [line for line in block.splitlines() if line.startswith("|")]
+        if rows:
+            counts = {len(re.findall(r"(?<!\\)\|", line)) for line in rows}
+            assert len(counts) == 1, block

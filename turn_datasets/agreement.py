@@ -864,9 +864,18 @@ def _s(value: float | None) -> str:
     return "n/a" if value is None else f"{value:+.3f}"
 
 
+def _md_cell(value: Any) -> str:
+    # Rater names and session ids come from the files: a "|" would end the cell, a line
+    # break the row.
+    return " ".join(str(value).split()).replace("|", "\\|")
+
+
 def _md_table(header: Sequence[str], rows: Iterable[Sequence[str]]) -> list[str]:
-    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    lines = [
+        "| " + " | ".join(_md_cell(h) for h in header) + " |",
+        "|" + "|".join("---" for _ in header) + "|",
+    ]
+    lines += ["| " + " | ".join(_md_cell(c) for c in row) + " |" for row in rows]
     return lines
 
 
