@@ -271,3 +271,86 @@ def test_observed_group_metrics_equal_sklearn_per_group():
         assert metrics_of(o.subset(keep)) == pytest.approx(expected, abs=1e-12)
         for name in ("accuracy", "mae_deg", "wprec", "mae_speed_deg_s"):
             assert by[name][g] == pytest.approx(expected[name], abs=1e-12), name
+
+
+# --- predictions spread over many bins (a submission in the wrong unit) --------------------
+
+
+def test_quadratic_kappa_equals_sklearn_on_the_step_grid():
+    # scikit-learn's own formula on integer steps with every step in between as a label is
+    # the oracle; the closed form must agree whatever the bins present.
+    from turn_eval.metrics import quadratic_kappa
+
+    rng = np.random.default_rng(8)
+    for spread in (30.0, 90.0, 400.0):
+        ref = rng.uniform(0, 360, 300)
+        pred = np.abs(ref + rng.normal(0, spread, 300))
+        o = clip_outcomes(pred, ref)
+        ref_step = np.rint(quantise_deg(ref) / 45).astype(int)
+        pred_step = np.rint(quantise_deg(pred) / 45).astype(int)
+        grid = np.arange(max(ref_step.max(), pred_step.max()) + 1)
+        expected = cohen_kappa_score(ref_step, pred_step, labels=grid, weights="quadratic")
+        assert quadratic_kappa(o) == pytest.approx(expected, rel=1e-12), spread
+        assert bin_report(o)["kappa"] == pytest.approx(expected, rel=1e-12)
+
+
+def test_wprec_from_counts_is_sklearns_weighted_precision():
+    # Reference bins 0,0,1,2 and predictions 0,1,1,1: true (2,1,1), predicted (1,3,0),
+    # right (1,1,0) -> (2 * 1/1 + 1 * 1/3 + 1 * 0) / 4 = 7/12.
+    from turn_eval.metrics import wprec_from_counts
+
+    assert wprec_from_counts([2, 1, 1], [1, 3, 0], [1, 1, 0]) == pytest.approx(7 / 12)
+    assert precision_score([0, 0, 1, 2], [0, 1, 1, 1], average="weighted", zero_division=0) == (
+        pytest.approx(7 / 12)
+    )
+
+
+def test_hundreds_of_bins_score_like_sklearn_per_group_and_resample():
+    # Predictions in centidegrees: hundreds of distinct bins. Every group metric on every resample
+    # must still equal scikit-learn on that resample's clips of the group, and a chunk larger
+    # than the engine's memory bound is evaluated in passes with the same numbers.
+    from turn_eval.metrics import _Engine
+
+    rng = np.random.default_rng(3)
+    n = 400
+    ref = rng.uniform(45, 360, n)
+    pred = ref * 100
+    pred[:40] = ref[:40]  # a few right, so precision is not zero everywhere
+    group = rng.integers(0, 4, n)
+    o = clip_outcomes(pred, ref)
+    assert o.bins_deg.size > 200  # a 200 x 200 confusion per group the engine never builds
+    partitions = [Partition.whole(n), Partition("g", ("a", "b", "c", "d"), group)]
+    idx = np.random.default_rng(1).integers(0, n, (12, n))
+    overall, by = grouped_bootstrap(o, partitions, indices=[idx])
+    for r in (0, 5, 11):
+        drawn = idx[r]
+        assert overall["wprec"][r, 0] == pytest.approx(
+            compute_metrics(pred[drawn], ref[drawn])["wprec"], abs=1e-12
+        )
+        for g in range(4):
+            keep = drawn[group[drawn] == g]
+            expected = compute_metrics(pred[keep], ref[keep])
+            for name in ("accuracy", "wprec"):
+                assert by[name][r, g] == pytest.approx(expected[name], abs=1e-12), (name, r, g)
+            # Errors of thousands of degrees: equal up to the order of summation.
+            assert by["mae_deg"][r, g] == pytest.approx(expected["mae_deg"], rel=1e-12)
+    engine = _Engine(o, partitions)
+    object.__setattr__(engine, "rows_per_pass", 5)  # 12 rows -> passes of 5, 5 and 2
+    split = engine.evaluate(idx)
+    for whole, parts in zip((overall, by), split, strict=True):
+        for name in whole:
+            assert np.array_equal(whole[name], parts[name], equal_nan=True), name
+
+
+def test_a_huge_finite_angle_is_scored_not_crashed():
+    # 1e300 degrees is finite and non-negative, so it passes validation; bins that large
+    # must not reach scikit-learn as floats (it calls them continuous) nor overflow kappa.
+    o = clip_outcomes([1e300, 90.0, 180.0], [90.0, 90.0, 180.0])
+    m = metrics_of(o)
+    # Bins: ref 90, 90, 180; pred 1e300-ish, 90, 180. Precision: 90 -> 1/1, 180 -> 1/1,
+    # huge -> 0 of 0 reference clips; WPrec = (2 * 1 + 1 * 1) / 3 = 1.
+    assert m["accuracy"] == pytest.approx(2 / 3) and m["wprec"] == pytest.approx(1.0)
+    report = bin_report(o)
+    assert report["per_bin"]["90"] == {"n": 2, "n_predicted": 1, "precision": 1.0,
+                                       "recall": 0.5}
+    assert report["kappa"] is not None and -1.0 <= report["kappa"] <= 1.0

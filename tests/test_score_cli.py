@@ -257,3 +257,17 @@ def test_bin_width_option(files, capsys):
     assert scores["overall"]["accuracy"] == pytest.approx(0.5)
     assert scores["settings"]["bin_width_deg"] == 90
     assert list(scores["by"]["bin_deg"]["groups"]) == ["90", "180"]
+
+
+def test_plots_of_a_submission_in_the_wrong_unit_stay_bounded(tmp_path):
+    # Centidegrees: 300 clips spread over ~200 bins. The confusion matrix merges runs of
+    # bins into at most 40 rows and columns, and no figure grows past 14 inches (plus the
+    # colour bar's 1.2) at 110 dpi: 15.2 * 110 = 1672 pixels.
+    rng = np.random.default_rng(0)
+    ref = rng.uniform(45, 360, 300)
+    written = plots.write_plots(ref * 100, ref, tmp_path)
+    for path in written:
+        data = path.read_bytes()
+        width = int.from_bytes(data[16:20], "big")  # PNG IHDR: width, then height
+        height = int.from_bytes(data[20:24], "big")
+        assert width <= 1672 and height <= 1672, (path.name, width, height)

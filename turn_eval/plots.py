@@ -1,7 +1,7 @@
 """The figures of ``turn-eval score --plots``, as PNG.
 
-- ``confusion_matrix.png``: reference bin against predicted bin (scikit-learn's
-  ``confusion_matrix``), each cell's count, shaded by the fraction of its reference bin.
+- ``confusion_matrix.png``: reference bin against predicted bin, each cell's count, shaded
+  by the fraction of its reference bin (over 40 bins, runs of neighbouring bins are merged).
 - ``predicted_by_bin.png``: the distribution of predicted angles for each reference bin, as
   the paper's Figure 5a shows it, with the line where prediction equals reference.
 - ``abs_error.png``: the distribution of absolute angle errors (the paper's Figure 5b), with
@@ -16,13 +16,11 @@ saved without a software tag so the same scores give the same bytes.
 from __future__ import annotations
 
 import os
-import warnings
 from pathlib import Path
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
-from sklearn.metrics import confusion_matrix
 
 from turn_datasets.geometry import quantise_deg
 from turn_eval.predictions import group_label
@@ -32,6 +30,13 @@ __all__ = ["PLOT_FILES", "write_plots"]
 #: File names of the figures, in the order :func:`write_plots` writes them.
 PLOT_FILES = ("confusion_matrix.png", "predicted_by_bin.png", "abs_error.png", "bland_altman.png")
 _DPI = 110
+#: Beyond these, a figure stops growing with its bins (a submission in the wrong unit can
+#: reach hundreds of bins; the figure must still fit in memory and on a screen).
+_MAX_INCHES = 14.0
+_MAX_TICKS = 30
+_MAX_COUNTED_CELLS = 20
+_MAX_MATRIX_BINS = 40
+_MAX_BARS = 100
 
 
 def _save(fig: Figure, path: Path) -> Path:
@@ -44,32 +49,44 @@ def _save(fig: Figure, path: Path) -> Path:
 def _confusion(
     pred_bins: np.ndarray, ref_bins: np.ndarray, bin_width_deg: float, path: Path
 ) -> Path:
-    labels = np.unique(np.concatenate([ref_bins, pred_bins]))
-    with warnings.catch_warnings():
-        # One bin on both sides is a fine 1 x 1 matrix; scikit-learn warns about it anyway.
-        warnings.filterwarnings("ignore", message="A single label was found", category=UserWarning)
-        counts = confusion_matrix(ref_bins, pred_bins, labels=labels)
+    labels, position = np.unique(np.concatenate([ref_bins, pred_bins]), return_inverse=True)
+    position = position.reshape(-1)
+    k = labels.shape[0]
+    # Beyond _MAX_MATRIX_BINS bins (predictions in the wrong unit spread over hundreds), runs
+    # of neighbouring bins share a row and a column, so the matrix stays bounded and legible.
+    m = min(k, _MAX_MATRIX_BINS)
+    merged = position * m // k
+    starts = np.searchsorted(np.arange(k) * m // k, np.arange(m))
+    ends = np.append(starts[1:], k) - 1
+    names = [
+        group_label(labels[a]) if a == b else f"{group_label(labels[a])}–{group_label(labels[b])}"
+        for a, b in zip(starts, ends, strict=True)
+    ]
+    n_ref = ref_bins.shape[0]
+    counts = np.bincount(merged[:n_ref] * m + merged[n_ref:], minlength=m * m).reshape(m, m)
     with np.errstate(divide="ignore", invalid="ignore"):
         share = counts / counts.sum(axis=1, keepdims=True)
     share = np.nan_to_num(share)
-    size = 1.6 + 0.55 * labels.shape[0]
+    size = min(1.6 + 0.55 * m, _MAX_INCHES)
     fig = Figure(figsize=(size + 1.2, size))
     ax = fig.add_subplot()
     image = ax.imshow(share, cmap="Blues", vmin=0.0, vmax=1.0)
-    names = [group_label(b) for b in labels]
-    ax.set_xticks(range(labels.shape[0]), names, rotation=45)
-    ax.set_yticks(range(labels.shape[0]), names)
+    ticks = np.arange(0, m, -(-m // _MAX_TICKS))
+    ax.set_xticks(ticks, [names[t] for t in ticks], rotation=45)
+    ax.set_yticks(ticks, [names[t] for t in ticks])
     ax.set_xlabel("predicted bin (°)")
     ax.set_ylabel("reference bin (°)")
-    for i in range(labels.shape[0]):
-        for j in range(labels.shape[0]):
+    # Counts are written in the cells only while they stay legible.
+    for i in range(m if m <= _MAX_COUNTED_CELLS else 0):
+        for j in range(m):
             if counts[i, j]:
                 ax.text(
                     j, i, str(counts[i, j]), ha="center", va="center", fontsize=8,
                     color="white" if share[i, j] > 0.6 else "black",
                 )
     fig.colorbar(image, ax=ax, label="fraction of the reference bin")
-    ax.set_title(f"Confusion matrix of {bin_width_deg:g}° bins")
+    title = f"Confusion matrix of {bin_width_deg:g}° bins"
+    ax.set_title(title if m == k else f"{title} ({k} bins in {m} runs)")
     fig.tight_layout()
     return _save(fig, path)
 
@@ -79,7 +96,7 @@ def _predicted_by_bin(
 ) -> Path:
     bins = np.unique(ref_bins)
     groups = [pred_deg[ref_bins == b] for b in bins]
-    fig = Figure(figsize=(max(5.0, 1.0 + 0.7 * bins.shape[0]), 4.2))
+    fig = Figure(figsize=(min(max(5.0, 1.0 + 0.7 * bins.shape[0]), _MAX_INCHES), 4.2))
     ax = fig.add_subplot()
     ax.boxplot(
         groups,
@@ -92,7 +109,8 @@ def _predicted_by_bin(
     ax.plot([low, high], [low, high], linestyle="--", color="grey", linewidth=1,
             label="predicted = reference")
     ax.set_xlim(low, high)
-    ax.set_xticks(bins, [group_label(b) for b in bins])
+    ticks = bins[:: -(-bins.shape[0] // _MAX_TICKS)]
+    ax.set_xticks(ticks, [group_label(b) for b in ticks])
     ax.set_xlabel("reference bin (°)")
     ax.set_ylabel("predicted angle (°)")
     ax.set_title("Predicted angles per reference bin")
@@ -102,8 +120,10 @@ def _predicted_by_bin(
 
 
 def _abs_error(error_deg: np.ndarray, bin_width_deg: float, path: Path) -> Path:
-    step = 5.0
-    top = max(step, float(np.ceil(error_deg.max() / step) * step))
+    # 5° bars, wider when the errors spread so far that there would be over _MAX_BARS.
+    largest = float(error_deg.max())
+    step = 5.0 * max(1.0, float(np.ceil(largest / (5.0 * _MAX_BARS))))
+    top = max(step, float(np.ceil(largest / step) * step))
     fig = Figure(figsize=(5.5, 3.8))
     ax = fig.add_subplot()
     ax.hist(error_deg, bins=np.arange(0.0, top + step, step), color="#4c78a8")

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
-from decimal import ROUND_HALF_UP, Decimal
+from decimal import ROUND_HALF_UP, Context, Decimal
 from typing import Any
 
 import numpy as np
@@ -249,10 +249,14 @@ def build_scores(
     }
 
 
+#: Enough digits for any finite float to one decimal (the largest has 309 before the point).
+_DECIMALS = Context(prec=320, rounding=ROUND_HALF_UP)
+
+
 def _one_decimal(value: float) -> str:
     # Half up on the shortest decimal form (6.25 -> 6.3), as a reader rounds a printed table;
     # Python's own formatting rounds the binary value, which prints 6.25 as 6.2.
-    return str(Decimal(repr(float(value))).quantize(Decimal("0.1"), rounding=ROUND_HALF_UP))
+    return str(Decimal(repr(float(value))).quantize(Decimal("0.1"), context=_DECIMALS))
 
 
 def _format(metric: str, value: Any) -> str:
