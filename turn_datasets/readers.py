@@ -445,9 +445,27 @@ def _checked_positions(
     return p
 
 
+def _h36m_file_sequence(
+    path: Path, positions: np.ndarray, fmt: str, subject: str, action: tuple[str, str]
+) -> MocapSequence:
+    """One Human3.6M sequence stored one per file (CDF, h5): 32 joints, 50 Hz, millimetres."""
+    return MocapSequence(
+        subject=subject,
+        action=action[0],
+        subaction=action[1],
+        positions=_checked_positions(positions, H36M32, path=path, item=None),
+        layout=H36M32,
+        fps=H36M_FPS,
+        units="mm",
+        source=str(path),
+        meta={"format": fmt, "name_on_disk": path.stem},
+    )
+
+
 def _read_cdf(path: Path) -> Iterator[MocapSequence]:
+    # subject and action first: a file outside the release's layout is refused unread
     subject = h36m_subject_of(path)
-    action, subaction = _action_of(path.stem, path)
+    action = _action_of(path.stem, path)
     try:
         pose = np.asarray(cdflib.CDF(path).varget(_H36M_CDF_VARIABLE))
     except _CORRUPT as exc:
@@ -462,23 +480,12 @@ def _read_cdf(path: Path) -> Iterator[MocapSequence]:
             f"variable {_H36M_CDF_VARIABLE!r} has shape {pose.shape}, expected (1, N, 96)",
             file=path,
         )
-    positions = pose.reshape(pose.shape[0], 32, 3)
-    yield MocapSequence(
-        subject=subject,
-        action=action,
-        subaction=subaction,
-        positions=_checked_positions(positions, H36M32, path=path, item=None),
-        layout=H36M32,
-        fps=H36M_FPS,
-        units="mm",
-        source=str(path),
-        meta={"format": "cdf", "name_on_disk": path.stem},
-    )
+    yield _h36m_file_sequence(path, pose.reshape(pose.shape[0], 32, 3), "cdf", subject, action)
 
 
 def _read_h36m_h5(path: Path) -> Iterator[MocapSequence]:
     subject = h36m_subject_of(path)
-    action, subaction = _action_of(path.stem, path)
+    action = _action_of(path.stem, path)
     stored, names = None, []
     try:
         with h5py.File(path, "r") as fh:
@@ -499,17 +506,8 @@ def _read_h36m_h5(path: Path) -> Iterator[MocapSequence]:
             file=path,
         )
     # 3d-pose-baseline stores one column per frame: transpose, then 32 joints x 3
-    positions = stored.T.reshape(stored.shape[1], 32, 3)
-    yield MocapSequence(
-        subject=subject,
-        action=action,
-        subaction=subaction,
-        positions=_checked_positions(positions, H36M32, path=path, item=None),
-        layout=H36M32,
-        fps=H36M_FPS,
-        units="mm",
-        source=str(path),
-        meta={"format": "h36m-h5", "name_on_disk": path.stem},
+    yield _h36m_file_sequence(
+        path, stored.T.reshape(stored.shape[1], 32, 3), "h36m-h5", subject, action
     )
 
 
