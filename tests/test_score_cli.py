@@ -271,3 +271,35 @@ def test_plots_of_a_submission_in_the_wrong_unit_stay_bounded(tmp_path):
         width = int.from_bytes(data[16:20], "big")  # PNG IHDR: width, then height
         height = int.from_bytes(data[20:24], "big")
         assert width <= 1672 and height <= 1672, (path.name, width, height)
+
+
+def test_out_dir_that_is_a_file_or_under_one_is_one_line_exit_2(files, capsys):
+    pred, ref = files
+    for out_dir, expected in ((ref, "--out-dir is a file, not a folder"),
+                              (ref / "sub", f"cannot write the scores: {ref}: File exists")):
+        code, out, err = run(["score", pred, "-r", ref, "--bootstrap", "0", "--out-dir",
+                              out_dir], capsys)
+        assert code == EXIT_BAD_INPUT and out == "", out_dir
+        assert err == f"turn-eval: error: {out_dir}: {expected}\n"
+    assert ref.read_text() == REFERENCE
+    assert sorted(p.name for p in ref.parent.iterdir()) == ["pred.csv", "ref.csv"]
+
+
+def test_json_without_durations_has_null_speed_everywhere(files, capsys):
+    # DESIGN.md: mae_speed_deg_s is null where the reference has no durations, in the
+    # overall entry, every group, every avg and every interval; fractions stay fractions.
+    pred, ref = files
+    ref.write_text("clip_id,subject,angle_deg\na,S1,90\nb,S1,180\nc,S9,45\nd,S11,135\n")
+    code, out, err = run(["score", pred, "-r", ref, "--format", "json", "--bootstrap", "20"],
+                         capsys)
+    assert code == 0, err
+    scores = json.loads(out)
+    assert list(scores) == ["overall", "by", "n_missing", "settings"]
+    entries = [scores["overall"]]
+    for block in scores["by"].values():
+        assert list(block) == ["groups", "avg"]
+        entries += [*block["groups"].values(), block["avg"]]
+    for entry in entries:
+        assert entry["mae_speed_deg_s"] is None and entry["ci95"]["mae_speed_deg_s"] is None
+        assert 0.0 <= entry["accuracy"] <= 1.0 and 0.0 <= entry["wprec"] <= 1.0
+    assert "MAE speed" not in run(["score", pred, "-r", ref, "--bootstrap", "0"], capsys)[1]

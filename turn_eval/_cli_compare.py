@@ -188,7 +188,15 @@ def compare_command(
             reference=str(reference),
             n_missing=joined_a.n_missing,
         )
-    emit(text)
     if out is not None:
-        write_text(out, text)
+        # The file first: if it cannot be written, stdout stays empty and the exit is 2.
+        try:
+            write_text(out, text)
+        except OSError as exc:
+            raise TurnbenchError(
+                "cannot write the comparison: "
+                + (f"{exc.filename}: {exc.strerror}" if exc.filename else str(exc)),
+                file=str(out),
+            ) from None
         wrote(out, what="comparison")
+    emit(text)

@@ -86,7 +86,8 @@ def _bootstrap_progress(chunks, n_chunks: int):
 @format_option()
 @click.option(
     "--out-dir",
-    type=click.Path(file_okay=False, path_type=Path),
+    # A file here is refused below, in one line like every bad input (not click's usage text).
+    type=click.Path(path_type=Path),
     help="Also write scores.json, scores.md and scores.csv here.",
 )
 @click.option("--plots", is_flag=True, help="With --out-dir: also write the figures as PNG.")
@@ -137,20 +138,29 @@ def score(
     }
     frame = scores_frame(scores)
     if out_dir is not None:
-        with staged_dir(out_dir) as tmp:
-            write_json(tmp / "scores.json", scores)
-            write_text(tmp / "scores.md", texts["md"])
-            write_csv(frame, tmp / "scores.csv")
-            if plots:
-                from turn_eval.plots import write_plots
+        try:
+            with staged_dir(out_dir) as tmp:
+                write_json(tmp / "scores.json", scores)
+                write_text(tmp / "scores.md", texts["md"])
+                write_csv(frame, tmp / "scores.csv")
+                if plots:
+                    from turn_eval.plots import write_plots
 
-                t = joined.table
-                write_plots(
-                    t["pred_angle_deg"].to_numpy(),
-                    t["ref_angle_deg"].to_numpy(),
-                    tmp,
-                    bin_width_deg=bin_width_deg,
-                )
+                    t = joined.table
+                    write_plots(
+                        t["pred_angle_deg"].to_numpy(),
+                        t["ref_angle_deg"].to_numpy(),
+                        tmp,
+                        bin_width_deg=bin_width_deg,
+                    )
+        except OSError as exc:
+            # A folder that cannot be made or written (a file in the way, no permission,
+            # a full disk): one line like any bad input; staged_dir left nothing behind.
+            raise TurnbenchError(
+                "cannot write the scores: "
+                + (f"{exc.filename}: {exc.strerror}" if exc.filename else str(exc)),
+                file=str(out_dir),
+            ) from None
         names = [*SCORE_FILES, *(PLOT_FILES if plots else ())]
         wrote(*(out_dir / name for name in names), what="scores")
     if fmt == "csv":
