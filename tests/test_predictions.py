@@ -144,6 +144,44 @@ def test_spreadsheet_variants_read_the_same(tmp_path, ref, raw):
     assert joined.table["clip_id"].tolist() == IDS
 
 
+@pytest.mark.parametrize(
+    "raw, line, expected",
+    [
+        # BOM, odd header case and spaces, CRLF, a blank line 3: 'x' is on line 5.
+        ("\ufeff Clip_ID , ANGLE_DEG \r\n" f"{IDS[0]} , 92.5\r\n\r\n{IDS[1]} , 170\r\n"
+         f"{IDS[2]} , x\r\n{IDS[3]} , 100\r\n", 5, "angle_deg 'x' is not a number"),
+        # A spreadsheet's semicolons and decimal commas: a negative magnitude on line 3.
+        ("clip_id;angle_deg\n" f"{IDS[0]};92,5\n{IDS[1]};-12,5\n{IDS[2]};40\n{IDS[3]};100\n",
+         3, "angle_deg is negative (-12.5)"),
+        # Tabs and decimal commas: NaN on line 4.
+        ("clip_id\tangle_deg\n" f"{IDS[0]}\t92,5\n{IDS[1]}\t170\n{IDS[2]}\tNaN\n{IDS[3]}\t1\n",
+         4, "angle_deg is NaN ('NaN')"),
+        # Semicolons: a cell with two decimal commas is not a number, line 2.
+        ("clip_id;angle_deg\n" f"{IDS[0]};1,2,5\n{IDS[1]};170\n{IDS[2]};40\n{IDS[3]};1\n",
+         2, "angle_deg '1,2,5' is not a number"),
+        # Semicolons: an infinite angle on line 5.
+        ("clip_id;angle_deg\n" f"{IDS[0]};1\n{IDS[1]};170\n{IDS[2]};40\n{IDS[3]};-inf\n",
+         5, "angle_deg is infinite ('-inf')"),
+        # A BOM before a header that lacks angle_deg: the header's line, 1.
+        ("\ufeffclip_id;angle\n" f"{IDS[0]};1\n", 1, "lacks column 'angle_deg'"),
+        # Tabs: a duplicate id on line 4, first on line 2.
+        ("clip_id\tangle_deg\n" f"{IDS[0]}\t1\n{IDS[1]}\t2\n{IDS[0]}\t3\n", 4,
+         f"duplicate clip_id {IDS[0]!r}, first on line 2"),
+        # Semicolons: an id not in the reference on line 3.
+        ("clip_id;angle_deg\n" f"{IDS[0]};1\nghost;2\n", 3,
+         "1 clip id is not in the reference"),
+    ],
+    ids=["bom-crlf-word", "semicolon-negative", "tab-nan", "semicolon-two-commas",
+         "semicolon-inf", "bom-missing-column", "tab-duplicate", "semicolon-unknown"],
+)
+def test_spreadsheet_variants_report_the_files_own_line(tmp_path, ref, raw, line, expected):
+    err = error_of(tmp_path, raw, ref)
+    assert err.where.row == line, str(err)
+    assert expected in str(err)
+    if "negative" in expected:
+        assert "--abs" in str(err)
+
+
 def test_speed_column_empty_cells_mean_not_given(tmp_path, ref):
     text = "clip_id,angle_deg,speed_deg_s\n" + "".join(
         f"{i},{a},{s}\n"

@@ -9,6 +9,7 @@ import pandas as pd
 import pytest
 from scipy import stats
 
+from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
 from turn_eval.metrics import METRICS
 from turn_eval.predictions import read_predictions, read_reference
@@ -87,8 +88,7 @@ def test_json_document_shape(table4a):
     assert group["n"] == 1000 and set(group["ci95"]) == set(METRICS)
     assert scores["settings"] == {
         "bin_width_deg": 45, "bootstrap": 50, "seed": 3, "confidence": 0.95,
-        "ci_method": "percentile", "kappa_weights": "quadratic",
-        "version": scores["settings"]["version"],
+        "ci_method": "percentile", "kappa_weights": "quadratic", "version": __version__,
     }
     assert scores["n_missing"] == 0
 
@@ -177,6 +177,14 @@ def test_markdown_of_a_hand_made_document_rounds_half_up():
     assert "| # Turns | 8 | 8 | 8 |" in md
     assert "2 reference clips were missing" in md
     assert "95% CI" not in md
+
+
+def test_markdown_rounds_any_finite_value():
+    # A submission in the wrong unit can make an MAE of 1e300 degrees: printed, not a crash.
+    from turn_eval.tables import _format
+
+    assert _format("mae_deg", 1e300) == "1" + "0" * 300 + ".0"
+    assert _format("mae_deg", 0.05) == "0.1" and _format("accuracy", 0.3333) == "33.3"
 
 
 def test_scores_frame_is_typed(table4a):
