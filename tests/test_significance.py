@@ -236,3 +236,37 @@ def test_signature_and_dict_carry_what_reproduces_the_claim():
 def test_bad_arrays_are_refused(a, b, ref, n_resamples):
     with pytest.raises(TurnbenchError):
         paired_bootstrap(a, b, ref, n_resamples=n_resamples, seed=0)
+
+
+def test_difference_intervals_equal_scipy_paired_bootstrap_on_the_same_seed():
+    # The documented draws are scipy.stats.bootstrap's: with the same seed, the paired
+    # intervals of B - A are scipy's percentile intervals up to summation order.
+    a, b, ref = two_systems(150, sd_a_deg=30.0, sd_b_deg=20.0, seed=4)
+    n_resamples, seed = 300, 5
+    ours = paired_bootstrap(a, b, ref, n_resamples=n_resamples, seed=seed)
+
+    def accuracy(pa, pb, r, axis=-1):
+        return np.mean(quantise_deg(pb) == quantise_deg(r), axis=axis) - np.mean(
+            quantise_deg(pa) == quantise_deg(r), axis=axis
+        )
+
+    def mae(pa, pb, r, axis=-1):
+        return np.mean(np.abs(pb - r), axis=axis) - np.mean(np.abs(pa - r), axis=axis)
+
+    def wprec(pa, pb, r):
+        def one(p):
+            return precision_score(quantise_deg(r), quantise_deg(p), average="weighted",
+                                   zero_division=0)
+        return one(pb) - one(pa)
+
+    for name, statistic, vectorized in [
+        ("accuracy", accuracy, True), ("mae_deg", mae, True), ("wprec", wprec, False)
+    ]:
+        res = stats.bootstrap(
+            (a, b, ref), statistic, paired=True, vectorized=vectorized,
+            n_resamples=n_resamples, method="percentile", rng=seed,
+        )
+        low, high = res.confidence_interval
+        assert (ours[name].ci_low, ours[name].ci_high) == pytest.approx(
+            (low, high), rel=1e-9, abs=1e-12
+        ), name
