@@ -162,6 +162,12 @@ def test_h36m_estimates_cut_every_clip(h36m, tmp_path: Path) -> None:
         bad = planted.assign(subject="S7")
         write_h36m_estimates(bad, [h36m.root], tmp_path / "no.npz", degrade=degrade_skeleton)
     assert not (tmp_path / "no.npz").exists()
+    # read from a file, the error names it
+    bad_csv = tmp_path / "index.csv"
+    planted.assign(subject="S7").to_csv(bad_csv, index=False)
+    with pytest.raises(TurnbenchError, match=r"index\.csv: \d+ sequences of the index"):
+        write_h36m_estimates(bad_csv, [h36m.root], tmp_path / "no.npz", degrade=degrade_skeleton)
+    assert not (tmp_path / "no.npz").exists()
 
 
 def test_remap_estimates_carry_the_labelled_angle(tmp_path: Path) -> None:

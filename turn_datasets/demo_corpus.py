@@ -454,7 +454,8 @@ def write_h36m_estimates(
     lost = sorted(wanted - found)
     if lost:
         raise TurnbenchError(
-            f"{len(lost)} sequences of the index are not in the sources, e.g. {lost[0]}"
+            f"{len(lost)} sequences of the index are not in the sources, e.g. {lost[0]}",
+            file=where,
         )
     return write_clip_npz(out_npz, arrays)
 
