@@ -98,6 +98,7 @@ def test_mine_writes_the_index_and_its_manifest(corpus, tmp_path, capsys) -> Non
         record = by_path[str(corpus[key])]
         assert record["sha256"] == hashlib.sha256(corpus[key].read_bytes()).hexdigest()
         assert record["format"] == fmt and record["units"] == units and record["status"] == "read"
+        assert record["frame_offset"] == 0
     assert by_path[str(corpus["npz"])]["sequences"] == 2
     counts = manifest["counts"]
     assert counts["clips"] == 6 and counts["sequences"] == 4
@@ -567,8 +568,15 @@ def test_cmu_captures_mined_with_no_option_find_exactly_the_described_turns(cmu_
         ("69_25", "left"),
     ]
     assert index["angle_deg"].between(85.0, 115.0).all()
+    # the manifest says frame 0 was dropped from each file: index frame k is file frame k + 1
+    manifest = json.loads((tmp_path / "cmu.manifest.json").read_text())
+    assert [i["frame_offset"] for i in manifest["inputs"]] == [1] * 5
+    # SOURCE.md: 69_25 has 464 frames in the file, so 463 were mined
+    assert [i["frames"] for i in manifest["inputs"] if i["path"].endswith("69_25.bvh")] == [463]
     # keeping the T-pose brings the false clip back: the default is what prevents it
     kept = tmp_path / "kept.csv"
     with pytest.raises(SystemExit):
         main(["h36m", "mine", str(cmu_dir / "69_01.bvh"), "--keep-first-frame", "--out", str(kept)])
     assert len(pd.read_csv(kept)) == 1
+    manifest = json.loads((tmp_path / "kept.manifest.json").read_text())
+    assert [i["frame_offset"] for i in manifest["inputs"]] == [0]

@@ -255,7 +255,14 @@ def mine_cmd(
     }
 
     per_file: dict[Path, dict[str, Any]] = {
-        f.path: {"clips": [], "applied": [], "sequences": 0, "frames": 0, "units": set()}
+        f.path: {
+            "clips": [],
+            "applied": [],
+            "sequences": 0,
+            "frames": 0,
+            "units": set(),
+            "frame_offset": 0,
+        }
         for f in files
     }
 
@@ -288,6 +295,8 @@ def mine_cmd(
         state["sequences"] += 1
         state["frames"] += seq.n_frames
         state["units"].add(seq.units)
+        # a BVH whose frame 0 (a rest pose) was dropped: index frame k is the file's frame k + 1
+        state["frame_offset"] = int(bool(seq.meta.get("skipped_first_frame", False)))
 
     bad = {f.path: bad[f.path] for f in files if f.path in bad}  # in path order
     if bad and not skip_bad:
@@ -322,6 +331,7 @@ def mine_cmd(
                 "sequences": state["sequences"] if f.path not in bad else 0,
                 "frames": state["frames"] if f.path not in bad else 0,
                 "units": sorted(state["units"]) if f.path not in bad else [],
+                "frame_offset": state["frame_offset"],
             }
         )
     skipped = [{"path": str(p), "error": str(exc)} for p, exc in bad.items()]

@@ -23,7 +23,9 @@ run (``turn-datasets h36m mine --overrides curation.csv``):
 
 The manifest, ``<index stem>.manifest.json`` beside the index, records how the index was
 made: the tool version, every parameter, each input file with its sha256, size and the
-number of sequences read from it, the units of each source, counts per bin, split, subject
+number of sequences read from it, the units of each source, its ``frame_offset`` (1 for a BVH
+whose rest-pose frame 0 was dropped, so that the index's frame k is the file's frame k + 1;
+else 0), counts per bin, split, subject
 and action, the overrides applied and unmatched, and the files skipped (``--skip-bad``).
 Its ``created_utc`` timestamp is the only field that changes between two runs on the same
 inputs.
