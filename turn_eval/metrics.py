@@ -41,7 +41,7 @@ Bootstrap
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -66,6 +66,7 @@ __all__ = [
     "resample_indices",
     "grouped_bootstrap",
     "grouped_metrics",
+    "pooled_resampler",
     "resampled_metrics",
     "bootstrap_distribution",
     "percentile_interval",
@@ -662,12 +663,24 @@ def grouped_metrics(
     return [{name: values[0] for name, values in result.items()} for result in observed]
 
 
+def pooled_resampler(outcomes: ClipOutcomes) -> Callable[[np.ndarray], dict[str, np.ndarray]]:
+    """A function giving every metric of the pooled clips on each row of an index matrix.
+
+    The set-up (segments, sparse matrices) is done once here, so a caller that evaluates
+    many chunks of resamples (the paired comparison) pays it once.
+    """
+    engine = _Engine(outcomes, [Partition.whole(outcomes.n)])
+
+    def evaluate(indices: np.ndarray) -> dict[str, np.ndarray]:
+        (result,) = engine.evaluate(indices)
+        return {name: values[:, 0] for name, values in result.items() if name != "n"}
+
+    return evaluate
+
+
 def resampled_metrics(outcomes: ClipOutcomes, indices: np.ndarray) -> dict[str, np.ndarray]:
     """Every metric of the pooled clips on each row of an index matrix (one value per row)."""
-    (result,) = grouped_bootstrap(
-        outcomes, [Partition.whole(outcomes.n)], indices=[np.asarray(indices)]
-    )
-    return {name: values[:, 0] for name, values in result.items() if name != "n"}
+    return pooled_resampler(outcomes)(np.asarray(indices))
 
 
 def bootstrap_distribution(

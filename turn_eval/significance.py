@@ -59,8 +59,8 @@ from turn_eval.metrics import (
     clip_outcomes,
     metrics_of,
     percentile_interval,
+    pooled_resampler,
     resample_indices,
-    resampled_metrics,
 )
 
 __all__ = [
@@ -189,10 +189,11 @@ def _differences(
             f"the number of bootstrap resamples must be positive, got {n_resamples}"
         )
     parts: dict[str, list[np.ndarray]] = {}
+    metrics_a, metrics_b = pooled_resampler(outcomes_a), pooled_resampler(outcomes_b)
     # One index matrix (in chunks) for both submissions: this is what makes the test paired.
     for idx in resample_indices(outcomes_a.n, n_resamples=n_resamples, seed=seed):
-        res_a = resampled_metrics(outcomes_a, idx)
-        res_b = resampled_metrics(outcomes_b, idx)
+        res_a = metrics_a(idx)
+        res_b = metrics_b(idx)
         for name in METRICS:
             if name in res_a:
                 parts.setdefault(name, []).append(res_b[name] - res_a[name])
