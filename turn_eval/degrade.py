@@ -9,8 +9,11 @@ parameter:
 Joint noise
     Every joint jitters independently from frame to frame: Gaussian, ``joint_noise_mm``
     standard deviation per coordinate. A lifting network that sees a window of frames
-    (as Strided Transformer does) jitters little, half a millimetre by default; the paper's equation 3 adds up every wiggle, so this
-    is the parameter that separates ``--method paper`` from ``--method net``.
+    (as Strided Transformer does) jitters little, half a millimetre by default. The paper's
+    equation 3 (``--method paper``) adds up every wiggle of the hip vector, but at this size
+    the jitter is not what inflates it: on the demo's Turn-H3.6M-like clips equation 3's MAE
+    is 19.3° with the defaults, 19.1° without jitter and 10.9° without the depth error below
+    (the rest is the captured gait sway); the net rotation's is 13.9°, 13.9° and 0.6°.
 Depth error along the camera ray
     One camera cannot see depth; the estimator guesses it. Each joint is displaced along
     the ray from the camera to it by an error whose standard deviation grows linearly with
