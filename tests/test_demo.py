@@ -282,6 +282,62 @@ def test_disagreements_table_for_the_page(tmp_path: Path) -> None:
     }
 
 
+def test_prepare_out_dir_empties_only_what_the_demo_wrote(tmp_path: Path) -> None:
+    out = tmp_path / "demo-output"
+    for rel in ("corpus/h36m/S1/old.cdf", "h36m/turn-h36m.csv", "remap/eaf/x.eaf"):
+        (out / rel).parent.mkdir(parents=True, exist_ok=True)
+        (out / rel).write_text("stale", encoding="utf-8")
+    (out / "report.html").write_text("stale", encoding="utf-8")
+    (out / "my-notes.txt").write_text("mine", encoding="utf-8")
+    (out / demo.MARKER).write_text("", encoding="utf-8")
+    demo.prepare_out_dir(out)
+    assert sorted(p.name for p in out.iterdir()) == sorted([demo.MARKER, "my-notes.txt"])
+    assert (out / "my-notes.txt").read_text(encoding="utf-8") == "mine"
+    # a demo folder of a version before the marker is known by its planted turns
+    old = tmp_path / "old"
+    (old / "corpus" / "h36m").mkdir(parents=True)
+    (old / "corpus" / "h36m" / "planted.csv").write_text("subject\n", encoding="utf-8")
+    demo.prepare_out_dir(old)
+    assert sorted(p.name for p in old.iterdir()) == [demo.MARKER]
+    # a new folder is made, with its marker
+    demo.prepare_out_dir(tmp_path / "new" / "deep")
+    assert (tmp_path / "new" / "deep" / demo.MARKER).is_file()
+
+
+def test_a_folder_that_is_not_the_demos_is_refused(tmp_path: Path, capsys) -> None:
+    (tmp_path / "h36m").mkdir()
+    (tmp_path / "h36m" / "my-index.csv").write_text("clip_id\n", encoding="utf-8")
+    assert demo.main(["--out-dir", str(tmp_path), "--quick"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        f"demo failed: {tmp_path}: --out-dir is not empty and holds no earlier demo run; "
+        "give a new or empty folder"
+    ]
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["h36m", "my-index.csv"]
+
+
+def test_a_quick_run_over_a_larger_one_reads_only_its_own_corpus(
+    tmp_path: Path, monkeypatch, capsys
+) -> None:
+    # An earlier run left a larger corpus: more subjects' motion capture and more pairs'
+    # sessions. The gate is set out of reach so the run stops after mining and labelling.
+    out = tmp_path / "demo-output"
+    (out).mkdir()
+    (out / demo.MARKER).write_text("", encoding="utf-8")
+    write_h36m_corpus(
+        out / "corpus" / "h36m", seed=1, subjects=("S6", "S7"), actions={"Walking": (1, 1)}
+    )
+    write_remap_corpus(out / "corpus" / "remap", seed=1, n_pairs=5)
+    monkeypatch.setattr(demo, "MIN_KAPPA", 0.999)
+    assert demo.main(["--out-dir", str(out), "--quick", "--bootstrap", "10"]) == 1
+    err = capsys.readouterr().err
+    assert "remap agreement" in err and "code 3" in err  # mining and labels went through
+    index = pd.read_csv(out / "h36m" / "turn-h36m.csv")
+    assert set(index["subject"]) == set(demo.QUICK["subjects"])
+    labels = pd.read_csv(out / "remap" / "labels.csv")
+    assert labels["session"].str.slice(0, 6).isin(["pair01", "pair02", "pair03"]).all()
+
+
 def test_match_planted_by_hand() -> None:
     planted = pd.DataFrame(
         {

@@ -26,6 +26,7 @@ import argparse
 import contextlib
 import io
 import shlex
+import shutil
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -51,7 +52,7 @@ from turn_eval import cli as eval_cli
 from turn_eval.degrade import degrade_skeleton
 from turn_eval.report import Report, load_json
 
-__all__ = ["DemoFailed", "run_demo", "match_planted", "write_report", "main"]
+__all__ = ["DemoFailed", "run_demo", "prepare_out_dir", "match_planted", "write_report", "main"]
 
 METHODS = ("paper", "net")
 MIN_KAPPA = 0.8
@@ -182,6 +183,43 @@ def _overall_line(scores: dict) -> str:
     )
 
 
+#: Written first into the output folder: a folder holding it is the demo's to empty.
+MARKER = ".turnbench-demo"
+#: What the demo writes into its output folder, removed before each run.
+OWNED = ("corpus", "h36m", "remap", "report.html")
+
+
+def prepare_out_dir(out: Path) -> None:
+    """Make ``out`` an empty demo folder, or refuse with a :class:`TurnbenchError`.
+
+    Files of an earlier run would be read as this run's: the miner reads every file under
+    ``corpus/h36m`` and a ``--quick`` corpus has fewer files than the full one, so a quick run
+    over a full one would mine both and fail on sessions whose participants it never wrote.
+    Only what the demo writes (:data:`OWNED`) is removed, and only from a folder that is
+    the demo's (it holds :data:`MARKER`, or the planted turns of a demo corpus); any other
+    folder that is not empty is refused, so a mistyped ``--out-dir`` never costs a user files.
+    """
+    if out.exists() and any(out.iterdir()):
+        ours = (out / MARKER).is_file() or (out / "corpus" / "h36m" / "planted.csv").is_file()
+        if not ours:
+            raise TurnbenchError(
+                "--out-dir is not empty and holds no earlier demo run; give a new or empty folder",
+                file=str(out),
+            )
+        for name in OWNED:
+            path = out / name
+            if path.is_dir() and not path.is_symlink():
+                shutil.rmtree(path)
+            elif path.exists() or path.is_symlink():
+                path.unlink()
+    out.mkdir(parents=True, exist_ok=True)
+    write_text(
+        out / MARKER,
+        "Written by python -m turn_eval.demo: each run empties corpus/, h36m/, remap/ and "
+        "report.html here and writes them again.\n",
+    )
+
+
 #: The corpus of ``--quick`` (and of the tests): three subjects (both splits), two actions, three
 #: pairs; every step still runs.
 QUICK = {
@@ -200,10 +238,12 @@ def run_demo(
 ) -> dict[str, Path]:
     """Run every step into ``out_dir`` and return the results' paths by description.
 
-    ``quick`` writes a small corpus (:data:`QUICK`) so that every step runs in seconds.
+    ``out_dir`` is new, empty, or the folder of an earlier demo run, whose results are
+    replaced (:func:`prepare_out_dir`). ``quick`` writes a small corpus (:data:`QUICK`) so
+    that every step runs in seconds.
     """
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    prepare_out_dir(out)
     t0 = time.perf_counter()
     corpus = out / "corpus"
     h36m_dir, remap_dir = out / "h36m", out / "remap"
