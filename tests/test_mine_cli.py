@@ -335,7 +335,9 @@ def test_skip_bad_writes_the_index_and_records_the_skipped_files(
     index = pd.read_csv(out)
     assert set(index.subject) == {"S1", "S9"} and len(index) == 3
     manifest = json.loads((tmp_path / "index.manifest.json").read_text())
-    assert [s["path"] for s in manifest["skipped"]] == [str(p) for p in tree_with_bad_files["bad"]]
+    assert [(s["path"], s["item"]) for s in manifest["skipped"]] == [
+        (str(p), None) for p in tree_with_bad_files["bad"]
+    ]
     assert all(s["error"].startswith(s["path"]) for s in manifest["skipped"])
     statuses = {Path(i["path"]).name: i["status"] for i in manifest["inputs"]}
     assert statuses == {
@@ -361,6 +363,38 @@ def test_a_corrupt_file_named_directly_is_listed_or_skipped(corpus, tmp_path, ca
     assert set(pd.read_csv(out).subject) == {"S11"}
     manifest = json.loads((tmp_path / "index.manifest.json").read_text())
     assert [s["path"] for s in manifest["skipped"]] == [str(broken)]
+
+
+def test_one_bad_sequence_in_a_file_of_many_is_listed_or_skipped_alone(tmp_path, capsys):
+    # VideoPose3D's npz holds the whole dataset: one unusable sequence must not cost the rest
+    turn = _sequence(5, [90.0]).positions / 1000.0
+    no_hip = turn.copy()
+    no_hip[:, 6] = np.nan  # the left hip, in every frame
+    npz = tmp_path / "data_3d_h36m.npz"
+    write_videopose_npz(npz, {"S1": {"Walking": turn, "Waiting": no_hip, "Jogging": turn}})
+    out = tmp_path / "index.csv"
+    code, stdout, stderr = run(["h36m", "mine", npz, "--out", out], capsys)
+    assert code == EXIT_BAD_INPUT and stdout == ""
+    lines = [ln for ln in stderr.splitlines() if ln.startswith("turn-datasets: error:")]
+    assert lines[0].startswith(f"turn-datasets: error: {npz}, S1/Jogging: 'Jogging' is not a")
+    assert lines[1] == (
+        f"turn-datasets: error: {npz}, S1/Waiting: the left or right hip is NaN in every frame"
+    )
+    assert lines[2].startswith("turn-datasets: error: 2 sequence(s) could not be used; nothing")
+    assert len(lines) == 3 and not out.exists()
+    code, _, stderr = run(["h36m", "mine", npz, "--out", out, "--skip-bad"], capsys)
+    assert code == 0, stderr
+    assert "skipped 2 unusable sequence(s)" in stderr
+    index = pd.read_csv(out)
+    assert index[["subject", "action", "direction"]].values.tolist() == [["S1", "Walking", "left"]]
+    manifest = json.loads((tmp_path / "index.manifest.json").read_text())
+    assert [(s["path"], s["item"]) for s in manifest["skipped"]] == [
+        (str(npz), "S1/Jogging"),
+        (str(npz), "S1/Waiting"),
+    ]
+    (record,) = manifest["inputs"]
+    assert (record["status"], record["sequences"], record["skipped_sequences"]) == ("read", 1, 2)
+    assert manifest["counts"]["sequences"] == 1
 
 
 def test_never_writes_over_an_input(corpus, tmp_path, capsys) -> None:

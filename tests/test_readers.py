@@ -660,3 +660,35 @@ def test_relative_paths_from_inside_the_tree(tmp_path: Path, monkeypatch) -> Non
     monkeypatch.chdir(tmp_path / "S7")
     (arr,) = readers.read_source("poses.npy", layout="h36m32", fps=50, up_axis="z", units="mm")
     assert (arr.subject, arr.action, arr.source) == ("S7", "poses", "poses.npy")
+
+
+def test_one_bad_sequence_of_many_is_reported_and_the_others_read(tmp_path: Path) -> None:
+    good = _walking_h36m(10) / 1000
+    no_hip = good.copy()
+    no_hip[:, H36M32.index("right_hip")] = np.nan
+    path = tmp_path / "data_3d_h36m.npz"
+    readers.write_videopose_npz(
+        path, {"S1": {"Walking": good, "Waiting": no_hip, "Jogging": good}, "S5": {"Eating": good}}
+    )
+    errors: list[TurnbenchError] = []
+    seqs = list(readers.read_source(path, on_bad_sequence=errors.append))
+    assert [(s.subject, s.action) for s in seqs] == [("S1", "Walking"), ("S5", "Eating")]
+    # sorted: Jogging (no Human3.6M action), Waiting (no right hip), each with file and item
+    assert [(e.where.file, e.where.item) for e in errors] == [
+        (str(path), "S1/Jogging"),
+        (str(path), "S1/Waiting"),
+    ]
+    assert "not a Human3.6M action" in errors[0].message and "NaN" in errors[1].message
+    # generic arrays: a key of the wrong shape, another of the wrong joint count
+    arrays = tmp_path / "poses.npz"
+    np.savez(arrays, a=_walking_h36m(8), b=np.zeros((8, 32)), c=np.zeros((8, 17, 3)))
+    errors.clear()
+    kw = {"layout": "h36m32", "fps": 50, "up_axis": "z", "units": "mm"}
+    src = readers.SourceFile(arrays, "array")
+    seqs = list(readers.read_source(src, **kw, on_bad_sequence=errors.append))
+    assert [s.action for s in seqs] == ["poses.a"]
+    assert [e.where.item for e in errors] == ["b", "c"]
+    assert "expected (frames, joints, 3)" in errors[0].message and "17 joints" in errors[1].message
+    # without the callback the first bad sequence is raised, as before
+    with pytest.raises(TurnbenchError, match="poses.npz, b: "):
+        list(readers.read_source(src, **kw))

@@ -186,7 +186,8 @@ def _sha256_or_none(path: Path) -> str | None:
 @click.option(
     "--skip-bad",
     is_flag=True,
-    help="Write the index without unreadable files (listed in the manifest) instead of failing.",
+    help="Write the index without unreadable files and unusable sequences (listed in the "
+    "manifest) instead of failing.",
 )
 def mine_cmd(
     sources: tuple[Path, ...],
@@ -214,8 +215,9 @@ def mine_cmd(
     S*/MyPoses/3D_positions/*.h5, data_3d_h36m.npz, *.bvh), a file, or several of them. A
     clip is a maximal run of hip rotation in one direction, at least --min-turn-deg in net,
     starting and stopping where the yaw rate crosses --stop-speed-deg-s (see the miner's
-    documentation for the rule). By default any unreadable file fails the run (exit 2,
-    nothing written) after all are listed; --skip-bad writes the index without them.
+    documentation for the rule). By default any unreadable file, or unusable sequence in a
+    file of many, fails the run (exit 2, nothing written) after all are listed; --skip-bad
+    writes the index without them and lists them in the manifest.
 
     \b
     Example:
@@ -262,6 +264,7 @@ def mine_cmd(
             "frames": 0,
             "units": set(),
             "frame_offset": 0,
+            "bad_sequences": [],
         }
         for f in files
     }
@@ -270,11 +273,12 @@ def mine_cmd(
         for src in files:
             if src.path in bad:
                 continue
+            # In a file of many sequences (VideoPose3D's npz holds all of Human3.6M) one
+            # unusable sequence is listed or skipped alone; the file's others are still read.
+            on_bad = per_file[src.path]["bad_sequences"].append
             try:
-                for seq in read_source(src, **reader_kw):
+                for seq in read_source(src, **reader_kw, on_bad_sequence=on_bad):
                     yield src, seq
-                    if src.path in bad:
-                        break  # the miner refused one of its sequences: the file is bad
             except TurnbenchError as exc:
                 bad[src.path] = (
                     exc if exc.where.file else TurnbenchError(exc.message, file=src.path)
@@ -284,7 +288,7 @@ def mine_cmd(
         try:
             clips = mine_clips(seq, params)
         except TurnbenchError as exc:
-            bad[src.path] = exc
+            per_file[src.path]["bad_sequences"].append(exc)
             continue
         # curation errors (an adjust outside its sequence) are the curator's, not the file's:
         # they fail the run whatever --skip-bad says
@@ -299,11 +303,21 @@ def mine_cmd(
         state["frame_offset"] = int(bool(seq.meta.get("skipped_first_frame", False)))
 
     bad = {f.path: bad[f.path] for f in files if f.path in bad}  # in path order
-    if bad and not skip_bad:
-        for exc in bad.values():
+    # a file that could not be read at all drops the sequences it gave before failing
+    bad_sequences = [
+        (f.path, exc)
+        for f in files
+        if f.path not in bad
+        for exc in per_file[f.path]["bad_sequences"]
+    ]
+    if (bad or bad_sequences) and not skip_bad:
+        for exc in [*bad.values(), *(e for _, e in bad_sequences)]:
             click.echo(f"turn-datasets: error: {exc}", err=True)
+        what = [f"{len(bad)} of {len(files)} files could not be read"] if bad else []
+        if bad_sequences:
+            what.append(f"{len(bad_sequences)} sequence(s) could not be used")
         raise TurnbenchError(
-            f"{len(bad)} of {len(files)} files could not be read; nothing written",
+            f"{' and '.join(what)}; nothing written",
             hint="fix or remove them, or pass --skip-bad to write the index without them",
         )
     good = [f for f in files if f.path not in bad]
@@ -332,9 +346,14 @@ def mine_cmd(
                 "frames": state["frames"] if f.path not in bad else 0,
                 "units": sorted(state["units"]) if f.path not in bad else [],
                 "frame_offset": state["frame_offset"],
+                "skipped_sequences": len(state["bad_sequences"]) if f.path not in bad else 0,
             }
         )
-    skipped = [{"path": str(p), "error": str(exc)} for p, exc in bad.items()]
+    # whole files first (item null), then single sequences of files that were read
+    skipped = [{"path": str(p), "item": None, "error": str(exc)} for p, exc in bad.items()]
+    skipped += [
+        {"path": str(p), "item": exc.where.item, "error": str(exc)} for p, exc in bad_sequences
+    ]
     manifest = build_manifest(
         index=index,
         params=params,
@@ -358,7 +377,10 @@ def mine_cmd(
             f"cannot write the clip index: {exc.strerror or exc}", file=out
         ) from None
     if skipped:
-        warn(f"skipped {len(skipped)} unreadable file(s), listed in {mpath}")
+        what = [f"{len(bad)} unreadable file(s)"] if bad else []
+        if bad_sequences:
+            what.append(f"{len(bad_sequences)} unusable sequence(s)")
+        warn(f"skipped {' and '.join(what)}, listed in {mpath}")
     info(
         f"wrote {len(index)} clips from {manifest['counts']['sequences']} sequences "
         f"to {out}, manifest {mpath}"

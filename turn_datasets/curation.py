@@ -26,7 +26,8 @@ made: the tool version, every parameter, each input file with its sha256, size a
 number of sequences read from it, the units of each source, its ``frame_offset`` (1 for a BVH
 whose rest-pose frame 0 was dropped, so that the index's frame k is the file's frame k + 1;
 else 0), counts per bin, split, subject
-and action, the overrides applied and unmatched, and the files skipped (``--skip-bad``).
+and action, the overrides applied and unmatched, and the files and single sequences
+skipped (``--skip-bad``; ``item`` names the sequence, null for a whole file).
 Its ``created_utc`` timestamp is the only field that changes between two runs on the same
 inputs.
 """

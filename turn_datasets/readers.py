@@ -39,7 +39,7 @@ from __future__ import annotations
 import os
 import re
 import zipfile
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
@@ -223,6 +223,11 @@ def natural_key(text: str) -> tuple:
 # VideoPose3D's dict can raise anything. So each read site wraps the library call alone (no
 # code of ours inside) and reports any exception from it as an unreadable file, naming it.
 _CORRUPT = (Exception,)
+
+
+#: Called with the error of one unusable sequence of a multi-sequence file (see
+#: :func:`read_source`'s ``on_bad_sequence``).
+OnBadSequence = Callable[[TurnbenchError], None]
 
 
 @dataclass(frozen=True)
@@ -518,7 +523,7 @@ def _action_of(name: str, path: Path, item: str | None = None) -> tuple[str, str
         raise TurnbenchError(exc.message, file=path, item=item) from None
 
 
-def _read_videopose_npz(path: Path) -> Iterator[MocapSequence]:
+def _read_videopose_npz(path: Path, on_bad: OnBadSequence | None) -> Iterator[MocapSequence]:
     # allow_pickle: positions_3d is a pickled dict; only loaded from a file the user named
     data, members = None, []
     try:
@@ -543,14 +548,21 @@ def _read_videopose_npz(path: Path) -> Iterator[MocapSequence]:
         actions = data[subject]
         for name in sorted(actions, key=lambda a: natural_key(str(a))):
             item = f"{subject}/{name}"
-            action, subaction = _action_of(str(name), path, item)
             array = np.asarray(actions[name])
             layout = H36M17 if array.ndim == 3 and array.shape[1] == 17 else H36M32
+            try:
+                action, subaction = _action_of(str(name), path, item)
+                positions = _checked_positions(array, layout, path=path, item=item)
+            except TurnbenchError as exc:
+                if on_bad is None:
+                    raise
+                on_bad(exc)
+                continue
             yield MocapSequence(
                 subject=str(subject),
                 action=action,
                 subaction=subaction,
-                positions=_checked_positions(array, layout, path=path, item=item),
+                positions=positions,
                 layout=layout,
                 fps=H36M_FPS,
                 units="m",
@@ -592,6 +604,7 @@ def _read_arrays(
     fps: float | None,
     up_axis: str | None,
     units: str | None,
+    on_bad: OnBadSequence | None,
 ) -> Iterator[MocapSequence]:
     missing = [
         opt
@@ -625,21 +638,28 @@ def _read_arrays(
             f"unknown units {units!r}; choose one of {', '.join(UNITS)}", file=path
         )
     single = path.suffix.lower() == ".npy"
-    for key, array in iter_arrays(path):
+    for key, array in iter_arrays(path, on_bad_array=on_bad):
         item = None if single else key
-        if array.shape[1] != lay.n_joints:
-            raise TurnbenchError(
-                f"array has {array.shape[1]} joints but layout {lay.name!r} has "
-                f"{lay.n_joints} (shape {tuple(array.shape)})",
-                file=path,
-                item=item,
-            )
-        positions = to_z_up(np.asarray(array, dtype=np.float64), up_axis)
+        try:
+            if array.shape[1] != lay.n_joints:
+                raise TurnbenchError(
+                    f"array has {array.shape[1]} joints but layout {lay.name!r} has "
+                    f"{lay.n_joints} (shape {tuple(array.shape)})",
+                    file=path,
+                    item=item,
+                )
+            positions = to_z_up(np.asarray(array, dtype=np.float64), up_axis)
+            positions = _checked_positions(positions, lay, path=path, item=item)
+        except TurnbenchError as exc:
+            if on_bad is None or single:
+                raise
+            on_bad(exc)
+            continue
         yield MocapSequence(
             subject=path.absolute().parent.name,
             action=path.stem if single else f"{path.stem}.{key.replace('/', '.')}",
             subaction="",
-            positions=_checked_positions(positions, lay, path=path, item=item),
+            positions=positions,
             layout=lay,
             fps=float(fps),
             units=units,
@@ -657,6 +677,7 @@ def read_source(
     units: str | None = None,
     joint_map: Mapping[str, str] | None = None,
     skip_first_frame: bool | None = None,
+    on_bad_sequence: OnBadSequence | None = None,
 ) -> Iterator[MocapSequence]:
     """Yield the sequences of one source file, one at a time, as z-up float64 positions.
 
@@ -678,6 +699,12 @@ def read_source(
         BVH only: ``True`` drops frame 0, ``False`` keeps it; ``None`` (default) drops it only
         when it is the rest pose that CMU's conversion adds
         (:func:`turn_datasets.bvh.first_frame_is_rest_pose`).
+    on_bad_sequence
+        Files holding several sequences (VideoPose3D's npz, a generic ``.npz``/``.h5``):
+        when given, a sequence that cannot be used (an unknown action name, a wrong shape,
+        unusable hips, an array that cannot be read) is passed to it as a
+        :class:`TurnbenchError` naming the file and the sequence, and the others are still
+        read; when None, it is raised. A problem with the file itself is always raised.
 
     Yields
     ------
@@ -704,13 +731,15 @@ def read_source(
     elif src.fmt == "h36m-h5":
         yield from _read_h36m_h5(path)
     elif src.fmt == "videopose-npz":
-        yield from _read_videopose_npz(path)
+        yield from _read_videopose_npz(path, on_bad_sequence)
     elif src.fmt == "bvh":
         yield from _read_bvh(
             path, units=units, joint_map=joint_map, skip_first_frame=skip_first_frame
         )
     elif src.fmt == "array":
-        yield from _read_arrays(path, layout=layout, fps=fps, up_axis=up_axis, units=units)
+        yield from _read_arrays(
+            path, layout=layout, fps=fps, up_axis=up_axis, units=units, on_bad=on_bad_sequence
+        )
     else:
         raise TurnbenchError(
             f"unknown format {src.fmt!r}; choose one of {', '.join(FORMATS)}", file=path
@@ -850,7 +879,9 @@ def _h5_dataset_names(group: h5py.Group) -> list[str]:
     return sorted(names)
 
 
-def iter_arrays(path: str | os.PathLike[str]) -> Iterator[tuple[str, np.ndarray]]:
+def iter_arrays(
+    path: str | os.PathLike[str], *, on_bad_array: OnBadSequence | None = None
+) -> Iterator[tuple[str, np.ndarray]]:
     """Yield ``(name, array)`` for each ``(frames, joints, 3)`` array in a generic array file.
 
     Parameters
@@ -859,6 +890,10 @@ def iter_arrays(path: str | os.PathLike[str]) -> Iterator[tuple[str, np.ndarray]
         ``.npy`` -> one ``(file stem, array)``; ``.npz`` -> one ``(key, array)`` per array, in
         the archive's sorted key order, loaded without pickles; ``.h5``/``.hdf5`` -> one
         ``(dataset path, array)`` per dataset, nested groups walked, sorted by path.
+    on_bad_array
+        ``.npz``/``.h5``: when given, an array that cannot be read or is not
+        ``(frames, joints, 3)`` is passed to it (a :class:`TurnbenchError` naming the file and
+        the key) and the others are still yielded; when None, it is raised.
 
     Yields
     ------
@@ -903,14 +938,21 @@ def iter_arrays(path: str | os.PathLike[str]) -> Iterator[tuple[str, np.ndarray]
                 raise TurnbenchError("the .npz archive holds no array", file=p)
             for key in keys:
                 try:
-                    array = archive[key]
-                except _CORRUPT as exc:
-                    raise TurnbenchError(
-                        f"cannot read this array (pickled, truncated or corrupt?): {exc}",
-                        file=p,
-                        item=key,
-                    ) from None
-                yield key, _check_tj3(array, path=p, key=key)
+                    try:
+                        array = archive[key]
+                    except _CORRUPT as exc:
+                        raise TurnbenchError(
+                            f"cannot read this array (pickled, truncated or corrupt?): {exc}",
+                            file=p,
+                            item=key,
+                        ) from None
+                    array = _check_tj3(array, path=p, key=key)
+                except TurnbenchError as exc:
+                    if on_bad_array is None:
+                        raise
+                    on_bad_array(exc)
+                    continue
+                yield key, array
         return
     try:
         fh = h5py.File(p, "r")
@@ -927,9 +969,18 @@ def iter_arrays(path: str | os.PathLike[str]) -> Iterator[tuple[str, np.ndarray]
             raise TurnbenchError("the HDF5 file holds no dataset", file=p)
         for name in names:
             try:
-                array = fh[name][()]
-            except _CORRUPT as exc:
-                raise TurnbenchError(
-                    f"cannot read this dataset (truncated or corrupt?): {exc}", file=p, item=name
-                ) from None
-            yield name, _check_tj3(np.asarray(array), path=p, key=name)
+                try:
+                    array = fh[name][()]
+                except _CORRUPT as exc:
+                    raise TurnbenchError(
+                        f"cannot read this dataset (truncated or corrupt?): {exc}",
+                        file=p,
+                        item=name,
+                    ) from None
+                array = _check_tj3(np.asarray(array), path=p, key=name)
+            except TurnbenchError as exc:
+                if on_bad_array is None:
+                    raise
+                on_bad_array(exc)
+                continue
+            yield name, array
