@@ -336,3 +336,19 @@ def test_out_is_an_alias_of_out_dir_and_a_file_there_is_refused(
         assert stderr.strip() == (
             f"turn-datasets: error: {a_file}: is a file, so --out-dir cannot be made there"
         )
+
+
+def test_an_unreadable_video_is_named_before_any_cut(tmp_path: Path, capsys) -> None:
+    broken = tmp_path / "h36m" / "S1" / "Videos" / f"Walking 1.{CAMERAS[0]}.mp4"
+    broken.parent.mkdir(parents=True)
+    broken.write_bytes(b"\x00\x00\x00\x18ftypmp42" + b"\x00" * 64)  # a header and nothing
+    index = _index(tmp_path / "index.csv", [WALK])
+    out = tmp_path / "clips"
+    code, stdout, stderr = run(
+        ["h36m", "export-clips", index, "--videos", tmp_path / "h36m", "--out-dir", out], capsys
+    )
+    assert code == EXIT_BAD_INPUT and stdout == ""
+    lines = stderr.strip().splitlines()
+    assert len(lines) == 1
+    assert lines[0].startswith(f"turn-datasets: error: {broken}: ffmpeg cannot read this video")
+    assert not out.exists()
