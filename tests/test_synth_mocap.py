@@ -285,6 +285,9 @@ def test_planted_table_columns_and_kinds() -> None:
         lambda: sm.Segment("walk", 1.0),
         lambda: sm.Segment("stand", 1.0, speed_m_s=1.0),
         lambda: sm.generate_sequence(seed=0, segments=[]),
+        lambda: sm.generate_sequence(seed=0, segments=[sm.Segment.stand(1)], fps_hz=float("nan")),
+        lambda: sm.generate_sequence(seed=0, segments=[sm.Segment.stand(1)], noise_mm=-1.0),
+        lambda: sm.generate_sequence(seed=0, segments=[sm.Segment.stand(1)], sway_deg=np.inf),
     ],
 )
 def test_bad_segments_are_refused(make) -> None:

@@ -299,8 +299,11 @@ def generate_sequence(
     """
     if not segments:
         raise TurnbenchError("a synthetic sequence needs at least one segment")
-    if fps_hz <= 0:
+    if not (np.isfinite(fps_hz) and fps_hz > 0):
         raise TurnbenchError(f"fps must be positive, got {fps_hz}")
+    for name, value in (("noise_mm", noise_mm), ("sway_deg", sway_deg), ("wander_deg", wander_deg)):
+        if not (np.isfinite(value) and value >= 0):
+            raise TurnbenchError(f"{name} must be a finite non-negative number, got {value}")
     rng = np.random.default_rng(seed)
     seg_frames = _segment_frames(segments, fps_hz)
     bounds = np.concatenate([[0], np.cumsum(seg_frames)])
