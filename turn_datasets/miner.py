@@ -161,7 +161,8 @@ class MinerParams:
     merge_gap_s
         Runs in the same direction this close (seconds) are one turn.
     position_cutoff_hz
-        Low-pass cut-off of the hip positions, Hz (0 turns the filter off).
+        Low-pass cut-off of the hip positions, Hz (0 turns the filter off, as does a cut-off
+        at or above 0.45 times the frame rate, too near the Nyquist frequency to filter).
     """
 
     min_turn_deg: float = 45.0
@@ -469,7 +470,8 @@ def mine_sequence(
     merge_gap_s
         Runs of rotation in the same direction at most this far apart (seconds) are merged.
     position_cutoff_hz
-        Cut-off of the zero-phase low-pass on the hip positions, Hz; 0 disables it.
+        Cut-off of the zero-phase low-pass on the hip positions, Hz; 0 (or 0.45 times the
+        frame rate or more) disables it.
 
     Returns
     -------
