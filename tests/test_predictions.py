@@ -11,11 +11,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from turn_datasets.errors import TurnbenchError
 from turn_eval.predictions import (
     GROUP_COLUMNS,
     JOINED_COLUMNS,
+    _plain_lines,
     read_predictions,
     read_reference,
 )
@@ -342,3 +345,44 @@ def test_not_utf8(tmp_path, ref):
     path.write_bytes("clip_id,angle_deg\nS1_é,90\n".encode("latin-1"))
     with pytest.raises(TurnbenchError, match="not UTF-8"):
         read_predictions(path, ref)
+
+
+# --- the line scan: its fast path (no blank line) against the line-by-line one ------------
+
+_CELL = st.text(alphabet=st.characters(blacklist_characters='\n"', blacklist_categories=("Cs",)),
+                max_size=6)
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    rows=st.lists(st.lists(_CELL, min_size=1, max_size=4), min_size=1, max_size=8),
+    delimiter=st.sampled_from([",", ";", "\t"]),
+    crlf=st.booleans(),
+    final_newline=st.booleans(),
+)
+def test_line_scan_fast_path_equals_line_by_line(rows, delimiter, crlf, final_newline):
+    # Lines with something on them (any unicode, the delimiter included); a trailing
+    # white-space line forces the line-by-line path, which must give the same header, line
+    # numbers, field counts and body.
+    lines = [delimiter.join(cells) for cells in rows]
+    lines = [line for line in lines if line.strip()]
+    if not lines:
+        return
+    end = "\r\n" if crlf else "\n"
+    text = end.join(lines) + (end if final_newline else "")
+    fast = _plain_lines(text, delimiter)
+    slow = _plain_lines(text + ("" if final_newline else "\n") + " \u00a0\n", delimiter)
+    assert fast[:2] == slow[:2]
+    assert np.array_equal(fast[2], slow[2]) and np.array_equal(fast[3], slow[3])
+    assert fast[4] == slow[4]
+    # Counted by hand from the lines themselves.
+    assert fast[2].tolist() == list(range(2, len(lines) + 1))
+    assert fast[3].tolist() == [line.count(delimiter) + 1 for line in lines[1:]]
+
+
+def test_a_line_of_unicode_white_space_is_blank(tmp_path, ref):
+    # No-break spaces alone on lines 2 and 4 are blank lines, skipped: header line 1, rows
+    # on lines 3, 5, 6 and 7, the bad cell on line 7.
+    text = preds_text().replace("\n", "\n\u00a0\n", 2).replace(f"{IDS[3]},100", f"{IDS[3]},x")
+    err = error_of(tmp_path, text, ref)
+    assert err.where.row == 7 and "'x' is not a number" in str(err)

@@ -27,6 +27,7 @@ import csv
 import io
 import math
 import os
+import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -173,20 +174,51 @@ def _read_quoted(text: str, name: str, delimiter: str) -> _Table:
     )
 
 
-def _read_plain(text: str, name: str, delimiter: str) -> _Table:
-    """The fast reader, for files without quotes: one record per line, so every row's line
-    number is known before pandas' C parser splits the fields."""
+#: A line of nothing but white space (or nothing), anywhere in a text.
+_BLANK_LINE = re.compile(r"^[^\S\n]*$", re.MULTILINE)
+
+
+def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.ndarray, str]:
+    """Split a quote-free text into its header and body, skipping blank lines.
+
+    Returns the header's text and line number, each body line's line number and number of
+    fields, and the body's lines joined by ``\n`` for pandas.
+    """
+    last = text[:-1] if text.endswith("\n") else text
+    if _BLANK_LINE.search(last) is None:
+        # No blank line (the usual file): the header is line 1, the body the rest, as it is;
+        # the fields per line are counted from the delimiters' and line ends' positions in
+        # the UTF-8 bytes (delimiters and newlines are ASCII, never inside a multi-byte
+        # character), without splitting the text into lines.
+        header_text, _, body = last.partition("\n")
+        if not body:
+            return header_text, 1, np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), ""
+        data = np.frombuffer(body.encode("utf-8"), dtype=np.uint8)
+        ends = np.append(np.flatnonzero(data == 10), data.size)
+        fields = np.diff(np.searchsorted(np.flatnonzero(data == ord(delimiter)), ends), prepend=0)
+        lines = np.arange(2, 2 + ends.size, dtype=np.int64)
+        return header_text, 1, lines, fields + 1, body
     # Variable-width strings: one long line must not widen every other one in memory.
     all_lines = np.asarray(text.split("\n"), dtype=np.dtypes.StringDType())
     nonblank = np.strings.strip(all_lines) != ""
     numbers = np.flatnonzero(nonblank) + 1
     kept = all_lines[nonblank]
-    header_line = int(numbers[0])
-    header = [cell.strip().lower() for cell in str(kept[0]).split(delimiter)]
+    body_lines = kept[1:]
+    return (
+        str(kept[0]),
+        int(numbers[0]),
+        numbers[1:].astype(np.int64),
+        np.strings.count(body_lines, delimiter) + 1,
+        "\n".join(body_lines.tolist()),
+    )
+
+
+def _read_plain(text: str, name: str, delimiter: str) -> _Table:
+    """The fast reader, for files without quotes: one record per line, so every row's line
+    number is known before pandas' C parser splits the fields."""
+    header_text, header_line, lines, widths, joined = _plain_lines(text, delimiter)
+    header = [cell.strip().lower() for cell in header_text.split(delimiter)]
     _check_header(header, name=name, line=header_line)
-    lines = numbers[1:].astype(np.int64)
-    body = kept[1:]
-    widths = np.strings.count(body, delimiter) + 1
     wrong = np.flatnonzero(widths != len(header))
     if wrong.size:
         i = int(wrong[0])
@@ -200,10 +232,9 @@ def _read_plain(text: str, name: str, delimiter: str) -> _Table:
         delimiter=delimiter,
         header_line=header_line,
     )
-    if body.size == 0:
+    if lines.size == 0:
         table.columns = {col: np.empty(0, dtype=object) for col in header if col}
         return table
-    joined = "\n".join(body.tolist())
     options = {
         "sep": delimiter,
         "header": None,
@@ -252,7 +283,10 @@ def _read_table(path: str | os.PathLike[str], *, what: str) -> _Table:
     text = _read_text(name, what=what)
     if not text.strip():
         raise TurnbenchError(f"empty {what} file: no header and no rows", file=name)
-    first_line = next(line for line in text.split("\n") if line.strip())
+    # The first line with something on it, found without splitting the whole text.
+    start = re.search(r"\S", text).start()
+    end = text.find("\n", start)
+    first_line = text[text.rfind("\n", 0, start) + 1 : end if end >= 0 else len(text)]
     delimiter = _sniff_delimiter(first_line)
     quoted = '"' in text or ("\r" in text and "\n" not in text)
     table = (_read_quoted if quoted else _read_plain)(text, name, delimiter)
