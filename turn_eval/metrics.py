@@ -410,7 +410,8 @@ class _Rows:
     """Where one partition's sums sit in the rows of :attr:`_Engine.per_group`.
 
     Per group: ``abs_error`` (sum of the drawn clips' angle errors) and, with durations,
-    ``speed_sum`` and ``speed_count``. Per (group, reference bin) pair that occurs:
+    ``speed_sum`` and, unless every clip has a speed error, ``speed_count`` (empty slices
+    where absent). Per (group, reference bin) pair that occurs:
     ``true`` (drawn clips with that reference bin) and ``true_right`` (those also predicted
     in it); per (group, predicted bin) pair: ``predicted``. ``twin`` is each reference
     pair's predicted pair with the same group and bin (valid where ``has_twin``);
@@ -471,17 +472,22 @@ class _Engine:
         data = [np.ones(n), outcomes.abs_error_deg]
         if speed is not None:
             data.append(np.where(ok, speed, 0.0))
-        # Per segment: [drawn clips; sum of |angle error|; sum of |speed error|].
+        # Per segment, in adjacent rows: drawn clips, sum of |angle error|, sum of |speed
+        # error| (adjacent, so a clip's updates and a group's reads share cache lines).
         self.per_segment = sparse.csr_array(
             (
                 np.concatenate(data),
-                (np.concatenate([seg + b * n_seg for b in range(blocks)]), np.tile(clips, blocks)),
+                (np.concatenate([blocks * seg + b for b in range(blocks)]), np.tile(clips, blocks)),
             ),
             shape=(blocks * n_seg, n),
         ).tocsc()  # column by column: reads the draw counts in order (cache-friendly)
         seg_ref, seg_pred, seg_ok = ref_bin[first], pred_bin[first], ok[first]
         segments = np.arange(n_seg)
         right = segments[seg_ref == seg_pred]
+        # The columns of the segment sums: drawn clips, angle errors, speed errors.
+        drawn, abs_error, *speed_error = (blocks * segments + b for b in range(blocks))
+        # With a speed error for every clip, a group's clips with one are all its clips.
+        self.speed_everywhere = bool(ok.all())
         rows: list[np.ndarray] = []
         cols: list[np.ndarray] = []
         vals: list[np.ndarray] = []
@@ -501,12 +507,15 @@ class _Engine:
             pred_keys, pred_pair = np.unique(g * k + seg_pred, return_inverse=True)
             ref_pair, pred_pair = ref_pair.reshape(-1), pred_pair.reshape(-1)
             twin = np.minimum(np.searchsorted(pred_keys, ref_keys), pred_keys.shape[0] - 1)
-            sizes = [n_groups] * (3 if self.has_speed else 1)
+            own_speed_count = self.has_speed and not self.speed_everywhere
+            sizes = [n_groups] * (1 + self.has_speed + own_speed_count)
             sizes += [ref_keys.shape[0], ref_keys.shape[0], pred_keys.shape[0]]
             bounds = offset + np.concatenate([[0], np.cumsum(sizes)])
             where = [slice(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
             if not self.has_speed:
-                where[1:1] = [slice(0, 0), slice(0, 0)]
+                where[1:1] = [slice(0, 0)]
+            if not own_speed_count:
+                where[2:2] = [slice(0, 0)]
             layout = _Rows(
                 p, *where,
                 group_of_pairs=sparse.csr_array(
@@ -516,13 +525,14 @@ class _Engine:
                 twin=twin,
                 has_twin=pred_keys[twin] == ref_keys,
             )
-            add(layout.abs_error, g, n_seg + segments)
+            add(layout.abs_error, g, abs_error)
             if self.has_speed:
-                add(layout.speed_sum, g, 2 * n_seg + segments)
-                add(layout.speed_count, g, segments, seg_ok.astype(np.float64))
-            add(layout.true, ref_pair, segments)
-            add(layout.true_right, ref_pair[right], right)
-            add(layout.predicted, pred_pair, segments)
+                add(layout.speed_sum, g, speed_error[0])
+            if own_speed_count:
+                add(layout.speed_count, g, drawn, seg_ok.astype(np.float64))
+            add(layout.true, ref_pair, drawn)
+            add(layout.true_right, ref_pair[right], drawn[right])
+            add(layout.predicted, pred_pair, drawn)
             self.layout.append(layout)
             offset = int(bounds[-1])
         self.per_group = sparse.csr_array(
@@ -581,9 +591,8 @@ class _Engine:
                     "wprec": ((rows.group_of_pairs @ terms) / count).T,
                 }
                 if self.has_speed:
-                    result["mae_speed_deg_s"] = (
-                        totals[rows.speed_sum] / totals[rows.speed_count]
-                    ).T
+                    have = count if self.speed_everywhere else totals[rows.speed_count]
+                    result["mae_speed_deg_s"] = (totals[rows.speed_sum] / have).T
                 out.append(result)
         return out
 
