@@ -12,6 +12,7 @@ from turn_datasets.errors import TurnbenchError
 from turn_eval.cli import CONTEXT_SETTINGS, cli
 from turn_eval.predictions import Joined, read_predictions, read_reference
 from turn_eval.significance import Comparison, compare_predictions
+from turn_eval.tables import one_decimal
 
 #: How each metric prints in Markdown: label, scale (fractions as percentages, as the paper).
 _MD_METRICS = {
@@ -46,7 +47,9 @@ def _same_clips(a: Joined, b: Joined) -> list[str]:
 
 
 def _fmt(value: float, scale: float, *, signed: bool = False) -> str:
-    return f"{value * scale:{'+' if signed else ''}.1f}"
+    # Rounded as `turn-eval score` prints its tables, so the same number reads the same.
+    text = one_decimal(value * scale)
+    return "+" + text if signed and not text.startswith("-") else text
 
 
 def _markdown(result: Comparison, *, a: str, b: str, reference: str, n_missing: int) -> str:

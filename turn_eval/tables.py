@@ -62,6 +62,7 @@ __all__ = [
     "build_scores",
     "scores_markdown",
     "scores_frame",
+    "one_decimal",
 ]
 
 #: Markdown row labels of the metrics, in the paper's order, and how each prints.
@@ -253,9 +254,10 @@ def build_scores(
 _DECIMALS = Context(prec=320, rounding=ROUND_HALF_UP)
 
 
-def _one_decimal(value: float) -> str:
-    # Half up on the shortest decimal form (6.25 -> 6.3), as a reader rounds a printed table;
-    # Python's own formatting rounds the binary value, which prints 6.25 as 6.2.
+def one_decimal(value: float) -> str:
+    """``value`` with one decimal, half up on its shortest decimal form (6.25 -> 6.3), as a
+    reader rounds a printed table (Python's own formatting rounds the binary value, which
+    prints 6.25 as 6.2). Every Markdown table of the harness prints its numbers so."""
     return str(Decimal(repr(float(value))).quantize(Decimal("0.1"), context=_DECIMALS))
 
 
@@ -263,9 +265,9 @@ def _format(metric: str, value: Any) -> str:
     if value is None or (isinstance(value, float) and not np.isfinite(value)):
         return "–"
     if metric == "n":
-        return _one_decimal(value) if not float(value).is_integer() else f"{int(value)}"
+        return one_decimal(value) if not float(value).is_integer() else f"{int(value)}"
     kind = ROW_LABELS[metric][1]
-    return _one_decimal(100 * value) if kind == "percent" else _one_decimal(value)
+    return one_decimal(100 * value) if kind == "percent" else one_decimal(value)
 
 
 def _cell(text: str) -> str:
