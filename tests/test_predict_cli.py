@@ -254,3 +254,14 @@ def test_real_cmu_captures_through_predict(cmu_dir, tmp_path, capsys):
         assert paper.loc[trial, "angle_deg"] >= angle - 1e-9
     # On the straight walk the printed equation reports a sizeable "turn" made of sway alone.
     assert paper.loc["16_21", "angle_deg"] > 40.0
+
+
+def test_an_out_file_that_cannot_be_written_is_one_line_exit_2(tmp_path, capsys):
+    src = write_skeletons(tmp_path / "s.npz", {"c": turning_skeleton(np.linspace(0, 90, 20))})
+    out = src / "p.csv"  # under a file: its folder cannot be made
+    code, stdout, stderr = run(["predict", src, "--layout", "h36m17", "--out", out], capsys)
+    assert code == EXIT_BAD_INPUT and stdout == ""
+    assert stderr.strip().splitlines()[-1] == (
+        f"turn-eval: error: {out}: cannot write the predictions: {src}: File exists"
+    )
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.npz"]

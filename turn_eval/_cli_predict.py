@@ -131,6 +131,14 @@ def predict_command(
             first_file[clip_id] = path
         frames.append(table)
     result = pd.concat(frames, ignore_index=True)
-    write_csv(result, out)
+    try:
+        write_csv(result, out)
+    except OSError as exc:
+        # A folder that cannot be made or written: one line like any bad input.
+        raise TurnbenchError(
+            "cannot write the predictions: "
+            + (f"{exc.filename}: {exc.strerror}" if exc.filename else str(exc)),
+            file=str(out),
+        ) from None
     n = len(result)
     wrote(out, what=f"predictions for {n} clip{'' if n == 1 else 's'} to")
