@@ -18,6 +18,7 @@ from turn_datasets.errors import TurnbenchError
 from turn_eval.predictions import (
     GROUP_COLUMNS,
     JOINED_COLUMNS,
+    _has_blank_line,
     _plain_lines,
     read_predictions,
     read_reference,
@@ -386,3 +387,12 @@ def test_a_line_of_unicode_white_space_is_blank(tmp_path, ref):
     text = preds_text().replace("\n", "\n\u00a0\n", 2).replace(f"{IDS[3]},100", f"{IDS[3]},x")
     err = error_of(tmp_path, text, ref)
     assert err.where.row == 7 and "'x' is not a number" in str(err)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.text(alphabet=st.sampled_from(["a", ",", " ", "\t", "\r", "\n", "\u00a0", "é"]),
+               max_size=30))
+def test_blank_line_detection_equals_splitting(text):
+    # The definition, line by line: some line of the text split on newlines is empty or
+    # white space only.
+    assert _has_blank_line(text) == any(not line.strip() for line in text.split("\n"))

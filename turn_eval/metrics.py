@@ -12,7 +12,8 @@ Cheng et al., "Your Turn", Section 5 (Evaluation metrics), as DESIGN.md fixes th
     scikit-learn's ``precision_score(ref_bins, pred_bins, average="weighted",
     zero_division=0)``: each bin's precision weighted by its number of reference clips.
     :func:`metrics_of` calls scikit-learn; the grouped and resampled paths compute the same
-    from confusion counts (:func:`wprec_from_confusion`), tested equal to it.
+    from per-bin counts of reference, predicted and right clips
+    (:func:`wprec_from_counts`), tested equal to it.
 ``mae_speed_deg_s``
     Mean absolute error of the angular speed, equation 4 (:func:`angular_speed_deg_s`): the
     predicted ``speed_deg_s`` where the submission gives one, else the predicted angle over

@@ -174,8 +174,19 @@ def _read_quoted(text: str, name: str, delimiter: str) -> _Table:
     )
 
 
-#: A line of nothing but white space (or nothing), anywhere in a text.
-_BLANK_LINE = re.compile(r"^[^\S\n]*$", re.MULTILINE)
+#: A line of nothing but white space (or nothing) between two others. Starting with a
+#: literal newline, it is searched for as fast as a substring (a pattern anchored with ^ in
+#: multi-line mode is tried at every character).
+_BLANK_BETWEEN = re.compile(r"\n[^\S\n]*\n")
+
+
+def _has_blank_line(text: str) -> bool:
+    """Whether any line of ``text`` (split on ``\n``) is empty or white space only."""
+    if not text.partition("\n")[0].strip():
+        return True
+    if _BLANK_BETWEEN.search(text) is not None:
+        return True
+    return not text[text.rfind("\n") + 1 :].strip()
 
 
 def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.ndarray, str]:
@@ -185,7 +196,7 @@ def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.nd
     fields, and the body's lines joined by ``\n`` for pandas.
     """
     last = text[:-1] if text.endswith("\n") else text
-    if _BLANK_LINE.search(last) is None:
+    if not _has_blank_line(last):
         # No blank line (the usual file): the header is line 1, the body the rest, as it is;
         # the fields per line are counted from the delimiters' and line ends' positions in
         # the UTF-8 bytes (delimiters and newlines are ASCII, never inside a multi-byte
