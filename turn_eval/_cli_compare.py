@@ -10,7 +10,7 @@ from turn_datasets._cli import emit, format_option, warn, wrote
 from turn_datasets._io import check_not_input, to_json_text, write_text
 from turn_datasets.errors import TurnbenchError
 from turn_eval.cli import CONTEXT_SETTINGS, cli
-from turn_eval.predictions import Joined, read_predictions, read_reference
+from turn_eval.predictions import Joined, _list_ids, read_predictions, read_reference
 from turn_eval.significance import Comparison, compare_predictions
 from turn_eval.tables import one_decimal
 
@@ -21,7 +21,6 @@ _MD_METRICS = {
     "wprec": ("WPrec (%)", 100.0),
     "mae_speed_deg_s": ("MAE speed (°/s)", 1.0),
 }
-_MAX_LISTED = 10
 
 
 def _same_clips(a: Joined, b: Joined) -> list[str]:
@@ -36,9 +35,7 @@ def _same_clips(a: Joined, b: Joined) -> list[str]:
     parts = []
     for path, only in ((a.predictions_path, only_a), (b.predictions_path, only_b)):
         if only:
-            shown = ", ".join(repr(i) for i in only[:_MAX_LISTED])
-            more = ", ..." if len(only) > _MAX_LISTED else ""
-            parts.append(f"{len(only)} only in {path} ({shown}{more})")
+            parts.append(f"{len(only)} only in {path} ({_list_ids(only)})")
     raise TurnbenchError(
         "the two submissions do not cover the same clips: " + "; ".join(parts),
         file=b.predictions_path,

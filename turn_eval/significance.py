@@ -55,6 +55,7 @@ from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
 from turn_eval.metrics import (
     CONFIDENCE,
+    METRICS,
     ClipOutcomes,
     clip_outcomes,
     metrics_of,
@@ -74,8 +75,6 @@ __all__ = [
     "compare_predictions",
 ]
 
-#: The metrics compared, in the order they are reported (speed only with durations).
-METRICS = ("accuracy", "mae_deg", "wprec", "mae_speed_deg_s")
 
 
 @dataclass(frozen=True)
