@@ -173,3 +173,28 @@ def test_a_command_loads_only_its_own_module():
     loaded = out.stdout.split("LOADED", 1)[1]
     assert "_cli_mine" in loaded
     assert "sklearn" not in loaded and "pympi" not in loaded and "_cli_agreement" not in loaded
+
+
+def test_usage_and_os_errors_are_one_line_exit_2(capsys, tmp_path):
+    @click.group()
+    def g():
+        pass
+
+    @g.command()
+    @click.argument("src", type=click.Path(exists=True))
+    def read(src):
+        pass
+
+    @g.command()
+    def write():
+        (tmp_path / "blocker").write_text("x")
+        with open(tmp_path / "blocker" / "out.csv", "w"):  # a file where a folder should be
+            pass
+
+    assert run_group(g, "tb", ["read", str(tmp_path / "nope.csv")]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("tb: error: ") and "nope.csv" in err
+    assert "(see 'tb read --help')" in err
+    assert run_group(g, "tb", ["write"]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert err == f"tb: error: {tmp_path / 'blocker' / 'out.csv'}: Not a directory\n"

@@ -241,3 +241,16 @@ def test_a_y_up_copy_converts_to_the_same_result(steps):
         got = turning_angle(to_z_up(copy, axis), H36M17)
         assert got.net_deg == pytest.approx(want.net_deg, abs=1e-9)
         assert got.direction == want.direction
+
+
+def test_infinite_joints_are_unusable_frames_without_a_warning():
+    import warnings
+
+    p = body(np.arange(5) * 10.0)
+    p[:, H36M17.index("left_hip")] = np.inf
+    p[:, H36M17.index("right_hip")] = np.inf
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a RuntimeWarning would fail here
+        assert not usable_frames(p, H36M17).any()
+        with pytest.raises(TurnbenchError, match="fewer than two usable frames"):
+            turning_angle(p, H36M17)

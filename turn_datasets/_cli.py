@@ -50,6 +50,12 @@ def run_group(group: click.Group, prog_name: str, args: list[str] | None = None)
     except click.exceptions.Abort:
         click.echo(f"{prog_name}: aborted", err=True)
         return 130
+    except click.UsageError as exc:
+        # one line, like every other bad input, with where to read more
+        path = exc.ctx.command_path if exc.ctx is not None else prog_name
+        message = " ".join(exc.format_message().split())
+        click.echo(f"{prog_name}: error: {message} (see '{path} --help')", err=True)
+        return EXIT_BAD_INPUT
     except click.ClickException as exc:
         exc.show()
         return EXIT_BAD_INPUT if exc.exit_code not in (0, 1) else exc.exit_code
@@ -59,6 +65,12 @@ def run_group(group: click.Group, prog_name: str, args: list[str] | None = None)
         # `| head` closed stdout: not an error of ours
         sys.stderr.close()
         return EXIT_OK
+    except OSError as exc:
+        # the machine said no (permission, no space, a file where a folder should be): the
+        # user's to fix, so one line naming the path, not a traceback
+        name = f"{exc.filename}: " if exc.filename else ""
+        click.echo(f"{prog_name}: error: {name}{exc.strerror or exc}", err=True)
+        return EXIT_BAD_INPUT
     return rv if isinstance(rv, int) else EXIT_OK
 
 

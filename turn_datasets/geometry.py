@@ -97,7 +97,8 @@ def frontal_vectors(positions: np.ndarray, layout: Layout, joint: str = "hip") -
     """Equations 1 and 2: left minus right joint, on the ground plane; shape ``(n_frames, 2)``."""
     p = _check_positions(positions, layout)
     left, right = JOINT_PAIRS[parse_joints(joint)[0]]
-    return p[:, layout.index(left), :2] - p[:, layout.index(right), :2]
+    with np.errstate(invalid="ignore"):  # inf - inf is NaN: an unusable frame, not a warning
+        return p[:, layout.index(left), :2] - p[:, layout.index(right), :2]
 
 
 def _usable(vectors: np.ndarray) -> np.ndarray:
