@@ -3,7 +3,7 @@
 The corpus is what Human3.6M's 3-D poses are in VideoPose3D's ``data_3d_h36m.npz``: 7
 subjects x 15 actions x 2 trials = 210 sequences of 4,000 frames (80 s at 50 Hz), 840,000
 frames in all, 32 joints, float32 metres in a pickled, deflate-compressed dict. It is
-generated once by :mod:`turn_datasets.synth_mocap` (walking, standing, pivot and walking
+generated once by :mod:`turn_datasets.synthetic.mocap` (walking, standing, pivot and walking
 turns, noise, dropouts; fixed seeds) and cached in the temporary folder.
 
 Timed in the same process, alternating, best of five each, as CPU time of this process (so
@@ -12,11 +12,11 @@ that other work on the machine counts less):
 baseline
     ``np.load(path, allow_pickle=True)["positions_3d"].item()``: only getting the arrays.
 measured
-    The whole mining: :func:`turn_datasets.readers.read_source` (the same load, plus the
+    The whole mining: :func:`turn_datasets.mocap.readers.read_source` (the same load, plus the
     reader's checks and float64 conversion, one sequence at a time),
-    :func:`turn_datasets.miner.mine_clips` (the rule of
-    :func:`turn_datasets.miner.mine_sequence`) and the clip index
-    (:func:`turn_datasets.miner.build_index`).
+    :func:`turn_datasets.h36m.miner.mine_clips` (the rule of
+    :func:`turn_datasets.h36m.miner.mine_sequence`) and the clip index
+    (:func:`turn_datasets.h36m.miner.build_index`).
 
 The target is a ratio of at most 1.5 (issue 3).
 
@@ -31,9 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
-from turn_datasets import synth_mocap as sm
-from turn_datasets.miner import MinerParams, build_index, iter_clips
-from turn_datasets.readers import H36M_ACTIONS, SourceFile, read_source, write_videopose_npz
+from turn_datasets.h36m.miner import MinerParams, build_index, iter_clips
+from turn_datasets.mocap.readers import H36M_ACTIONS, SourceFile, read_source, write_videopose_npz
+from turn_datasets.synthetic import mocap as sm
 
 SUBJECTS = ("S1", "S5", "S6", "S7", "S8", "S9", "S11")
 ACTIONS = H36M_ACTIONS

@@ -27,10 +27,10 @@ import numpy as np
 import pandas as pd
 from sklearn.metrics import precision_score
 
-from turn_datasets._io import to_json_text
+from turn_datasets.fileio import to_json_text
 from turn_datasets.geometry import quantise_deg
-from turn_eval.predictions import read_predictions, read_reference
-from turn_eval.tables import build_scores, scores_frame, scores_markdown
+from turn_eval.scores import build_scores, scores_frame, scores_markdown
+from turn_eval.submission import read_predictions, read_reference
 
 N_CLIPS = 100_000
 N_RESAMPLES = 1000

@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 from _eaf_builder import REAL_FILES
 
-from turn_datasets.agreement import MATCH_COLUMNS, match_annotations
+from turn_datasets.remap.agreement import MATCH_COLUMNS, match_annotations
 
 
 def _ann(rows, index=None):
@@ -146,7 +146,7 @@ HAND = _annotations(
 
 
 def test_pair_stats_by_hand():
-    from turn_datasets.agreement import audit_agreement
+    from turn_datasets.remap.agreement import audit_agreement
 
     audit = audit_agreement(HAND, n_bootstrap=200, seed=1)
     st = audit.overall
@@ -186,7 +186,7 @@ def test_pair_stats_by_hand():
 
 
 def test_disagreements_list_angles_and_unmatched():
-    from turn_datasets.agreement import DISAGREEMENT_COLUMNS, audit_agreement
+    from turn_datasets.remap.agreement import DISAGREEMENT_COLUMNS, audit_agreement
 
     d = audit_agreement(HAND, n_bootstrap=0).disagreements
     assert list(d.columns) == list(DISAGREEMENT_COLUMNS)
@@ -198,7 +198,7 @@ def test_disagreements_list_angles_and_unmatched():
 
 
 def test_units_labelled_by_one_rater_are_left_out():
-    from turn_datasets.agreement import pair_items
+    from turn_datasets.remap.agreement import pair_items
 
     extra = _annotations(
         [
@@ -215,7 +215,7 @@ def test_units_labelled_by_one_rater_are_left_out():
 
 
 def test_kappa_undefined_is_null_with_a_reason():
-    from turn_datasets.agreement import audit_agreement
+    from turn_datasets.remap.agreement import audit_agreement
 
     same = _annotations(
         [("ann", "s", "P", 0.0, 2.0, 90), ("bob", "s", "P", 0.0, 2.0, 90),
@@ -235,8 +235,8 @@ def test_kappa_undefined_is_null_with_a_reason():
 
 
 def test_rater_choice():
-    from turn_datasets.agreement import audit_agreement, default_raters
     from turn_datasets.errors import TurnbenchError
+    from turn_datasets.remap.agreement import audit_agreement, default_raters
 
     cons = _annotations([("Consensus", "s1", "P1", 20.0, 22.0, 135)])
     with_cons = pd.concat([HAND, cons], ignore_index=True)
@@ -265,7 +265,7 @@ def test_rater_choice():
 def test_vectorised_kappa_equals_scikit_learn():
     from sklearn.metrics import cohen_kappa_score
 
-    from turn_datasets.agreement import _kappa_from_counts, _weights
+    from turn_datasets.remap.agreement import _kappa_from_counts, _weights
 
     rng = np.random.default_rng(3)
     for _ in range(20):
@@ -283,7 +283,7 @@ def test_bootstrap_ci_is_seeded_and_agrees_with_scipy():
     from scipy.stats import bootstrap
     from sklearn.metrics import cohen_kappa_score
 
-    from turn_datasets.agreement import bootstrap_kappa_ci
+    from turn_datasets.remap.agreement import bootstrap_kappa_ci
 
     rng = np.random.default_rng(0)
     a = rng.integers(0, 4, size=300)
@@ -307,7 +307,7 @@ def test_bootstrap_ci_is_seeded_and_agrees_with_scipy():
 
 
 def test_bootstrap_drops_resamples_with_undefined_kappa():
-    from turn_datasets.agreement import bootstrap_kappa_ci
+    from turn_datasets.remap.agreement import bootstrap_kappa_ci
 
     # 9 pairs (0, 0) and one (1, 1): a resample without the (1, 1) pair has one category,
     # probability (9/10)^10 = 0.35; those are counted and left out.
@@ -323,7 +323,7 @@ def test_bootstrap_drops_resamples_with_undefined_kappa():
 
 @pytest.fixture(scope="module")
 def synth(tmp_path_factory):
-    from turn_datasets.synth_eaf import write_sessions
+    from turn_datasets.synthetic.eaf import write_sessions
 
     return write_sessions(
         tmp_path_factory.mktemp("synth"), seed=11, n_pairs=4, turns_per_subject=40,
@@ -348,8 +348,8 @@ def _kappa_by_hand(a_deg, b_deg, *, linear=False):
 
 
 def test_synthetic_audit_matches_the_truth(synth):
-    from turn_datasets.agreement import audit_agreement
-    from turn_datasets.eaf import read_annotations
+    from turn_datasets.remap.agreement import audit_agreement
+    from turn_datasets.remap.eaf import read_annotations
 
     t = synth.truth
     both = t[t["a_angle_deg"].notna() & t["b_angle_deg"].notna()]
@@ -423,8 +423,8 @@ def test_synthetic_audit_matches_the_truth(synth):
 
 
 def test_synthetic_lower_min_overlap_matches_the_shifted_pairs(synth):
-    from turn_datasets.agreement import audit_agreement
-    from turn_datasets.eaf import read_annotations
+    from turn_datasets.remap.agreement import audit_agreement
+    from turn_datasets.remap.eaf import read_annotations
 
     t = synth.truth
     both = t[t["a_angle_deg"].notna() & t["b_angle_deg"].notna()]
@@ -442,9 +442,9 @@ def test_synthetic_lower_min_overlap_matches_the_shifted_pairs(synth):
 
 @pytest.mark.parametrize("name", REAL_FILES)
 def test_review_copy_of_real_exports_keeps_everything(real_eaf_dir, tmp_path, name):
-    from turn_datasets._io import sha256_file
-    from turn_datasets.agreement import write_review_eaf
-    from turn_datasets.eaf import load_eaf
+    from turn_datasets.fileio import sha256_file
+    from turn_datasets.remap.agreement import write_review_eaf
+    from turn_datasets.remap.eaf import load_eaf
 
     src = real_eaf_dir / name
     digest = sha256_file(src)
@@ -530,7 +530,7 @@ def test_review_copy_of_real_exports_keeps_everything(real_eaf_dir, tmp_path, na
 def test_markdown_tables_survive_pipes_in_names():
     import re
 
-    from turn_datasets.agreement import audit_agreement
+    from turn_datasets.remap.agreement import audit_agreement
 
     odd = HAND.replace({"annotator": {"ann": "ann|x"}, "session": {"s1": "s|1"}})
     md = audit_agreement(odd, n_bootstrap=0).to_markdown()

@@ -12,12 +12,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from turn_datasets._cli import EXIT_BAD_INPUT, EXIT_GATE, EXIT_OK, run_group
-from turn_datasets._cli_agreement import OUT_FILES
-from turn_datasets._io import sha256_file
 from turn_datasets.cli import cli
-from turn_datasets.eaf import load_eaf, read_annotations
-from turn_datasets.synth_eaf import write_sessions
+from turn_datasets.cli.agreement import OUT_FILES
+from turn_datasets.cli.common import EXIT_BAD_INPUT, EXIT_GATE, EXIT_OK, run_group
+from turn_datasets.fileio import sha256_file
+from turn_datasets.remap.eaf import load_eaf, read_annotations
+from turn_datasets.synthetic.eaf import write_sessions
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -258,7 +258,7 @@ def test_pygamma_file_through_a_schema(real_eaf_dir, tmp_path, capsys):
     src = real_eaf_dir / "pygamma_MaureenMarvinRobin.eaf"
     schema = tmp_path / "pygamma.toml"
     schema.write_text(PYGAMMA_SCHEMA, encoding="utf-8")
-    from turn_datasets.schema import load_schema
+    from turn_datasets.remap.schema import load_schema
 
     ann = read_annotations(src, schema=load_schema(schema))
     got = sorted(zip(ann["annotator"], ann["start_s"], ann["end_s"], strict=True))
@@ -367,7 +367,7 @@ def test_bad_input_exit_2_nothing_written(synth, tmp_path, capsys, case):
 
 
 def test_failure_while_writing_leaves_nothing(synth, tmp_path, capsys, monkeypatch):
-    import turn_datasets._cli_agreement as mod
+    import turn_datasets.cli.agreement as mod
     from turn_datasets.errors import TurnbenchError
 
     def broken(*args, **kwargs):

@@ -8,8 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from turn_datasets import bvh, geometry
+from turn_datasets import geometry
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.mocap import bvh
 
 CMU_FILES = ("16_18", "16_21", "69_01", "69_20", "69_25")
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from turn_datasets import __version__
-from turn_datasets._cli import EXIT_BAD_INPUT, run_group
+from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
 from turn_eval import metrics
 from turn_eval.cli import cli
 

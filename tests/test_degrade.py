@@ -1,4 +1,4 @@
-"""``turn_eval.degrade``: the statistics planted are the statistics measured.
+"""``turn_datasets.synthetic.degrade``: the statistics planted are the statistics measured.
 
 Skeletons here are built by hand: a body standing at the origin, its hips 100 mm either side
 of the pelvis, turned so that it faces a camera on the +x axis (0°), is side-on (90°) or has
@@ -14,7 +14,7 @@ import pytest
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.geometry import turning_angle
 from turn_datasets.skeleton import H36M17, H36M17_FROM_32, H36M32
-from turn_eval.degrade import degrade_skeleton, facing_to_camera_deg, to_h36m17
+from turn_datasets.synthetic.degrade import degrade_skeleton, facing_to_camera_deg, to_h36m17
 
 CAMERA = (6000.0, 0.0, 1500.0)  # on the +x axis, 6 m away, at head height
 

@@ -17,8 +17,9 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from turn_datasets._cli import run_group
-from turn_datasets.demo_corpus import (
+from turn_datasets.cli.common import run_group
+from turn_datasets.synthetic.degrade import degrade_skeleton
+from turn_datasets.synthetic.demo_corpus import (
     write_h36m_corpus,
     write_h36m_estimates,
     write_remap_corpus,
@@ -26,7 +27,6 @@ from turn_datasets.demo_corpus import (
 )
 from turn_eval import cli as eval_cli
 from turn_eval import demo
-from turn_eval.degrade import degrade_skeleton
 
 
 @pytest.fixture(scope="module")

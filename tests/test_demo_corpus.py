@@ -1,4 +1,4 @@
-"""``turn_datasets.demo_corpus``: the bundled corpus is what the issue asks for, and repeatable.
+"""``turn_datasets.synthetic.demo_corpus``: the bundled corpus is what the issue asks for, and repeatable.
 
 A small corpus (two subjects, two actions) is written once per module; the checks read it
 back through the project's readers, as the miner does, and compare with what the issue and
@@ -14,7 +14,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from turn_datasets.demo_corpus import (
+from turn_datasets.errors import TurnbenchError
+from turn_datasets.geometry import turning_angle
+from turn_datasets.mocap.readers import discover, iter_arrays, read_source
+from turn_datasets.skeleton import H36M17, to_z_up
+from turn_datasets.synthetic.degrade import degrade_skeleton
+from turn_datasets.synthetic.demo_corpus import (
     DEMO_SEED,
     H36M_BIN_MIX,
     camera_axes_m,
@@ -24,12 +29,7 @@ from turn_datasets.demo_corpus import (
     write_remap_corpus,
     write_remap_estimates,
 )
-from turn_datasets.errors import TurnbenchError
-from turn_datasets.geometry import turning_angle
-from turn_datasets.readers import discover, iter_arrays, read_source
-from turn_datasets.skeleton import H36M17, to_z_up
-from turn_datasets.synth_eaf import ANGLE_MIX, SCENARIO_MIX
-from turn_eval.degrade import degrade_skeleton
+from turn_datasets.synthetic.eaf import ANGLE_MIX, SCENARIO_MIX
 
 SMALL = {"Walking": (4, 5), "Directions": (1, 1)}
 

@@ -10,15 +10,15 @@ import pandas as pd
 import pytest
 from _eaf_builder import REAL_FILES, Tier, add_cve_refs, write_eaf
 
-from turn_datasets.eaf import (
+from turn_datasets.errors import TurnbenchError
+from turn_datasets.remap.eaf import (
     ANNOTATION_COLUMNS,
     expand_eaf_paths,
     inspect_eaf,
     load_eaf,
     read_annotations,
 )
-from turn_datasets.errors import TurnbenchError
-from turn_datasets.schema import load_schema
+from turn_datasets.remap.schema import load_schema
 
 # ---------------------------------------------------------------------------------------
 # Turn rows from a file built with known values

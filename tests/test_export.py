@@ -11,9 +11,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from turn_datasets import export
-from turn_datasets._cli import EXIT_BAD_INPUT, run_group
 from turn_datasets.cli import cli
+from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
+from turn_datasets.h36m import export
 
 FPS = 50
 N_FRAMES = 150  # 3 s at 50 fps

@@ -11,8 +11,9 @@ import click
 import pandas as pd
 import pytest
 
-from turn_datasets._cli import EXIT_BAD_INPUT, EXIT_GATE, run_group
-from turn_datasets._io import (
+from turn_datasets.cli.common import EXIT_BAD_INPUT, EXIT_GATE, run_group
+from turn_datasets.errors import GateFailed, TurnbenchError
+from turn_datasets.fileio import (
     atomic_path,
     check_not_input,
     staged_dir,
@@ -20,7 +21,6 @@ from turn_datasets._io import (
     typed_frame,
     write_csv,
 )
-from turn_datasets.errors import GateFailed, TurnbenchError
 
 BIN = Path(sys.executable).parent
 
@@ -152,8 +152,8 @@ def test_lazy_command_maps_name_every_registered_command():
     """A command module registering a name its group's map lacks would be unreachable."""
     import importlib
 
-    from turn_datasets._cli import LazyGroup
     from turn_datasets.cli import h36m, remap
+    from turn_datasets.cli.common import LazyGroup
     from turn_eval.cli import cli as eval_cli
 
     for group in (h36m, remap, eval_cli):
@@ -167,12 +167,12 @@ def test_a_command_loads_only_its_own_module():
     code = (
         "import sys; from turn_datasets.cli import main\n"
         "try:\n    main(['h36m', 'mine', '--help'])\nexcept SystemExit:\n    pass\n"
-        "print('LOADED', sorted(m for m in sys.modules if m.startswith(('sklearn', 'pympi', 'turn_datasets._cli_'))))"
+        "print('LOADED', sorted(m for m in sys.modules if m.startswith(('sklearn', 'pympi', 'turn_datasets.cli.'))))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     loaded = out.stdout.split("LOADED", 1)[1]
-    assert "_cli_mine" in loaded
-    assert "sklearn" not in loaded and "pympi" not in loaded and "_cli_agreement" not in loaded
+    assert "turn_datasets.cli.mine" in loaded
+    assert "sklearn" not in loaded and "pympi" not in loaded and "cli.agreement" not in loaded
 
 
 def test_usage_and_os_errors_are_one_line_exit_2(capsys, tmp_path):

@@ -10,9 +10,9 @@ import pandas as pd
 import pytest
 from _eaf_builder import Tier, write_eaf
 
-from turn_datasets.eaf import read_annotations
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.labels import (
+from turn_datasets.remap.eaf import read_annotations
+from turn_datasets.remap.labels import (
     LABEL_COLUMNS,
     PARTICIPANT_COLUMNS,
     adjudicate,
@@ -229,7 +229,7 @@ def test_clip_id() -> None:
 
 def test_against_synthetic_ground_truth(tmp_path: Path) -> None:
     """Sessions from the project's generator: every label matches its planted turn."""
-    from turn_datasets.synth_eaf import write_sessions
+    from turn_datasets.synthetic.eaf import write_sessions
 
     synth = write_sessions(
         tmp_path / "eaf",

@@ -13,10 +13,10 @@ import pandas as pd
 import pytest
 from _eaf_builder import Tier, write_eaf
 
-from turn_datasets._cli import EXIT_BAD_INPUT, EXIT_OK, run_group
 from turn_datasets.cli import cli
-from turn_datasets.eaf import ANNOTATION_COLUMNS
-from turn_datasets.labels import LABEL_COLUMNS
+from turn_datasets.cli.common import EXIT_BAD_INPUT, EXIT_OK, run_group
+from turn_datasets.remap.eaf import ANNOTATION_COLUMNS
+from turn_datasets.remap.labels import LABEL_COLUMNS
 
 HEADER = "subject,cohort,pair,sex,age,years_since_diagnosis\n"
 

@@ -15,11 +15,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from turn_datasets import synth_mocap as sm
-from turn_datasets._cli import EXIT_BAD_INPUT, run_group
 from turn_datasets.cli import cli
-from turn_datasets.miner import CLIP_INDEX_DTYPES, MinerParams
-from turn_datasets.readers import write_h36m_cdf, write_h36m_h5, write_videopose_npz
+from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
+from turn_datasets.h36m.miner import CLIP_INDEX_DTYPES, MinerParams
+from turn_datasets.mocap.readers import write_h36m_cdf, write_h36m_h5, write_videopose_npz
+from turn_datasets.synthetic import mocap as sm
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -562,7 +562,7 @@ def test_every_miner_parameter_is_an_option_with_its_default_unit_and_sentence(c
     # issue 3: "Every parameter has a default, a unit in its name, and a sentence in --help"
     import dataclasses
 
-    from turn_datasets._cli_mine import mine_cmd
+    from turn_datasets.cli.mine import mine_cmd
 
     options = {o.name: o for o in mine_cmd.params}
     for field in dataclasses.fields(MinerParams):

@@ -11,11 +11,9 @@ import pytest
 from scipy import signal
 from scipy.optimize import linear_sum_assignment
 
-from turn_datasets import readers
-from turn_datasets import synth_mocap as sm
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.geometry import turning_angle
-from turn_datasets.miner import (
+from turn_datasets.h36m.miner import (
     CLIP_INDEX_DTYPES,
     MinerParams,
     _yaw_rate,
@@ -27,7 +25,9 @@ from turn_datasets.miner import (
     mine_sequence,
     split_of,
 )
+from turn_datasets.mocap import readers
 from turn_datasets.skeleton import H36M17, H36M17_FROM_32, H36M32, MocapSequence
+from turn_datasets.synthetic import mocap as sm
 
 FPS = 50.0
 

@@ -12,9 +12,10 @@ import pandas as pd
 import pytest
 from test_predict import minus_y_up_copy, turning_skeleton, y_up_copy
 
-from turn_datasets._cli import EXIT_BAD_INPUT, run_group
+from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
 from turn_datasets.skeleton import H36M32
-from turn_eval import metrics, predictions
+from turn_eval import metrics
+from turn_eval import submission as predictions
 from turn_eval.cli import cli
 
 CONVERT = {"z": lambda p: p, "y": y_up_copy, "-y": minus_y_up_copy}
@@ -220,7 +221,7 @@ def test_real_cmu_captures_through_predict(cmu_dir, tmp_path, capsys):
     # Real motion capture as a pose estimator's output would arrive: the joints the BVH
     # reader names (pelvis, hips, knees, shoulders) placed in Human3.6M's 32-joint order,
     # the rest NaN, y up, one .npz key per trial.
-    from turn_datasets.readers import read_source
+    from turn_datasets.mocap.readers import read_source
 
     clips = {}
     for trial in CMU_TRIALS:

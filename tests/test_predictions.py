@@ -15,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from turn_datasets.errors import TurnbenchError
-from turn_eval.predictions import (
+from turn_eval.submission import (
     GROUP_COLUMNS,
     JOINED_COLUMNS,
     _has_blank_line,

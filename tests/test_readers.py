@@ -11,8 +11,8 @@ import h5py
 import numpy as np
 import pytest
 
-from turn_datasets import readers
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.mocap import readers
 from turn_datasets.skeleton import H36M17, H36M17_FROM_32, H36M32
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.schema import DEFAULT_SCHEMA_NAME, load_schema, normalise_value
+from turn_datasets.remap.schema import DEFAULT_SCHEMA_NAME, load_schema, normalise_value
 
 REPO = Path(__file__).resolve().parents[1]
 

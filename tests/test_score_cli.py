@@ -12,9 +12,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from turn_datasets._cli import EXIT_BAD_INPUT, run_group
-from turn_eval import _cli_score, plots
+from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
+from turn_eval import plots
 from turn_eval.cli import cli
+from turn_eval.cli import score as _cli_score
 
 REPO = Path(__file__).resolve().parents[1]
 TURN_EVAL = Path(sys.executable).with_name("turn-eval")

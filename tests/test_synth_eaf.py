@@ -8,9 +8,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from turn_datasets._io import sha256_file
-from turn_datasets.eaf import load_eaf, read_annotations
-from turn_datasets.synth_eaf import (
+from turn_datasets.fileio import sha256_file
+from turn_datasets.remap.eaf import load_eaf, read_annotations
+from turn_datasets.synthetic.eaf import (
     ANGLES_DEG,
     PARTICIPANT_COLUMNS,
     TRUTH_COLUMNS,

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 from scipy import integrate, signal
 
-from turn_datasets import synth_mocap as sm
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.geometry import frame_yaw_deg
 from turn_datasets.skeleton import H36M32
+from turn_datasets.synthetic import mocap as sm
 
 FPS = 50.0
 LH, RH = H36M32.index("left_hip"), H36M32.index("right_hip")

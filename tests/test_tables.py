@@ -12,8 +12,8 @@ from scipy import stats
 from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
 from turn_eval.metrics import METRICS
-from turn_eval.predictions import read_predictions, read_reference
-from turn_eval.tables import SCORES_CSV_COLUMNS, build_scores, scores_frame, scores_markdown
+from turn_eval.scores import SCORES_CSV_COLUMNS, build_scores, scores_frame, scores_markdown
+from turn_eval.submission import read_predictions, read_reference
 
 
 def table4a_files(tmp_path: Path) -> tuple[Path, Path]:
@@ -181,7 +181,7 @@ def test_markdown_of_a_hand_made_document_rounds_half_up():
 
 def test_markdown_rounds_any_finite_value():
     # A submission in the wrong unit can make an MAE of 1e300 degrees: printed, not a crash.
-    from turn_eval.tables import _format
+    from turn_eval.scores import _format
 
     assert _format("mae_deg", 1e300) == "1" + "0" * 300 + ".0"
     assert _format("mae_deg", 0.05) == "0.1" and _format("accuracy", 0.3333) == "33.3"

@@ -5,13 +5,13 @@ runs, called in process through the same click groups as the console scripts (so
 exercises exactly what users run, without paying for a Python start per command), each
 printed as ``$ turn-datasets ...`` before it runs:
 
-1. write the demo corpus (:mod:`turn_datasets.demo_corpus`): Turn-H3.6M-like motion capture
+1. write the demo corpus (:mod:`turn_datasets.synthetic.demo_corpus`): Turn-H3.6M-like motion capture
    in the three Human3.6M layouts, and Turn-REMAP-like ELAN sessions;
 2. ``turn-datasets h36m mine`` the clip index, ``h36m stats`` (the paper's Table 3), and a
    check of the mined clips against the turns the generator planted;
 3. ``turn-datasets remap labels``, ``remap stats`` (Tables 1 and 2) and ``remap agreement``
    with its kappa gate (``--min-kappa 0.8``) and the review EAFs;
-4. skeletons as a monocular estimator would give them (:mod:`turn_eval.degrade`), then
+4. skeletons as a monocular estimator would give them (:mod:`turn_datasets.synthetic.degrade`), then
    ``turn-eval predict`` with both methods (``paper``: equation 3 as printed; ``net``);
 5. ``turn-eval score --plots`` of each method on each set (Tables 4 and 5, Figure 5);
 6. ``turn-eval compare`` of the two methods on each set;
@@ -38,18 +38,18 @@ import pandas as pd
 
 from turn_datasets import __version__
 from turn_datasets import cli as datasets_cli
-from turn_datasets._cli import run_group
-from turn_datasets._io import write_csv, write_text
-from turn_datasets.demo_corpus import (
+from turn_datasets.cli.common import run_group
+from turn_datasets.errors import TurnbenchError
+from turn_datasets.fileio import write_csv, write_text
+from turn_datasets.synthetic.degrade import degrade_skeleton
+from turn_datasets.synthetic.demo_corpus import (
     DEMO_SEED,
     write_h36m_corpus,
     write_h36m_estimates,
     write_remap_corpus,
     write_remap_estimates,
 )
-from turn_datasets.errors import TurnbenchError
 from turn_eval import cli as eval_cli
-from turn_eval.degrade import degrade_skeleton
 from turn_eval.report import Report, load_json
 
 __all__ = ["DemoFailed", "run_demo", "prepare_out_dir", "match_planted", "write_report", "main"]

@@ -23,7 +23,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from turn_datasets.geometry import quantise_deg
-from turn_eval.predictions import group_label
+from turn_eval.submission import group_label
 
 __all__ = ["PLOT_FILES", "write_plots"]
 

@@ -18,8 +18,8 @@ from collections.abc import Iterable, Sequence
 import numpy as np
 import pandas as pd
 
-from turn_datasets._io import typed_frame
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.fileio import typed_frame
 from turn_datasets.geometry import METHODS, angular_speed_deg_s, parse_joints, turning_angle
 from turn_datasets.skeleton import UP_AXES, Layout, get_layout, to_z_up
 
@@ -101,7 +101,7 @@ def predict_angles(
     ----------
     arrays
         ``(clip_id, positions)`` pairs, positions ``(n_frames, n_joints, 3)``; for example
-        :func:`turn_datasets.readers.iter_arrays` of a file.
+        :func:`turn_datasets.mocap.readers.iter_arrays` of a file.
     layout, up_axis, joints, method, fps_hz
         As in :func:`predict_angle`; checked once, before any clip is read.
 

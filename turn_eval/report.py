@@ -40,8 +40,8 @@ from typing import Any
 import pandas as pd
 
 from turn_datasets import __version__
-from turn_datasets._io import write_text
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.fileio import write_text
 
 __all__ = [
     "METRICS",

@@ -31,9 +31,9 @@ import pandas as pd
 import pympi.Elan
 from defusedxml.common import DTDForbidden, EntitiesForbidden, ExternalReferenceForbidden
 
-from turn_datasets._io import typed_frame
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.schema import Schema, Vocabulary, load_schema
+from turn_datasets.fileio import typed_frame
+from turn_datasets.remap.schema import Schema, Vocabulary, load_schema
 
 __all__ = [
     "ANNOTATION_COLUMNS",
@@ -546,7 +546,7 @@ def read_annotations(
         is one recording session; its stem is the session id and must be unique.
     schema
         Which tiers hold turns and context, and the vocabularies (default:
-        :func:`turn_datasets.schema.load_schema`).
+        :func:`turn_datasets.remap.schema.load_schema`).
     iterate
         Wraps the list of files while they are read (the command line passes a progress bar).
 

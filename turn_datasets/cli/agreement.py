@@ -1,6 +1,6 @@
 """``turn-datasets remap agreement``: the inter-rater agreement audit of turn labels.
 
-Parses options, reads the annotations, calls :mod:`turn_datasets.agreement` and prints;
+Parses options, reads the annotations, calls :mod:`turn_datasets.remap.agreement` and prints;
 every file of ``--out-dir`` is staged and moved in only when all are written.
 """
 
@@ -11,9 +11,11 @@ from pathlib import Path
 import click
 
 from turn_datasets import __version__
-from turn_datasets._cli import format_option, info, progress, warn, wrote
-from turn_datasets._cli_labels import min_overlap_option, no_turns_error, reject_nan
-from turn_datasets._io import (
+from turn_datasets.cli import CONTEXT_SETTINGS, remap
+from turn_datasets.cli.common import format_option, info, progress, warn, wrote
+from turn_datasets.cli.labels import min_overlap_option, no_turns_error, reject_nan
+from turn_datasets.errors import GateFailed
+from turn_datasets.fileio import (
     check_not_input,
     staged_dir,
     to_json_text,
@@ -21,16 +23,14 @@ from turn_datasets._io import (
     write_json,
     write_text,
 )
-from turn_datasets.agreement import (
+from turn_datasets.remap.agreement import (
     AgreementAudit,
     audit_agreement,
     write_confusion_png,
     write_review_eaf,
 )
-from turn_datasets.cli import CONTEXT_SETTINGS, remap
-from turn_datasets.eaf import expand_eaf_paths, read_annotations
-from turn_datasets.errors import GateFailed
-from turn_datasets.schema import load_schema
+from turn_datasets.remap.eaf import expand_eaf_paths, read_annotations
+from turn_datasets.remap.schema import load_schema
 
 #: Files written into --out-dir (review copies go to its ``review/`` folder).
 OUT_FILES = (

@@ -42,8 +42,8 @@ import numpy as np
 import pandas as pd
 from sklearn.metrics import cohen_kappa_score, confusion_matrix
 
-from turn_datasets._io import atomic_path, typed_frame
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.fileio import atomic_path, typed_frame
 
 __all__ = [
     "MATCH_COLUMNS",

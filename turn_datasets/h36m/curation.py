@@ -47,11 +47,11 @@ import numpy as np
 import pandas as pd
 
 from turn_datasets import __version__
-from turn_datasets._io import sha256_file, typed_frame
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.fileio import sha256_file, typed_frame
 from turn_datasets.geometry import quantise_deg
-from turn_datasets.miner import MinerParams, SequenceClips, clip_id_of, measure_clip
-from turn_datasets.readers import natural_key
+from turn_datasets.h36m.miner import MinerParams, SequenceClips, clip_id_of, measure_clip
+from turn_datasets.mocap.readers import natural_key
 from turn_datasets.skeleton import MocapSequence
 
 __all__ = [
@@ -241,7 +241,7 @@ def apply_overrides(
     seq
         The sequence the clips were mined from (an ``adjust`` measures its new frames).
     clips
-        Its clips (:func:`turn_datasets.miner.mine_clips`).
+        Its clips (:func:`turn_datasets.h36m.miner.mine_clips`).
     overrides
         The overrides, or None.
     params

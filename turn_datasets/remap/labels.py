@@ -7,7 +7,7 @@ labelled by both, and disagreements were resolved before the labels were used. H
 - :func:`read_participants` reads and checks the participants table
   (``subject, cohort, pair, sex, age, years_since_diagnosis``; cohort ``PD`` or ``HC``).
 - :func:`adjudicate` makes one turn of the matched annotations of two raters (matched as in
-  the agreement audit, :func:`turn_datasets.agreement.match_annotations`), lets the
+  the agreement audit, :func:`turn_datasets.remap.agreement.match_annotations`), lets the
   consensus rater decide where they disagree, and lists what no one decided.
 - :func:`make_labels` adds the cohort and gives the labels table of DESIGN.md.
 - :func:`table1`, :func:`table2`, :func:`turns_per_location` summarise a label set as the
@@ -31,10 +31,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from turn_datasets._io import typed_frame
-from turn_datasets.agreement import match_annotations
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.schema import load_schema, normalise_value
+from turn_datasets.fileio import typed_frame
+from turn_datasets.remap.agreement import match_annotations
+from turn_datasets.remap.schema import load_schema, normalise_value
 
 __all__ = [
     "COHORTS",
@@ -309,13 +309,13 @@ def adjudicate(
     Parameters
     ----------
     annotations
-        Rows of :func:`turn_datasets.eaf.read_annotations` (index labels unique).
+        Rows of :func:`turn_datasets.remap.eaf.read_annotations` (index labels unique).
     consensus_annotator
         The rater whose annotations hold adjudicated labels (case-insensitive).
     min_overlap
         Two raters' annotations of one participant are one turn when their overlap over the
         longer duration is at least this (ELAN's reliability matching, greedy, highest ratio
-        first; :func:`turn_datasets.agreement.match_annotations`).
+        first; :func:`turn_datasets.remap.agreement.match_annotations`).
     resolve
         ``"consensus"``: a disagreement without a consensus annotation is listed in
         ``unresolved`` and left out of ``labels``. ``"first-rater"``: the first rater's label
@@ -450,7 +450,7 @@ def make_labels(
     Parameters
     ----------
     annotations
-        Rows of :func:`turn_datasets.eaf.read_annotations`.
+        Rows of :func:`turn_datasets.remap.eaf.read_annotations`.
     participants
         Table of :func:`read_participants`.
     consensus_annotator

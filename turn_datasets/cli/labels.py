@@ -1,6 +1,6 @@
 """``turn-datasets remap inspect | labels | stats``: ELAN files to Turn-REMAP labels.
 
-Parses options, calls :mod:`turn_datasets.eaf` and :mod:`turn_datasets.labels`, prints.
+Parses options, calls :mod:`turn_datasets.remap.eaf` and :mod:`turn_datasets.remap.labels`, prints.
 """
 
 from __future__ import annotations
@@ -11,12 +11,17 @@ from pathlib import Path
 import click
 import pandas as pd
 
-from turn_datasets._cli import emit, format_option, info, progress, wrote
-from turn_datasets._io import check_not_input, staged_dir, to_json_text, write_csv
 from turn_datasets.cli import CONTEXT_SETTINGS, remap
-from turn_datasets.eaf import expand_eaf_paths, inspect_eaf, inspect_markdown, read_annotations
+from turn_datasets.cli.common import emit, format_option, info, progress, wrote
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.labels import (
+from turn_datasets.fileio import check_not_input, staged_dir, to_json_text, write_csv
+from turn_datasets.remap.eaf import (
+    expand_eaf_paths,
+    inspect_eaf,
+    inspect_markdown,
+    read_annotations,
+)
+from turn_datasets.remap.labels import (
     RESOLVE_CHOICES,
     make_labels,
     read_labels,
@@ -28,7 +33,7 @@ from turn_datasets.labels import (
     table2,
     turns_per_location,
 )
-from turn_datasets.schema import Schema, load_schema
+from turn_datasets.remap.schema import Schema, load_schema
 
 #: The raw per-rater rows are written beside the labels under this name (DESIGN.md).
 ANNOTATIONS_NAME = "annotations.csv"

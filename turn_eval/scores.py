@@ -36,8 +36,8 @@ import numpy as np
 import pandas as pd
 
 from turn_datasets import __version__
-from turn_datasets._io import typed_frame
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.fileio import typed_frame
 from turn_eval.metrics import (
     CONFIDENCE,
     KAPPA_WEIGHTS,
@@ -52,7 +52,7 @@ from turn_eval.metrics import (
     percentile_interval,
     resample_indices,
 )
-from turn_eval.predictions import BIN_COLUMN, Joined, group_label
+from turn_eval.submission import BIN_COLUMN, Joined, group_label
 
 __all__ = [
     "ROW_LABELS",
@@ -175,7 +175,7 @@ def build_scores(
     Parameters
     ----------
     joined
-        From :func:`turn_eval.predictions.read_predictions`.
+        From :func:`turn_eval.submission.read_predictions`.
     by
         Group columns of the reference; None or empty for every default grouping the
         reference has (:attr:`Joined.default_groupings`).

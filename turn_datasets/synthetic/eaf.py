@@ -40,8 +40,8 @@ import numpy as np
 import pandas as pd
 import pympi.Elan as pympi_elan
 
-from turn_datasets._io import atomic_path, typed_frame, write_csv
-from turn_datasets.eaf import ANNOTATION_COLUMNS
+from turn_datasets.fileio import atomic_path, typed_frame, write_csv
+from turn_datasets.remap.eaf import ANNOTATION_COLUMNS
 
 __all__ = [
     "ANGLES_DEG",

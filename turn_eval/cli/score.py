@@ -1,7 +1,7 @@
 """``turn-eval score``: score a predictions file against a reference (issue 5).
 
-Thin: parse the options, read and validate (:mod:`turn_eval.predictions`), score
-(:mod:`turn_eval.tables`), print one format on stdout and, with ``--out-dir``, write all three
+Thin: parse the options, read and validate (:mod:`turn_eval.submission`), score
+(:mod:`turn_eval.scores`), print one format on stdout and, with ``--out-dir``, write all three
 (and the figures) together, atomically.
 """
 
@@ -11,8 +11,9 @@ from pathlib import Path
 
 import click
 
-from turn_datasets._cli import emit, format_option, progress, warn, wrote
-from turn_datasets._io import (
+from turn_datasets.cli.common import emit, format_option, progress, warn, wrote
+from turn_datasets.errors import TurnbenchError
+from turn_datasets.fileio import (
     check_not_input,
     staged_dir,
     to_json_text,
@@ -20,10 +21,9 @@ from turn_datasets._io import (
     write_json,
     write_text,
 )
-from turn_datasets.errors import TurnbenchError
 from turn_eval.cli import CONTEXT_SETTINGS, cli
-from turn_eval.predictions import read_predictions, read_reference
-from turn_eval.tables import build_scores, scores_frame, scores_markdown
+from turn_eval.scores import build_scores, scores_frame, scores_markdown
+from turn_eval.submission import read_predictions, read_reference
 
 #: The files ``--out-dir`` receives besides the figures.
 SCORE_FILES = ("scores.json", "scores.md", "scores.csv")

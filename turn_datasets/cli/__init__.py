@@ -11,7 +11,7 @@ import sys
 import click
 
 from turn_datasets import __version__
-from turn_datasets._cli import LazyGroup, run_group
+from turn_datasets.cli.common import LazyGroup, run_group
 
 CONTEXT_SETTINGS = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
 
@@ -32,9 +32,9 @@ def cli() -> None:
     cls=LazyGroup,
     context_settings=CONTEXT_SETTINGS,
     lazy_commands={
-        "mine": "turn_datasets._cli_mine",
-        "stats": "turn_datasets._cli_mine",
-        "export-clips": "turn_datasets._cli_export",
+        "mine": "turn_datasets.cli.mine",
+        "stats": "turn_datasets.cli.mine",
+        "export-clips": "turn_datasets.cli.export",
     },
 )
 def h36m() -> None:
@@ -51,10 +51,10 @@ def h36m() -> None:
     cls=LazyGroup,
     context_settings=CONTEXT_SETTINGS,
     lazy_commands={
-        "inspect": "turn_datasets._cli_labels",
-        "labels": "turn_datasets._cli_labels",
-        "stats": "turn_datasets._cli_labels",
-        "agreement": "turn_datasets._cli_agreement",
+        "inspect": "turn_datasets.cli.labels",
+        "labels": "turn_datasets.cli.labels",
+        "stats": "turn_datasets.cli.labels",
+        "agreement": "turn_datasets.cli.agreement",
     },
 )
 def remap() -> None:

@@ -1,7 +1,7 @@
 """``turn-datasets h36m mine`` and ``turn-datasets h36m stats`` (registered on the h36m group).
 
-Thin: options are parsed here, the work is :mod:`turn_datasets.readers`,
-:mod:`turn_datasets.miner` and :mod:`turn_datasets.curation`.
+Thin: options are parsed here, the work is :mod:`turn_datasets.mocap.readers`,
+:mod:`turn_datasets.h36m.miner` and :mod:`turn_datasets.h36m.curation`.
 """
 
 from __future__ import annotations
@@ -12,11 +12,11 @@ from typing import Any
 import click
 import pandas as pd
 
-from turn_datasets._cli import emit, format_option, info, progress, warn
-from turn_datasets._io import atomic_path, check_not_input, sha256_file, to_json_text
-from turn_datasets.bvh import parse_joint_map
 from turn_datasets.cli import h36m
-from turn_datasets.curation import (
+from turn_datasets.cli.common import emit, format_option, info, progress, warn
+from turn_datasets.errors import TurnbenchError
+from turn_datasets.fileio import atomic_path, check_not_input, sha256_file, to_json_text
+from turn_datasets.h36m.curation import (
     apply_overrides,
     build_manifest,
     manifest_path,
@@ -27,9 +27,9 @@ from turn_datasets.curation import (
     stats_markdown,
     unmatched_overrides,
 )
-from turn_datasets.errors import TurnbenchError
-from turn_datasets.miner import MinerParams, build_index, mine_clips
-from turn_datasets.readers import (
+from turn_datasets.h36m.miner import MinerParams, build_index, mine_clips
+from turn_datasets.mocap.bvh import parse_joint_map
+from turn_datasets.mocap.readers import (
     FORMATS,
     UNITS,
     SourceFile,

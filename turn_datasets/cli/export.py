@@ -6,9 +6,9 @@ from pathlib import Path
 
 import click
 
-from turn_datasets import export
-from turn_datasets._cli import progress, warn, wrote
 from turn_datasets.cli import h36m
+from turn_datasets.cli.common import progress, warn, wrote
+from turn_datasets.h36m import export
 
 
 @h36m.command("export-clips")

@@ -41,8 +41,8 @@ import numpy as np
 import pandas as pd
 from scipy.ndimage import uniform_filter1d
 
-from turn_datasets._io import typed_frame
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.fileio import typed_frame
 from turn_datasets.skeleton import H36M32, MocapSequence
 
 __all__ = [

@@ -6,13 +6,13 @@ from pathlib import Path
 
 import click
 
-from turn_datasets._cli import emit, format_option, warn, wrote
-from turn_datasets._io import check_not_input, to_json_text, write_text
+from turn_datasets.cli.common import emit, format_option, warn, wrote
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.fileio import check_not_input, to_json_text, write_text
 from turn_eval.cli import CONTEXT_SETTINGS, cli
-from turn_eval.predictions import Joined, _list_ids, read_predictions, read_reference
+from turn_eval.scores import one_decimal
 from turn_eval.significance import Comparison, compare_predictions
-from turn_eval.tables import one_decimal
+from turn_eval.submission import Joined, _list_ids, read_predictions, read_reference
 
 #: How each metric prints in Markdown: label, scale (fractions as percentages, as the paper).
 _MD_METRICS = {

@@ -34,8 +34,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from turn_datasets._io import typed_frame
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.fileio import typed_frame
 from turn_datasets.geometry import quantise_deg
 
 __all__ = [

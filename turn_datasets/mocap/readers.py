@@ -16,7 +16,7 @@ DESIGN.md, with the layout, fps and units they came with. Formats (``fmt`` names
     loaded because the user named it (or the folder holding it); it is loaded once and its
     sequences yielded one by one.
 ``bvh``
-    Any BVH motion capture (:mod:`turn_datasets.bvh`): forward kinematics, y up converted to
+    Any BVH motion capture (:mod:`turn_datasets.mocap.bvh`): forward kinematics, y up converted to
     z up, fps from ``Frame Time``, joints found by name (CMU's names built in).
 ``array``
     Generic arrays (``.npy``, ``.npz``, ``.h5``/``.hdf5``) of shape ``(frames, joints, 3)``
@@ -48,10 +48,10 @@ import cdflib
 import h5py
 import numpy as np
 
-from turn_datasets import bvh as _bvh
-from turn_datasets._io import atomic_path
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.fileio import atomic_path
 from turn_datasets.geometry import usable_frames
+from turn_datasets.mocap import bvh as _bvh
 from turn_datasets.skeleton import (
     H36M17,
     H36M32,
@@ -694,11 +694,11 @@ def read_source(
         formats can pass them for its arrays alone; ``units`` also labels a BVH's unit.
     joint_map
         BVH only: our joint name -> BVH joint name, over CMU's built-in names
-        (:data:`turn_datasets.bvh.CMU_JOINT_MAP`).
+        (:data:`turn_datasets.mocap.bvh.CMU_JOINT_MAP`).
     skip_first_frame
         BVH only: ``True`` drops frame 0, ``False`` keeps it; ``None`` (default) drops it only
         when it is the rest pose that CMU's conversion adds
-        (:func:`turn_datasets.bvh.first_frame_is_rest_pose`).
+        (:func:`turn_datasets.mocap.bvh.first_frame_is_rest_pose`).
     on_bad_sequence
         Files holding several sequences (VideoPose3D's npz, a generic ``.npz``/``.h5``):
         when given, a sequence that cannot be used (an unknown action name, a wrong shape,

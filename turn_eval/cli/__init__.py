@@ -11,7 +11,7 @@ import sys
 import click
 
 from turn_datasets import __version__
-from turn_datasets._cli import LazyGroup, run_group
+from turn_datasets.cli.common import LazyGroup, run_group
 
 CONTEXT_SETTINGS = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
 
@@ -20,9 +20,9 @@ CONTEXT_SETTINGS = {"help_option_names": ["-h", "--help"], "max_content_width": 
     cls=LazyGroup,
     context_settings=CONTEXT_SETTINGS,
     lazy_commands={
-        "score": "turn_eval._cli_score",
-        "compare": "turn_eval._cli_compare",
-        "predict": "turn_eval._cli_predict",
+        "score": "turn_eval.cli.score",
+        "compare": "turn_eval.cli.compare",
+        "predict": "turn_eval.cli.predict",
     },
 )
 @click.version_option(__version__, prog_name="turn-eval")

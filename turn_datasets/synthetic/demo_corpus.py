@@ -7,7 +7,7 @@ bytes). It is built from the project's generators, not from any real recording:
 Turn-H3.6M-like motion capture (:func:`write_h36m_corpus`)
     Subjects S1, S5, S6, S7, S8, S9 and S11, each with two trials (``"Walking"`` and
     ``"Walking 1"``, as on disk) of several actions, 50 Hz, the 32-joint layout, millimetres,
-    z up, made by :func:`turn_datasets.synth_mocap.generate_sequence`: walking with pelvic
+    z up, made by :func:`turn_datasets.synthetic.mocap.generate_sequence`: walking with pelvic
     sway, standing, pivot and walking turns, joint noise and a few capture dropouts. Turns
     are planted with heading changes from 48° to 233°, drawn per 45° bin with the shares of
     :data:`H36M_BIN_MIX` (most turns small, as in the paper's Table 3), more of them in the
@@ -18,7 +18,7 @@ Turn-H3.6M-like motion capture (:func:`write_h36m_corpus`)
     ``TakingPhoto`` and ``WalkingDog``), S5 as 3d-pose-baseline's h5, the other subjects in
     one VideoPose3D ``data_3d_h36m.npz``. ``planted.csv`` lists every planted turn.
 Turn-REMAP-like ELAN sessions (:func:`write_remap_corpus`)
-    :func:`turn_datasets.synth_eaf.write_sessions`: 12 PD-HC pairs, two sessions each, two
+    :func:`turn_datasets.synthetic.eaf.write_sessions`: 12 PD-HC pairs, two sessions each, two
     clinicians on about half of the sessions with boundary jitter (0.15 s per boundary), a few
     planted angle disagreements (2.5%) and missed turns (3%), a consensus tier, scenario and location tiers and the
     participants table; the angle and scenario mix of the paper's Table 2.
@@ -29,13 +29,13 @@ Skeleton "predictions" (:func:`write_h36m_estimates`, :func:`write_remap_estimat
     ``turn-eval predict --layout h36m17 --up-axis -y``. Turn-H3.6M's come from its own
     motion capture; each Turn-REMAP turn's skeleton is synthesised with that turn's
     labelled angle (plus the few degrees a 45° label rounds away). Both are degraded by
-    :func:`turn_eval.degrade.degrade_skeleton`-style errors (joint noise, depth error growing
+    :func:`turn_datasets.synthetic.degrade.degrade_skeleton`-style errors (joint noise, depth error growing
     with the angle to the camera, occlusion dropouts). A participant's session keeps one
     camera; its free-living recordings get a larger depth error (30 to 110 mm against 20 to
     80 mm) and six times the dropouts of its scripted ones, as home videos do
     (:data:`_REMAP_DEGRADE`).
 
-The degradation lives in :mod:`turn_eval.degrade`; ``turn_datasets`` may not import
+The degradation lives in :mod:`turn_datasets.synthetic.degrade`; ``turn_datasets`` may not import
 ``turn_eval`` (DESIGN.md), so the two estimate writers take the degrading function as an
 argument and :mod:`turn_eval.demo` passes it in.
 """
@@ -53,10 +53,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from turn_datasets._io import atomic_path, typed_frame, write_csv
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.fileio import atomic_path, typed_frame, write_csv
 from turn_datasets.geometry import direction_of, quantise_deg
-from turn_datasets.readers import (
+from turn_datasets.mocap.readers import (
     discover,
     read_source,
     write_h36m_cdf,
@@ -64,8 +64,8 @@ from turn_datasets.readers import (
     write_videopose_npz,
 )
 from turn_datasets.skeleton import H36M17, H36M17_FROM_32
-from turn_datasets.synth_eaf import SyntheticRemap, write_sessions
-from turn_datasets.synth_mocap import Dropout, Segment, generate_sequence
+from turn_datasets.synthetic.eaf import SyntheticRemap, write_sessions
+from turn_datasets.synthetic.mocap import Dropout, Segment, generate_sequence
 
 __all__ = [
     "DEMO_SEED",
@@ -122,7 +122,7 @@ PLANTED_COLUMNS = {
 
 #: The degradation a writer of estimates applies:
 #: ``fn(positions, layout, *, seed, fps, camera_position_mm, mm_per_unit, **params)`` returning
-#: an object with ``.positions`` (as :func:`turn_eval.degrade.degrade_skeleton`).
+#: an object with ``.positions`` (as :func:`turn_datasets.synthetic.degrade.degrade_skeleton`).
 DegradeFn = Callable[..., object]
 
 # Four cameras at the corners of the capture area, at head height, as Human3.6M's are.
@@ -323,7 +323,7 @@ def write_remap_corpus(
 
     About 58 turns per participant over two sessions (the paper: 1386 turns of 24 people),
     two raters on about half, jitter 0.15 s per boundary, 2.5% angle disagreements and 3%
-    missed turns (:func:`turn_datasets.synth_eaf.write_sessions`'s defaults).
+    missed turns (:func:`turn_datasets.synthetic.eaf.write_sessions`'s defaults).
     """
     out = Path(out_dir)
     eaf_dir = out / "eaf"
@@ -392,7 +392,7 @@ def write_h36m_estimates(
     out_npz
         The ``.npz`` to write (atomically).
     degrade
-        :func:`turn_eval.degrade.degrade_skeleton` or a function with its signature.
+        :func:`turn_datasets.synthetic.degrade.degrade_skeleton` or a function with its signature.
     seed
         Seed; each sequence derives its own from this and its names.
     **degrade_params
@@ -528,7 +528,7 @@ def write_remap_estimates(
     out_npz
         The ``.npz`` to write (atomically).
     degrade
-        :func:`turn_eval.degrade.degrade_skeleton` or a function with its signature.
+        :func:`turn_datasets.synthetic.degrade.degrade_skeleton` or a function with its signature.
     seed
         Seed; each participant and session derives its own from this and their names.
     fps_hz

@@ -43,7 +43,7 @@ The rule, per sequence
 
 Sway of 3° to 6° per stride never reaches ``start_speed_deg_s`` after smoothing and never
 adds up to ``min_turn_deg``, so straight walking and standing give no clip (measured on the
-synthetic corpus of :mod:`turn_datasets.synth_mocap`; see ``tests/test_miner.py``).
+synthetic corpus of :mod:`turn_datasets.synthetic.mocap`; see ``tests/test_miner.py``).
 
 Departures from the paper: the paper's search was manual; its clip boundaries and angles
 are therefore not reproduced exactly, only its criterion (the hip vector turning by 45° or
@@ -63,8 +63,8 @@ import numpy as np
 import pandas as pd
 from scipy import signal
 
-from turn_datasets._io import typed_frame
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.fileio import typed_frame
 from turn_datasets.geometry import (
     TurningAngle,
     angular_speed_deg_s,
@@ -74,7 +74,7 @@ from turn_datasets.geometry import (
     turning_angle,
     usable_frames,
 )
-from turn_datasets.readers import natural_key
+from turn_datasets.mocap.readers import natural_key
 from turn_datasets.skeleton import Layout, MocapSequence
 
 __all__ = [
@@ -741,7 +741,7 @@ def mine(sequences: Iterable[MocapSequence], **params: float) -> pd.DataFrame:
     Parameters
     ----------
     sequences
-        Sequences as the readers yield them (:func:`turn_datasets.readers.read_source`).
+        Sequences as the readers yield them (:func:`turn_datasets.mocap.readers.read_source`).
     **params
         Any of :class:`MinerParams`' fields (``min_turn_deg``, ``max_gap_s``, ...).
 

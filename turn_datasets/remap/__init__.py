@@ -1,0 +1,1 @@
+"""Turn-REMAP: ELAN reading, the annotation schema, labels, inter-rater agreement."""

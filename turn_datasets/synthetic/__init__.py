@@ -1,0 +1,1 @@
+"""Synthetic data for the demo and the tests: mocap, ELAN sessions, estimator-like degradation, the demo corpus."""
