@@ -81,7 +81,7 @@ def add_cve_refs(path: Path, refs: dict[str, str]) -> Path:
     text = path.read_text(encoding="utf-8")
     for value, cve in refs.items():
         pattern = re.compile(
-            r'(<ALIGNABLE_ANNOTATION [^>]*?)(>\s*<ANNOTATION_VALUE>' + re.escape(value) + "<)"
+            r"(<ALIGNABLE_ANNOTATION [^>]*?)(>\s*<ANNOTATION_VALUE>" + re.escape(value) + "<)"
         )
         text, n = pattern.subn(rf'\1 CVE_REF="{cve}"\2', text)
         assert n, f"no annotation with value {value!r}"

@@ -207,8 +207,9 @@ def test_units_labelled_by_one_rater_are_left_out():
             ("bob", "s1", "P2", 5.0, 6.0, 180),
         ]
     )
-    items, single = pair_items(pd.concat([HAND, extra], ignore_index=True),
-                               rater_a="ann", rater_b="bob")
+    items, single = pair_items(
+        pd.concat([HAND, extra], ignore_index=True), rater_a="ann", rater_b="bob"
+    )
     assert single == {"ann": 1, "bob": 2}
     assert len(items) == 7  # HAND's 5 matched + 2 unmatched only
     assert set(items["session"]) == {"s1", "s2"}
@@ -218,8 +219,12 @@ def test_kappa_undefined_is_null_with_a_reason():
     from turn_datasets.remap.agreement import audit_agreement
 
     same = _annotations(
-        [("ann", "s", "P", 0.0, 2.0, 90), ("bob", "s", "P", 0.0, 2.0, 90),
-         ("ann", "s", "P", 5.0, 7.0, 90), ("bob", "s", "P", 5.0, 7.0, 90)]
+        [
+            ("ann", "s", "P", 0.0, 2.0, 90),
+            ("bob", "s", "P", 0.0, 2.0, 90),
+            ("ann", "s", "P", 5.0, 7.0, 90),
+            ("bob", "s", "P", 5.0, 7.0, 90),
+        ]
     )
     st = audit_agreement(same, n_bootstrap=100).overall
     assert st.matched == 2 and st.percent_agreement == 1.0
@@ -297,7 +302,10 @@ def test_bootstrap_ci_is_seeded_and_agrees_with_scipy():
     ref = bootstrap(
         (a, b),
         lambda x, y: cohen_kappa_score(x, y, labels=[0, 1, 2, 3]),
-        paired=True, vectorized=False, n_resamples=2000, method="percentile",
+        paired=True,
+        vectorized=False,
+        n_resamples=2000,
+        method="percentile",
         rng=np.random.default_rng(1),
     ).confidence_interval
     assert ci1[0] == pytest.approx(ref.low, abs=0.02)
@@ -326,8 +334,13 @@ def synth(tmp_path_factory):
     from turn_datasets.synthetic.eaf import write_sessions
 
     return write_sessions(
-        tmp_path_factory.mktemp("synth"), seed=11, n_pairs=4, turns_per_subject=40,
-        disagreement_rate=0.08, far_disagreement_fraction=0.4, missed_rate=0.05,
+        tmp_path_factory.mktemp("synth"),
+        seed=11,
+        n_pairs=4,
+        turns_per_subject=40,
+        disagreement_rate=0.08,
+        far_disagreement_fraction=0.4,
+        missed_rate=0.05,
         shifted_rate=0.04,
     )
 
@@ -450,11 +463,18 @@ def test_review_copy_of_real_exports_keeps_everything(real_eaf_dir, tmp_path, na
     digest = sha256_file(src)
     rows = pd.DataFrame(
         {
-            "session": [src.stem] * 2, "participant": ["P1"] * 2,
-            "kind": ["angle", "unmatched"], "rater_a": ["ann"] * 2,
-            "start_a_s": [1.0, 3.0], "end_a_s": [2.0, 4.0], "angle_a_deg": [90.0, 180.0],
-            "rater_b": ["bob"] * 2, "start_b_s": [1.1, np.nan], "end_b_s": [2.2, np.nan],
-            "angle_b_deg": [135.0, np.nan], "overlap_ratio": [0.8, np.nan],
+            "session": [src.stem] * 2,
+            "participant": ["P1"] * 2,
+            "kind": ["angle", "unmatched"],
+            "rater_a": ["ann"] * 2,
+            "start_a_s": [1.0, 3.0],
+            "end_a_s": [2.0, 4.0],
+            "angle_a_deg": [90.0, 180.0],
+            "rater_b": ["bob"] * 2,
+            "start_b_s": [1.1, np.nan],
+            "end_b_s": [2.2, np.nan],
+            "angle_b_deg": [135.0, np.nan],
+            "overlap_ratio": [0.8, np.nan],
             "file": [str(src)] * 2,
         }
     )
@@ -482,8 +502,11 @@ def test_review_copy_of_real_exports_keeps_everything(real_eaf_dir, tmp_path, na
 
     src_root, out_root = ET.parse(src).getroot(), ET.parse(out).getroot()
     urls = [
-        v for el in src_root.iter() if el.tag in ("MEDIA_DESCRIPTOR", "LINKED_FILE_DESCRIPTOR")
-        for k, v in el.attrib.items() if k.endswith("URL") or k == "EXTRACTED_FROM"
+        v
+        for el in src_root.iter()
+        if el.tag in ("MEDIA_DESCRIPTOR", "LINKED_FILE_DESCRIPTOR")
+        for k, v in el.attrib.items()
+        if k.endswith("URL") or k == "EXTRACTED_FROM"
     ]
     assert all(u not in text_out for u in urls)
     assert out_root.get("AUTHOR") == "" and out_root.get("DATE") == "1970-01-01T00:00:00+00:00"
@@ -493,20 +516,32 @@ def test_review_copy_of_real_exports_keeps_everything(real_eaf_dir, tmp_path, na
     # Only ELAN's (or pympi's) annotation counter stays, past every id in the copy, so ELAN
     # never hands out one of the new ids again.
     assert {p.get("NAME") for p in counters} <= {"lastUsedAnnotationId", "lastUsedAnnotation"}
-    ids = [el.get("ANNOTATION_ID") for el in out_root.iter()
-           if el.tag in ("ALIGNABLE_ANNOTATION", "REF_ANNOTATION")]
+    ids = [
+        el.get("ANNOTATION_ID")
+        for el in out_root.iter()
+        if el.tag in ("ALIGNABLE_ANNOTATION", "REF_ANNOTATION")
+    ]
     assert len(ids) == len(set(ids))
     numeric = [int(i[1:]) for i in ids if i[:1] == "a" and i[1:].isdigit()]
     assert all(int(p.text) >= max(numeric) for p in counters)
-    src_counters = {p.get("NAME"): int(p.text) for p in src_root.iter("PROPERTY")
-                    if p.get("NAME") in ("lastUsedAnnotationId", "lastUsedAnnotation")}
+    src_counters = {
+        p.get("NAME"): int(p.text)
+        for p in src_root.iter("PROPERTY")
+        if p.get("NAME") in ("lastUsedAnnotationId", "lastUsedAnnotation")
+    }
     # The two new annotations take the next ids after the source's ids and counter.
-    new_ids = sorted(int(el.get("ANNOTATION_ID")[1:]) for t in out_root.iter("TIER")
-                     if t.get("TIER_ID") == "Disagreement"
-                     for el in t.iter("ALIGNABLE_ANNOTATION"))
-    src_ids = [int(el.get("ANNOTATION_ID")[1:]) for el in src_root.iter()
-               if el.tag in ("ALIGNABLE_ANNOTATION", "REF_ANNOTATION")
-               and el.get("ANNOTATION_ID")[1:].isdigit()]
+    new_ids = sorted(
+        int(el.get("ANNOTATION_ID")[1:])
+        for t in out_root.iter("TIER")
+        if t.get("TIER_ID") == "Disagreement"
+        for el in t.iter("ALIGNABLE_ANNOTATION")
+    )
+    src_ids = [
+        int(el.get("ANNOTATION_ID")[1:])
+        for el in src_root.iter()
+        if el.tag in ("ALIGNABLE_ANNOTATION", "REF_ANNOTATION")
+        and el.get("ANNOTATION_ID")[1:].isdigit()
+    ]
     first = max([*src_ids, *src_counters.values()]) + 1
     assert new_ids == [first, first + 1]
     assert {p.get("NAME"): int(p.text) for p in counters} == {k: first + 1 for k in src_counters}
@@ -515,16 +550,23 @@ def test_review_copy_of_real_exports_keeps_everything(real_eaf_dir, tmp_path, na
     # 3.0 samples have a header of the same kind as 2.7's (2.4 MB each): once is enough.
     if name in ("pympi_sample_2.8.eaf", "pympi_sample_3.0.eaf"):
         return
-    kept = write_review_eaf(src, tmp_path / ("kept_" + name), rows, rater_a="ann",
-                            rater_b="bob", keep_media_paths=True)
+    kept = write_review_eaf(
+        src, tmp_path / ("kept_" + name), rows, rater_a="ann", rater_b="bob", keep_media_paths=True
+    )
     kept_root = ET.parse(kept).getroot()
     assert all(u in kept.read_text(encoding="utf-8") for u in urls)
     for key in ("AUTHOR", "DATE"):
         assert kept_root.get(key) == src_root.get(key)
-    kept_props = [(p.get("NAME"), p.text) for p in kept_root.iter("PROPERTY")
-                  if p.get("NAME") not in src_counters]
-    assert kept_props == [(p.get("NAME"), p.text) for p in src_root.iter("PROPERTY")
-                          if p.get("NAME") not in src_counters]
+    kept_props = [
+        (p.get("NAME"), p.text)
+        for p in kept_root.iter("PROPERTY")
+        if p.get("NAME") not in src_counters
+    ]
+    assert kept_props == [
+        (p.get("NAME"), p.text)
+        for p in src_root.iter("PROPERTY")
+        if p.get("NAME") not in src_counters
+    ]
 
 
 def test_markdown_tables_survive_pipes_in_names():

@@ -31,8 +31,13 @@ def run(args, capsys) -> tuple[int, str, str]:
 @pytest.fixture(scope="module")
 def synth(tmp_path_factory):
     return write_sessions(
-        tmp_path_factory.mktemp("eaf") / "eaf", seed=3, n_pairs=3, turns_per_subject=30,
-        disagreement_rate=0.10, missed_rate=0.06, shifted_rate=0.04,
+        tmp_path_factory.mktemp("eaf") / "eaf",
+        seed=3,
+        n_pairs=3,
+        turns_per_subject=30,
+        disagreement_rate=0.10,
+        missed_rate=0.06,
+        shifted_rate=0.04,
     )
 
 
@@ -56,10 +61,24 @@ def test_json_report(synth, capsys):
     doc = json.loads(out)  # stdout is only the JSON document
     matched, unmatched = _expected(synth)
     a, b = synth.raters
-    for key in ("raters", "matched", "unmatched", "percent_agreement", "kappa",
-                "kappa_linear", "kappa_ci95", "kappa_with_unmatched", "by_session",
-                "by_rater_pair", "settings", "annotations", "median_start_diff_s",
-                "median_end_diff_s", "confusion", "labels_deg"):
+    for key in (
+        "raters",
+        "matched",
+        "unmatched",
+        "percent_agreement",
+        "kappa",
+        "kappa_linear",
+        "kappa_ci95",
+        "kappa_with_unmatched",
+        "by_session",
+        "by_rater_pair",
+        "settings",
+        "annotations",
+        "median_start_diff_s",
+        "median_end_diff_s",
+        "confusion",
+        "labels_deg",
+    ):
         assert key in doc, key
     assert doc["raters"] == [a, b]
     assert doc["matched"] == len(matched)
@@ -82,7 +101,9 @@ def test_json_report(synth, capsys):
     assert lo <= doc["kappa"] <= hi
     assert doc["labels_deg"] == [90, 135, 180, 225, 270, 315, 360]
     assert doc["settings"]["min_overlap"] == 0.6 and doc["settings"]["bootstrap"] == 200
-    assert set(doc["by_session"]) == set(synth.truth.loc[synth.truth["double_annotated"], "session"])
+    assert set(doc["by_session"]) == set(
+        synth.truth.loc[synth.truth["double_annotated"], "session"]
+    )
     assert "wrote" not in err  # nothing written without --out-dir
 
 
@@ -91,7 +112,9 @@ def test_markdown_report_prints_percentages(synth, capsys):
     assert code == EXIT_OK
     matched, _ = _expected(synth)
     p_o = float((matched["a_angle_deg"] == matched["b_angle_deg"]).mean())
-    assert out.startswith(f"# Inter-rater agreement: {synth.raters[0]} (A) vs {synth.raters[1]} (B)")
+    assert out.startswith(
+        f"# Inter-rater agreement: {synth.raters[0]} (A) vs {synth.raters[1]} (B)"
+    )
     assert f"| {100 * p_o:.1f}% |" in out
     assert "## Per session" in out and "## Per pair of raters" in out
 
@@ -100,8 +123,17 @@ def test_gate_exit_codes(synth, capsys, tmp_path):
     code, out, err = run([synth.paths[0].parent, "--min-kappa", "0.5", "--bootstrap", "0"], capsys)
     assert code == EXIT_OK and "Gate: kappa >= 0.5 passed." in out
     code, out, err = run(
-        [synth.paths[0].parent, "--min-kappa", "0.999", "--bootstrap", "0", "--format", "json",
-         "--out-dir", tmp_path / "audit"],
+        [
+            synth.paths[0].parent,
+            "--min-kappa",
+            "0.999",
+            "--bootstrap",
+            "0",
+            "--format",
+            "json",
+            "--out-dir",
+            tmp_path / "audit",
+        ],
         capsys,
     )
     assert code == EXIT_GATE
@@ -109,7 +141,9 @@ def test_gate_exit_codes(synth, capsys, tmp_path):
     doc = json.loads(out)  # the report is printed before the gate fails
     assert doc["gate"] == {"min_kappa": 0.999, "passed": False}
     # the outputs are complete: a failed release still needs its disagreements reviewed
-    assert json.loads((tmp_path / "audit" / "agreement.json").read_text())["gate"]["passed"] is False
+    assert (
+        json.loads((tmp_path / "audit" / "agreement.json").read_text())["gate"]["passed"] is False
+    )
 
 
 def _crosstab_by_hand(matched):
@@ -175,34 +209,65 @@ def _expected_review(synth, session) -> set[tuple[str, int, int, str]]:
     for r in t.itertuples():
         tier = f"Disagreement {r.subject}"
         if r.kind == "disagree":
-            out.add((tier, ms(min(r.a_start_s, r.b_start_s)), ms(max(r.a_end_s, r.b_end_s)),
-                     f"{a}: {deg(r.a_angle_deg)} / {b}: {deg(r.b_angle_deg)}"))
+            out.add(
+                (
+                    tier,
+                    ms(min(r.a_start_s, r.b_start_s)),
+                    ms(max(r.a_end_s, r.b_end_s)),
+                    f"{a}: {deg(r.a_angle_deg)} / {b}: {deg(r.b_angle_deg)}",
+                )
+            )
         elif r.kind == "missed_a":
-            out.add((tier, ms(r.b_start_s), ms(r.b_end_s),
-                     f"{a}: none / {b}: {deg(r.b_angle_deg)} (unmatched)"))
+            out.add(
+                (
+                    tier,
+                    ms(r.b_start_s),
+                    ms(r.b_end_s),
+                    f"{a}: none / {b}: {deg(r.b_angle_deg)} (unmatched)",
+                )
+            )
         elif r.kind == "missed_b":
-            out.add((tier, ms(r.a_start_s), ms(r.a_end_s),
-                     f"{a}: {deg(r.a_angle_deg)} / {b}: none (unmatched)"))
+            out.add(
+                (
+                    tier,
+                    ms(r.a_start_s),
+                    ms(r.a_end_s),
+                    f"{a}: {deg(r.a_angle_deg)} / {b}: none (unmatched)",
+                )
+            )
         elif r.kind == "shifted":
             # both unmatched and overlapping: one annotation (ELAN tiers cannot overlap)
-            out.add((tier, ms(r.a_start_s), ms(r.b_end_s),
-                     f"{a}: {deg(r.a_angle_deg)} / {b}: none (unmatched); "
-                     f"{a}: none / {b}: {deg(r.b_angle_deg)} (unmatched)"))
+            out.add(
+                (
+                    tier,
+                    ms(r.a_start_s),
+                    ms(r.b_end_s),
+                    f"{a}: {deg(r.a_angle_deg)} / {b}: none (unmatched); "
+                    f"{a}: none / {b}: {deg(r.b_angle_deg)} (unmatched)",
+                )
+            )
     return out
 
 
 def test_review_eaf_marks_disagreements_and_never_touches_the_original(synth, capsys, tmp_path):
     before = {p: sha256_file(p) for p in synth.paths}
     code, _, err = run(
-        [synth.paths[0].parent, "--bootstrap", "0", "--out-dir", tmp_path / "audit",
-         "--review-eaf"],
+        [
+            synth.paths[0].parent,
+            "--bootstrap",
+            "0",
+            "--out-dir",
+            tmp_path / "audit",
+            "--review-eaf",
+        ],
         capsys,
     )
     assert code == EXIT_OK, err
     assert {p: sha256_file(p) for p in synth.paths} == before
     t = synth.truth
-    flagged = sorted(t.loc[t["kind"].isin(["disagree", "missed_a", "missed_b", "shifted"]),
-                           "session"].unique())
+    flagged = sorted(
+        t.loc[t["kind"].isin(["disagree", "missed_a", "missed_b", "shifted"]), "session"].unique()
+    )
     review = tmp_path / "audit" / "review"
     assert sorted(p.stem for p in review.glob("*.eaf")) == flagged
     assert f"{len(flagged)} review copies" in err
@@ -212,15 +277,20 @@ def test_review_eaf_marks_disagreements_and_never_touches_the_original(synth, ca
         # everything else is as it was: the same turns read from the copy
         original = read_annotations(synth.paths[0].parent / f"{session}.eaf")
         again = read_annotations(copy)
-        pd.testing.assert_frame_equal(
-            original.drop(columns="file"), again.drop(columns="file")
-        )
+        pd.testing.assert_frame_equal(original.drop(columns="file"), again.drop(columns="file"))
         text = copy.read_text(encoding="utf-8")
         assert "MEDIA_DESCRIPTOR" not in text and "/home/clinician" not in text
 
     code, _, _ = run(
-        [synth.paths[0].parent, "--bootstrap", "0", "--out-dir", tmp_path / "keep",
-         "--review-eaf", "--keep-media-paths"],
+        [
+            synth.paths[0].parent,
+            "--bootstrap",
+            "0",
+            "--out-dir",
+            tmp_path / "keep",
+            "--review-eaf",
+            "--keep-media-paths",
+        ],
         capsys,
     )
     assert code == EXIT_OK
@@ -305,8 +375,19 @@ def test_pygamma_file_through_a_schema(real_eaf_dir, tmp_path, capsys):
     # Marvin, 0.316 s Marvin -> Maureen, 0.368 s Maureen -> Robin), so even the smallest
     # threshold links nothing.
     code, out, err = run(
-        [src, "--schema", schema, "--raters", "Maureen", "Robin", "--min-overlap", "0.001",
-         "--format", "json"], capsys
+        [
+            src,
+            "--schema",
+            schema,
+            "--raters",
+            "Maureen",
+            "Robin",
+            "--min-overlap",
+            "0.001",
+            "--format",
+            "json",
+        ],
+        capsys,
     )
     assert code == EXIT_OK, err
     doc = json.loads(out)
@@ -333,8 +414,16 @@ def _bad_value_copy(synth, tmp_path: Path) -> Path:
 
 @pytest.mark.parametrize(
     "case",
-    ["missing", "bad_value", "review_without_out_dir", "unknown_rater", "min_overlap_zero",
-     "min_overlap_nan", "min_kappa_nan", "not_eaf"],
+    [
+        "missing",
+        "bad_value",
+        "review_without_out_dir",
+        "unknown_rater",
+        "min_overlap_zero",
+        "min_overlap_nan",
+        "min_kappa_nan",
+        "not_eaf",
+    ],
 )
 def test_bad_input_exit_2_nothing_written(synth, tmp_path, capsys, case):
     folder = synth.paths[0].parent
@@ -374,8 +463,17 @@ def test_failure_while_writing_leaves_nothing(synth, tmp_path, capsys, monkeypat
         raise TurnbenchError("disk full (simulated)")
 
     monkeypatch.setattr(mod, "write_confusion_png", broken)
-    code, _, err = run([synth.paths[0].parent, "--bootstrap", "0", "--out-dir", tmp_path / "audit",
-                        "--review-eaf"], capsys)
+    code, _, err = run(
+        [
+            synth.paths[0].parent,
+            "--bootstrap",
+            "0",
+            "--out-dir",
+            tmp_path / "audit",
+            "--review-eaf",
+        ],
+        capsys,
+    )
     assert code == EXIT_BAD_INPUT and "disk full" in err
     assert not (tmp_path / "audit").exists()
     assert list(tmp_path.iterdir()) == []  # no staging folder left behind either
@@ -390,8 +488,9 @@ def test_review_copy_never_over_an_input(synth, tmp_path, capsys):
     src = review / f"{session}.eaf"
     shutil.copy(synth.paths[0].parent / f"{session}.eaf", src)
     digest = sha256_file(src)
-    code, _, err = run([src, "--bootstrap", "0", "--out-dir", tmp_path / "audit", "--review-eaf"],
-                       capsys)
+    code, _, err = run(
+        [src, "--bootstrap", "0", "--out-dir", tmp_path / "audit", "--review-eaf"], capsys
+    )
     assert code == EXIT_BAD_INPUT and "overwrite" in err
     assert sha256_file(src) == digest
     assert sorted(p.name for p in (tmp_path / "audit").rglob("*")) == sorted(["review", src.name])
@@ -406,9 +505,18 @@ def test_help_has_examples(capsys):
 def test_console_script(synth):
     exe = Path(sys.executable).parent / "turn-datasets"
     done = subprocess.run(
-        [exe, "remap", "agreement", synth.paths[0].parent, "--min-kappa", "0.999",
-         "--bootstrap", "0"],
-        capture_output=True, text=True,
+        [
+            exe,
+            "remap",
+            "agreement",
+            synth.paths[0].parent,
+            "--min-kappa",
+            "0.999",
+            "--bootstrap",
+            "0",
+        ],
+        capture_output=True,
+        text=True,
     )
     assert done.returncode == EXIT_GATE
     assert done.stdout.startswith("# Inter-rater agreement")
@@ -423,24 +531,54 @@ def test_no_header_field_reaches_any_output(synth, tmp_path, capsys):
 
     root = ET.parse(synth.paths[0]).getroot()
     secrets = [root.get("AUTHOR"), root.get("DATE")] + [
-        v for el in root.iter() if el.tag in ("MEDIA_DESCRIPTOR", "LINKED_FILE_DESCRIPTOR")
-        for k, v in el.attrib.items() if k.endswith("URL")
+        v
+        for el in root.iter()
+        if el.tag in ("MEDIA_DESCRIPTOR", "LINKED_FILE_DESCRIPTOR")
+        for k, v in el.attrib.items()
+        if k.endswith("URL")
     ]
     assert len(secrets) >= 3 and all(secrets)
     folder = synth.paths[0].parent
     labels = tmp_path / "release" / "labels.csv"
-    code = run_group(cli, "turn-datasets", ["remap", "labels", str(folder), "--participants",
-                                            str(synth.participants_path), "--out", str(labels)])
+    code = run_group(
+        cli,
+        "turn-datasets",
+        [
+            "remap",
+            "labels",
+            str(folder),
+            "--participants",
+            str(synth.participants_path),
+            "--out",
+            str(labels),
+        ],
+    )
     assert code == EXIT_OK
     printed = capsys.readouterr().out
     for fmt in ("md", "json"):
-        code, out, err = run([folder, "--bootstrap", "0", "--format", fmt, "--out-dir",
-                              tmp_path / f"audit-{fmt}", "--review-eaf"], capsys)
+        code, out, err = run(
+            [
+                folder,
+                "--bootstrap",
+                "0",
+                "--format",
+                fmt,
+                "--out-dir",
+                tmp_path / f"audit-{fmt}",
+                "--review-eaf",
+            ],
+            capsys,
+        )
         assert code == EXIT_OK, err
         printed += out
     written = [p for p in tmp_path.rglob("*") if p.is_file() and p.suffix != ".png"]
-    assert {p.name for p in written} >= {"labels.csv", "annotations.csv", "agreement.json",
-                                         "pairs.csv", "disagreements.csv"}
+    assert {p.name for p in written} >= {
+        "labels.csv",
+        "annotations.csv",
+        "agreement.json",
+        "pairs.csv",
+        "disagreements.csv",
+    }
     assert any(p.suffix == ".eaf" for p in written)
     for text in [printed, *(p.read_text(encoding="utf-8") for p in written)]:
         for secret in secrets:

@@ -260,7 +260,8 @@ def test_help_example_and_console_script(files):
 def test_an_out_file_that_cannot_be_written_prints_nothing_and_exits_2(files, capsys):
     ref, a, b = files
     out = ref / "cmp.md"  # under a file: its folder cannot be made
-    code, stdout, err = run(["compare", a, b, "--reference", ref, "--bootstrap", "20",
-                             "--out", out], capsys)
+    code, stdout, err = run(
+        ["compare", a, b, "--reference", ref, "--bootstrap", "20", "--out", out], capsys
+    )
     assert code == EXIT_BAD_INPUT and stdout == ""
     assert err == f"turn-eval: error: {out}: cannot write the comparison: {ref}: File exists\n"

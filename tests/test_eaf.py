@@ -203,7 +203,9 @@ def test_unaligned_turn(tmp_path: Path) -> None:
 def test_turn_tier_without_participant_or_rater(tmp_path: Path) -> None:
     path = write_eaf(tmp_path / "np.eaf", [Tier("Turn", annotator="a", annotations=[(0, 9, "90")])])
     assert "participant" in _error_text(path)
-    path = write_eaf(tmp_path / "nr.eaf", [Tier("Turn", participant="P1", annotations=[(0, 9, "90")])])
+    path = write_eaf(
+        tmp_path / "nr.eaf", [Tier("Turn", participant="P1", annotations=[(0, 9, "90")])]
+    )
     assert "rater" in _error_text(path)
 
 
@@ -421,7 +423,9 @@ def test_real_one_tier_per_annotator_through_a_schema(real_eaf_dir: Path, tmp_pa
         "S = 90\n",
         encoding="utf-8",
     )
-    df = read_annotations(real_eaf_dir / "pygamma_MaureenMarvinRobin.eaf", schema=load_schema(schema_path))
+    df = read_annotations(
+        real_eaf_dir / "pygamma_MaureenMarvinRobin.eaf", schema=load_schema(schema_path)
+    )
     # From the file: Maureen ts2-ts3, ts4-ts5; Marvin ts6-ts7; Robin ts8-ts9 (milliseconds).
     expected = pd.DataFrame(
         {
@@ -444,9 +448,19 @@ TEMPLATE = Path(__file__).resolve().parents[1] / "annotations" / "turn-remap.etf
 ISSUE_ANGLES = ["90", "135", "180", "225", "270", "315", "360"]
 ISSUE_SCENARIOS = ["scripted", "clinical", "free-living"]
 # EAF 3.0 (EAFv3.0.xsd): the children of ANNOTATION_DOCUMENT come in this order.
-EAF_ORDER = ["HEADER", "TIME_ORDER", "TIER", "LINGUISTIC_TYPE", "LOCALE", "LANGUAGE",
-             "CONSTRAINT", "CONTROLLED_VOCABULARY", "LEXICON_REF", "REF_LINK_SET",
-             "EXTERNAL_REF"]
+EAF_ORDER = [
+    "HEADER",
+    "TIME_ORDER",
+    "TIER",
+    "LINGUISTIC_TYPE",
+    "LOCALE",
+    "LANGUAGE",
+    "CONSTRAINT",
+    "CONTROLLED_VOCABULARY",
+    "LEXICON_REF",
+    "REF_LINK_SET",
+    "EXTERNAL_REF",
+]
 
 
 def test_template_is_an_elan_document_pympi_reads() -> None:
@@ -467,7 +481,9 @@ def test_template_is_an_elan_document_pympi_reads() -> None:
     # Each tier's type picks its vocabulary, so ELAN offers the list while labelling.
     lt = {t: eaf.tiers[t][2]["LINGUISTIC_TYPE_REF"] for t in eaf.tiers}
     assert {t: eaf.linguistic_types[lt[t]]["CONTROLLED_VOCABULARY_REF"] for t in eaf.tiers} == {
-        "Turn": "turn_angle", "Scenario": "scenario", "Location": "location"
+        "Turn": "turn_angle",
+        "Scenario": "scenario",
+        "Location": "location",
     }
     assert all(eaf.linguistic_types[x]["TIME_ALIGNABLE"] == "true" for x in lt.values())
 
@@ -483,7 +499,8 @@ def test_session_started_from_the_template_parses(tmp_path: Path) -> None:
     assert info["turn_tiers"] == [{"tier": "Turn", "annotator": None, "participant": None}]
     assert any("names no rater" in n for n in info["notes"])
     assert {c["tier"] for k in ("location", "scenario") for c in info["context_tiers"][k]} == {
-        "Location", "Scenario"
+        "Location",
+        "Scenario",
     }
 
     # Labelled as the README says: the template's Turn tier renamed and given its rater and
@@ -505,8 +522,19 @@ def test_session_started_from_the_template_parses(tmp_path: Path) -> None:
     pympi.Elan.to_eaf(str(path), eaf)
     add_cve_refs(path, {"clinical": "scenario_clinical", "hallway": "location_hallway"})
     df = read_annotations(path)
-    assert df[["session", "tier", "annotator", "participant", "start_s", "end_s",
-               "angle_deg", "scenario", "location"]].values.tolist() == [
+    assert df[
+        [
+            "session",
+            "tier",
+            "annotator",
+            "participant",
+            "start_s",
+            "end_s",
+            "angle_deg",
+            "scenario",
+            "location",
+        ]
+    ].values.tolist() == [
         ["pair01_day1", "Turn c1 PD01", "c1", "PD01", 2.0, 3.5, 180.0, "clinical", "hallway"],
         ["pair01_day1", "Turn c1 PD01", "c1", "PD01", 8.0, 9.0, 90.0, "free-living", "hallway"],
         ["pair01_day1", "Turn c2 PD01", "c2", "PD01", 2.1, 3.4, 180.0, "clinical", "hallway"],

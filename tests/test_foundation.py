@@ -28,7 +28,9 @@ BIN = Path(sys.executable).parent
 def test_error_message_names_where():
     err = TurnbenchError("angle is not a number", file="pred.csv", row=7, hint="use degrees")
     assert str(err) == "pred.csv:7: angle is not a number (hint: use degrees)"
-    err = TurnbenchError("value '100' outside the vocabulary", file="s1.eaf", tier="Turn_A", time_s=12.5)
+    err = TurnbenchError(
+        "value '100' outside the vocabulary", file="s1.eaf", tier="Turn_A", time_s=12.5
+    )
     assert str(err) == "s1.eaf, tier 'Turn_A', at 12.500 s: value '100' outside the vocabulary"
     assert err.where.tier == "Turn_A"
 
@@ -56,7 +58,10 @@ def test_staged_dir_moves_all_or_nothing(tmp_path):
         (tmp / "a.json").write_text("{}")
         (tmp / "plots").mkdir()
         (tmp / "plots" / "b.png").write_bytes(b"x")
-    assert sorted(str(p.relative_to(out)) for p in out.rglob("*") if p.is_file()) == ["a.json", "plots/b.png"]
+    assert sorted(str(p.relative_to(out)) for p in out.rglob("*") if p.is_file()) == [
+        "a.json",
+        "plots/b.png",
+    ]
 
 
 def test_csv_and_json_are_reproducible(tmp_path):
@@ -71,7 +76,9 @@ def test_check_not_input_and_typed_frame(tmp_path):
     src.write_text("x\n")
     with pytest.raises(TurnbenchError, match="overwrite this input"):
         check_not_input(tmp_path / "." / "in.csv", [src])
-    out = typed_frame(pd.DataFrame({"b": [1.0], "a": ["1"], "c": [0]}), {"a": "string", "b": "int64"})
+    out = typed_frame(
+        pd.DataFrame({"b": [1.0], "a": ["1"], "c": [0]}), {"a": "string", "b": "int64"}
+    )
     assert list(out.columns) == ["a", "b"] and str(out["b"].dtype) == "int64"
 
 
@@ -107,7 +114,9 @@ def _all_commands(group: click.Group, prefix=()):
     ctx = click.Context(group)
     for name in group.list_commands(ctx):
         cmd = group.get_command(ctx, name)
-        assert cmd is not None, f"{' '.join(prefix + (name,))} is listed but its module defines no such command"
+        assert cmd is not None, (
+            f"{' '.join(prefix + (name,))} is listed but its module defines no such command"
+        )
         assert cmd.name == name
         if isinstance(cmd, click.Group):
             yield from _all_commands(cmd, prefix + (name,))
@@ -144,7 +153,9 @@ def test_outputs_get_the_umask_permissions_not_owner_only(tmp_path):
 
 @pytest.mark.parametrize("pkg", ["turn_datasets", "turn_eval"])
 def test_python_dash_m_runs_the_same_commands(pkg):
-    out = subprocess.run([sys.executable, "-m", pkg, "--help"], capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-m", pkg, "--help"], capture_output=True, text=True, check=True
+    )
     assert "Commands:" in out.stdout and ("score" in out.stdout or "h36m" in out.stdout)
 
 

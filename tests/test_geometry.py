@@ -50,11 +50,21 @@ def body(yaw_deg: np.ndarray, layout=H36M17, *, knee_offset_deg=0.0, shoulder_of
 
 
 def test_layouts_name_the_documented_indices():
-    assert [H36M32.index(j) for j in ("pelvis", "right_hip", "right_knee", "right_foot")] == [0, 1, 2, 3]
+    assert [H36M32.index(j) for j in ("pelvis", "right_hip", "right_knee", "right_foot")] == [
+        0,
+        1,
+        2,
+        3,
+    ]
     assert [H36M32.index(j) for j in ("left_hip", "left_knee", "left_foot")] == [6, 7, 8]
     assert H36M32.index("left_shoulder") == 17 and H36M32.index("right_shoulder") == 25
     # the 17-joint subset: right hip 1, right knee 2, left hip 4, left knee 5, shoulders 11 / 14
-    assert [H36M17.index(j) for j in ("right_hip", "right_knee", "left_hip", "left_knee")] == [1, 2, 4, 5]
+    assert [H36M17.index(j) for j in ("right_hip", "right_knee", "left_hip", "left_knee")] == [
+        1,
+        2,
+        4,
+        5,
+    ]
     assert H36M17.index("left_shoulder") == 11 and H36M17.index("right_shoulder") == 14
     with pytest.raises(TurnbenchError, match="no joint"):
         H36M17.index("tail")

@@ -222,7 +222,9 @@ def test_clip_id() -> None:
     assert clip_id_for(session="home visit 1", subject="PD 01", start_s=1.0, end_s=2.5) == (
         "home-visit-1_PD-01_1000-2500"
     )
-    assert clip_id_for(session="S1", subject="P1", start_s=12.345, end_s=13.0) == "S1_P1_12345-13000"
+    assert (
+        clip_id_for(session="S1", subject="P1", start_s=12.345, end_s=13.0) == "S1_P1_12345-13000"
+    )
     # 0.1 + 0.2 is 0.30000000000000004 in floating point: still 300 ms.
     assert clip_id_for(session="S", subject="P", start_s=0.1 + 0.2, end_s=1.0) == "S_P_300-1000"
 
@@ -246,7 +248,9 @@ def test_against_synthetic_ground_truth(tmp_path: Path) -> None:
     assert len(labels) == len(truth)
     # Each label overlaps exactly one planted turn of its session and subject.
     pairs = truth.merge(labels, on=["session", "subject"], suffixes=("_t", "_l"))
-    overlap = pairs[["end_s_t", "end_s_l"]].min(axis=1) - pairs[["start_s_t", "start_s_l"]].max(axis=1)
+    overlap = pairs[["end_s_t", "end_s_l"]].min(axis=1) - pairs[["start_s_t", "start_s_l"]].max(
+        axis=1
+    )
     pairs = pairs[overlap > 0]
     assert len(pairs) == len(truth)
     assert (pairs["angle_deg_t"] == pairs["angle_deg_l"]).all()
@@ -347,7 +351,9 @@ def test_stats_csv_is_long_and_complete() -> None:
 
 def test_read_labels_errors(tmp_path: Path) -> None:
     good = "clip_id,subject,cohort,angle_deg,scenario,location\n"
-    path = _csv(tmp_path, good + "a,P1,PD,90,scripted,kitchen\nb,P1,PD,ninety,scripted,x\n", "l.csv")
+    path = _csv(
+        tmp_path, good + "a,P1,PD,90,scripted,kitchen\nb,P1,PD,ninety,scripted,x\n", "l.csv"
+    )
     with pytest.raises(TurnbenchError, match=rf"{path}:3.*ninety"):
         read_labels(path)
     path = _csv(tmp_path, good + "a,P1,XX,90,scripted,kitchen\n", "l2.csv")

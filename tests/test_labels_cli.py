@@ -33,20 +33,34 @@ def _eaf_dir(tmp_path: Path, *, disagree: bool) -> Path:
     write_eaf(
         d / "S01.eaf",
         [
-            Tier("Turn alice", annotator="alice", participant="PD01",
-                 annotations=[(1000, 2000, "90"), (5000, 6000, "180")]),
-            Tier("Turn bob", annotator="bob", participant="PD01",
-                 annotations=[(1050, 2000, "90"), (5000, 6000, "135" if disagree else "180")]),
-            Tier("Turn alice HC", annotator="alice", participant="HC01",
-                 annotations=[(3000, 4500, "270")]),
+            Tier(
+                "Turn alice",
+                annotator="alice",
+                participant="PD01",
+                annotations=[(1000, 2000, "90"), (5000, 6000, "180")],
+            ),
+            Tier(
+                "Turn bob",
+                annotator="bob",
+                participant="PD01",
+                annotations=[(1050, 2000, "90"), (5000, 6000, "135" if disagree else "180")],
+            ),
+            Tier(
+                "Turn alice HC",
+                annotator="alice",
+                participant="HC01",
+                annotations=[(3000, 4500, "270")],
+            ),
             Tier("Scenario", annotations=[(0, 10000, "free living")]),
             Tier("Location", annotations=[(0, 10000, "Lounge")]),
         ],
     )
     write_eaf(
         d / "S02.eaf",
-        [Tier("Turn bob", annotator="bob", participant="PD02", annotations=[(500, 1500, "90°")]),
-         Tier("Scenario", annotations=[(0, 9000, "scripted")])],
+        [
+            Tier("Turn bob", annotator="bob", participant="PD02", annotations=[(500, 1500, "90°")]),
+            Tier("Scenario", annotations=[(0, 9000, "scripted")]),
+        ],
     )
     return d
 
@@ -81,7 +95,12 @@ def test_inspect_every_real_file_markdown_and_json(capsys, real_eaf_dir: Path) -
     doc = json.loads(out)
     assert [Path(f["file"]).name for f in doc["files"]] == [p.name for p in small]
     assert all(f["turn_tiers"] == [] for f in doc["files"])
-    assert [t["tier"] for t in doc["files"][0]["tiers"]] == ["default", "Maureen", "Marvin", "Robin"]
+    assert [t["tier"] for t in doc["files"][0]["tiers"]] == [
+        "default",
+        "Maureen",
+        "Marvin",
+        "Robin",
+    ]
 
 
 def test_inspect_keep_media_paths(capsys, real_eaf_dir: Path) -> None:
@@ -91,7 +110,10 @@ def test_inspect_keep_media_paths(capsys, real_eaf_dir: Path) -> None:
     assert code == EXIT_OK
     assert "file:///Users/Shared/MPI/DemoMaterial/yele/r03_v20_s5.wav" in out
     code, out, _ = run(
-        capsys, "remap", "inspect", real_eaf_dir / "speach_fables_01_03_aesop_64kb.eaf",
+        capsys,
+        "remap",
+        "inspect",
+        real_eaf_dir / "speach_fables_01_03_aesop_64kb.eaf",
         "--keep-media-paths",
     )
     assert code == EXIT_OK
@@ -192,8 +214,16 @@ def test_labels_unresolved_exit_2_lists_and_writes_nothing(capsys, tmp_path: Pat
     assert _no_outputs(out.parent)
     # --resolve first-rater takes alice's 180.
     code, _, err = run(
-        capsys, "remap", "labels", d, "--participants", _participants(tmp_path), "--out", out,
-        "--resolve", "first-rater",
+        capsys,
+        "remap",
+        "labels",
+        d,
+        "--participants",
+        _participants(tmp_path),
+        "--out",
+        out,
+        "--resolve",
+        "first-rater",
     )
     assert code == EXIT_OK, err
     labels = pd.read_csv(out)
@@ -215,11 +245,19 @@ def test_labels_failures_leave_old_outputs_alone(capsys, tmp_path: Path) -> None
     assert code == EXIT_BAD_INPUT
     assert "'PD02'" in err and "S02.eaf" in err and "'Turn bob'" in err and "0.500 s" in err
     # An angle outside the vocabulary.
-    write_eaf(d / "S03.eaf", [Tier("Turn x", annotator="x", participant="PD01",
-                                   annotations=[(2000, 3000, "100")])])
+    write_eaf(
+        d / "S03.eaf",
+        [Tier("Turn x", annotator="x", participant="PD01", annotations=[(2000, 3000, "100")])],
+    )
     code, _, err = run(
-        capsys, "remap", "labels", d, "--participants", _participants(tmp_path),
-        "--out", out_dir / "labels.csv",
+        capsys,
+        "remap",
+        "labels",
+        d,
+        "--participants",
+        _participants(tmp_path),
+        "--out",
+        out_dir / "labels.csv",
     )
     assert code == EXIT_BAD_INPUT
     assert "S03.eaf" in err and "'Turn x'" in err and "2.000 s" in err
@@ -235,8 +273,16 @@ def test_labels_bad_min_overlap_is_a_usage_error(capsys, tmp_path: Path, value: 
     d = _eaf_dir(tmp_path, disagree=False)
     out = tmp_path / "o" / "labels.csv"
     code, stdout, err = run(
-        capsys, "remap", "labels", d, "--participants", _participants(tmp_path),
-        "--min-overlap", value, "--out", out,
+        capsys,
+        "remap",
+        "labels",
+        d,
+        "--participants",
+        _participants(tmp_path),
+        "--min-overlap",
+        value,
+        "--out",
+        out,
     )
     assert code == EXIT_BAD_INPUT and stdout == ""
     assert "--min-overlap" in err and "Traceback" not in err
@@ -258,18 +304,33 @@ def test_labels_refuses_to_overwrite_an_input(capsys, tmp_path: Path) -> None:
 
 def test_labels_no_turn_tiers(capsys, tmp_path: Path, real_eaf_dir: Path) -> None:
     code, _, err = run(
-        capsys, "remap", "labels", real_eaf_dir / "speach_test.eaf",
-        "--participants", _participants(tmp_path), "--out", tmp_path / "o" / "labels.csv",
+        capsys,
+        "remap",
+        "labels",
+        real_eaf_dir / "speach_test.eaf",
+        "--participants",
+        _participants(tmp_path),
+        "--out",
+        tmp_path / "o" / "labels.csv",
     )
     assert code == EXIT_BAD_INPUT
     assert "no turn annotations" in err and "remap inspect" in err
     assert not (tmp_path / "o").exists()
     # A session saved from the template before labelling: its "Turn" tier is there, empty.
     blank = tmp_path / "S01.eaf"
-    blank.write_bytes((Path(__file__).resolve().parents[1] / "annotations" / "turn-remap.etf")
-                      .read_bytes())
-    for command in (["labels", "--participants", _participants(tmp_path), "--out",
-                     tmp_path / "o" / "labels.csv"], ["agreement"]):
+    blank.write_bytes(
+        (Path(__file__).resolve().parents[1] / "annotations" / "turn-remap.etf").read_bytes()
+    )
+    for command in (
+        [
+            "labels",
+            "--participants",
+            _participants(tmp_path),
+            "--out",
+            tmp_path / "o" / "labels.csv",
+        ],
+        ["agreement"],
+    ):
         code, out, err = run(capsys, "remap", command[0], blank, *command[1:])
         assert code == EXIT_BAD_INPUT and out == ""
         last = err.strip().splitlines()[-1]
@@ -285,8 +346,12 @@ def test_labels_no_turn_tiers(capsys, tmp_path: Path, real_eaf_dir: Path) -> Non
 def _labels(capsys, tmp_path: Path) -> Path:
     d = _eaf_dir(tmp_path, disagree=False)
     out = tmp_path / "labels.csv"
-    assert run(capsys, "remap", "labels", d, "--participants", _participants(tmp_path),
-               "--out", out)[0] == EXIT_OK
+    assert (
+        run(capsys, "remap", "labels", d, "--participants", _participants(tmp_path), "--out", out)[
+            0
+        ]
+        == EXIT_OK
+    )
     return out
 
 
@@ -327,8 +392,9 @@ def test_stats_csv_and_json(capsys, tmp_path: Path) -> None:
 
 def test_stats_bad_labels_file(capsys, tmp_path: Path) -> None:
     bad = tmp_path / "bad.csv"
-    bad.write_text("clip_id,subject,cohort,angle_deg,scenario,location\nc,P,PD,x,s,l\n",
-                   encoding="utf-8")
+    bad.write_text(
+        "clip_id,subject,cohort,angle_deg,scenario,location\nc,P,PD,x,s,l\n", encoding="utf-8"
+    )
     code, out, err = run(capsys, "remap", "stats", bad)
     assert code == EXIT_BAD_INPUT and out == ""
     assert f"{bad}:2" in err
@@ -347,7 +413,9 @@ def test_console_script_exit_code(tmp_path: Path) -> None:
     evil = tmp_path / "evil.eaf"
     evil.write_text('<!DOCTYPE x [<!ENTITY e "e">]><ANNOTATION_DOCUMENT/>', encoding="utf-8")
     proc = subprocess.run(
-        [str(exe), "remap", "inspect", str(evil)], capture_output=True, text=True,
+        [str(exe), "remap", "inspect", str(evil)],
+        capture_output=True,
+        text=True,
         env={**os.environ, "COLUMNS": "100"},
     )
     assert proc.returncode == EXIT_BAD_INPUT

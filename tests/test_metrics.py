@@ -154,7 +154,9 @@ def test_vectorised_group_metrics_equal_sklearn_on_the_same_resamples():
             keep = drawn[group[drawn] == g]
             assert by["n"][r, g] == keep.size
             expected = precision_score(
-                quantise_deg(ref[keep]), quantise_deg(pred[keep]), average="weighted",
+                quantise_deg(ref[keep]),
+                quantise_deg(pred[keep]),
+                average="weighted",
                 zero_division=0,
             )
             assert by["wprec"][r, g] == pytest.approx(expected, abs=1e-12)
@@ -178,19 +180,27 @@ def test_overall_ci_equals_scipy_bootstrap_percentile():
         return np.mean(np.abs(p - r), axis=axis)
 
     def wprec(p, r):
-        return precision_score(quantise_deg(r), quantise_deg(p), average="weighted",
-                               zero_division=0)
+        return precision_score(
+            quantise_deg(r), quantise_deg(p), average="weighted", zero_division=0
+        )
 
     def speed(p, r, axis=-1):
         return np.mean(np.abs(p / 2.0 - r / 2.0), axis=axis)
 
     for name, statistic, vectorized in [
-        ("accuracy", accuracy, True), ("mae_deg", mae, True), ("wprec", wprec, False),
+        ("accuracy", accuracy, True),
+        ("mae_deg", mae, True),
+        ("wprec", wprec, False),
         ("mae_speed_deg_s", speed, True),
     ]:
         res = stats.bootstrap(
-            (pred, ref), statistic, paired=True, vectorized=vectorized,
-            n_resamples=n_resamples, method="percentile", rng=seed,
+            (pred, ref),
+            statistic,
+            paired=True,
+            vectorized=vectorized,
+            n_resamples=n_resamples,
+            method="percentile",
+            rng=seed,
         )
         low, high = res.confidence_interval
         # Same draws, same percentiles: equal up to floating-point summation order.
@@ -202,8 +212,10 @@ def test_group_ci_equals_scipy_bootstrap_on_all_clips_keeping_the_group():
     o = clip_outcomes(pred, ref)
     n_resamples, seed = 300, 9
     _, by = grouped_bootstrap(
-        o, [Partition.whole(o.n), Partition("g", ("a", "b", "c"), group)],
-        n_resamples=n_resamples, seed=seed,
+        o,
+        [Partition.whole(o.n), Partition("g", ("a", "b", "c"), group)],
+        n_resamples=n_resamples,
+        seed=seed,
     )
     # ~60 clips per group: a resample without any clip of a group has probability ~e^-60.
     assert np.isfinite(by["accuracy"]).all()
@@ -214,12 +226,18 @@ def test_group_ci_equals_scipy_bootstrap_on_all_clips_keeping_the_group():
             return np.sum((quantise_deg(p) == quantise_deg(r)) & keep, axis=axis) / np.sum(
                 keep, axis=axis
             )
+
         return statistic
 
     for g in range(3):
         res = stats.bootstrap(
-            (pred, ref, group), accuracy_in(g), paired=True, vectorized=True,
-            n_resamples=n_resamples, method="percentile", rng=seed,
+            (pred, ref, group),
+            accuracy_in(g),
+            paired=True,
+            vectorized=True,
+            n_resamples=n_resamples,
+            method="percentile",
+            rng=seed,
         )
         expected = tuple(res.confidence_interval)
         assert percentile_interval(by["accuracy"][:, g]) == pytest.approx(expected, rel=1e-12)
@@ -258,9 +276,7 @@ def test_observed_group_metrics_equal_sklearn_per_group():
 
     pred, ref, duration, speed, group = _sample(n=90)
     o = clip_outcomes(pred, ref, ref_duration_s=duration, pred_speed_deg_s=speed)
-    overall, by = grouped_metrics(
-        o, [Partition.whole(o.n), Partition("g", ("a", "b", "c"), group)]
-    )
+    overall, by = grouped_metrics(o, [Partition.whole(o.n), Partition("g", ("a", "b", "c"), group)])
     assert overall["n"].tolist() == [90]
     for g in range(3):
         keep = group == g
@@ -351,6 +367,5 @@ def test_a_huge_finite_angle_is_scored_not_crashed():
     # huge -> 0 of 0 reference clips; WPrec = (2 * 1 + 1 * 1) / 3 = 1.
     assert m["accuracy"] == pytest.approx(2 / 3) and m["wprec"] == pytest.approx(1.0)
     report = bin_report(o)
-    assert report["per_bin"]["90"] == {"n": 2, "n_predicted": 1, "precision": 1.0,
-                                       "recall": 0.5}
+    assert report["per_bin"]["90"] == {"n": 2, "n_predicted": 1, "precision": 1.0, "recall": 0.5}
     assert report["kappa"] is not None and -1.0 <= report["kappa"] <= 1.0

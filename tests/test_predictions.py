@@ -60,7 +60,13 @@ def error_of(tmp_path: Path, text: str, ref, **kwargs) -> TurnbenchError:
 
 def test_reference_columns_types_and_recomputed_bins(ref):
     assert list(ref.columns) == [
-        "clip_id", "angle_deg", "duration_s", "bin_deg", "subject", "action", "split"
+        "clip_id",
+        "angle_deg",
+        "duration_s",
+        "bin_deg",
+        "subject",
+        "action",
+        "split",
     ]
     assert ref["angle_deg"].dtype == np.float64 and ref["duration_s"].dtype == np.float64
     # 47.5 / 45 + 0.5 = 1.56 -> floor 1 -> 45; 135 -> 135; an empty duration is NaN.
@@ -90,7 +96,9 @@ def test_clip_index_and_labels_headers_qualify_as_they_are(tmp_path):
     assert "speed_deg_s" not in clip_index.columns  # a number, not a group
     remap = read_reference(labels)
     assert remap[["cohort", "scenario", "location"]].iloc[0].tolist() == [
-        "PD", "free-living", "kitchen"
+        "PD",
+        "free-living",
+        "kitchen",
     ]
     joined = read_predictions(write(tmp_path / "p.csv", "clip_id,angle_deg\ns01_0001,170\n"), remap)
     assert joined.default_groupings == ("scenario", "location", "cohort", "subject", "bin_deg")
@@ -109,7 +117,8 @@ def test_reference_negative_angle_is_refused_with_its_line(tmp_path):
 
 def test_join_in_reference_order_with_group_columns(tmp_path, ref):
     text = "clip_id,angle_deg,note\n" + "".join(
-        f"{i},{a},x\n" for i, a in reversed(list(zip(IDS, ["92.5", "170", "40", "100"], strict=True)))
+        f"{i},{a},x\n"
+        for i, a in reversed(list(zip(IDS, ["92.5", "170", "40", "100"], strict=True)))
     )
     joined = read_predictions(write(tmp_path / "p.csv", text), ref)
     t = joined.table
@@ -137,8 +146,10 @@ def test_join_in_reference_order_with_group_columns(tmp_path, ref):
         "clip_id\tangle_deg\n"
         + "".join(f"{i}\t{a}\n" for i, a in zip(IDS, ["92,5", "170", "40", "100"], strict=True)),
         # Quoted fields (read by the exact reader), blank lines between rows.
-        'clip_id,angle_deg\n\n'
-        + "".join(f'"{i}","{a}"\n\n' for i, a in zip(IDS, ["92.5", "170", "40", "100"], strict=True)),
+        "clip_id,angle_deg\n\n"
+        + "".join(
+            f'"{i}","{a}"\n\n' for i, a in zip(IDS, ["92.5", "170", "40", "100"], strict=True)
+        ),
     ],
     ids=["bom-case-spaces-crlf", "semicolon-decimal-comma", "tab", "quoted-blank-lines"],
 )
@@ -152,31 +163,58 @@ def test_spreadsheet_variants_read_the_same(tmp_path, ref, raw):
     "raw, line, expected",
     [
         # BOM, odd header case and spaces, CRLF, a blank line 3: 'x' is on line 5.
-        ("\ufeff Clip_ID , ANGLE_DEG \r\n" f"{IDS[0]} , 92.5\r\n\r\n{IDS[1]} , 170\r\n"
-         f"{IDS[2]} , x\r\n{IDS[3]} , 100\r\n", 5, "angle_deg 'x' is not a number"),
+        (
+            "\ufeff Clip_ID , ANGLE_DEG \r\n"
+            f"{IDS[0]} , 92.5\r\n\r\n{IDS[1]} , 170\r\n"
+            f"{IDS[2]} , x\r\n{IDS[3]} , 100\r\n",
+            5,
+            "angle_deg 'x' is not a number",
+        ),
         # A spreadsheet's semicolons and decimal commas: a negative magnitude on line 3.
-        ("clip_id;angle_deg\n" f"{IDS[0]};92,5\n{IDS[1]};-12,5\n{IDS[2]};40\n{IDS[3]};100\n",
-         3, "angle_deg is negative (-12.5)"),
+        (
+            f"clip_id;angle_deg\n{IDS[0]};92,5\n{IDS[1]};-12,5\n{IDS[2]};40\n{IDS[3]};100\n",
+            3,
+            "angle_deg is negative (-12.5)",
+        ),
         # Tabs and decimal commas: NaN on line 4.
-        ("clip_id\tangle_deg\n" f"{IDS[0]}\t92,5\n{IDS[1]}\t170\n{IDS[2]}\tNaN\n{IDS[3]}\t1\n",
-         4, "angle_deg is NaN ('NaN')"),
+        (
+            f"clip_id\tangle_deg\n{IDS[0]}\t92,5\n{IDS[1]}\t170\n{IDS[2]}\tNaN\n{IDS[3]}\t1\n",
+            4,
+            "angle_deg is NaN ('NaN')",
+        ),
         # Semicolons: a cell with two decimal commas is not a number, line 2.
-        ("clip_id;angle_deg\n" f"{IDS[0]};1,2,5\n{IDS[1]};170\n{IDS[2]};40\n{IDS[3]};1\n",
-         2, "angle_deg '1,2,5' is not a number"),
+        (
+            f"clip_id;angle_deg\n{IDS[0]};1,2,5\n{IDS[1]};170\n{IDS[2]};40\n{IDS[3]};1\n",
+            2,
+            "angle_deg '1,2,5' is not a number",
+        ),
         # Semicolons: an infinite angle on line 5.
-        ("clip_id;angle_deg\n" f"{IDS[0]};1\n{IDS[1]};170\n{IDS[2]};40\n{IDS[3]};-inf\n",
-         5, "angle_deg is infinite ('-inf')"),
+        (
+            f"clip_id;angle_deg\n{IDS[0]};1\n{IDS[1]};170\n{IDS[2]};40\n{IDS[3]};-inf\n",
+            5,
+            "angle_deg is infinite ('-inf')",
+        ),
         # A BOM before a header that lacks angle_deg: the header's line, 1.
-        ("\ufeffclip_id;angle\n" f"{IDS[0]};1\n", 1, "lacks column 'angle_deg'"),
+        (f"\ufeffclip_id;angle\n{IDS[0]};1\n", 1, "lacks column 'angle_deg'"),
         # Tabs: a duplicate id on line 4, first on line 2.
-        ("clip_id\tangle_deg\n" f"{IDS[0]}\t1\n{IDS[1]}\t2\n{IDS[0]}\t3\n", 4,
-         f"duplicate clip_id {IDS[0]!r}, first on line 2"),
+        (
+            f"clip_id\tangle_deg\n{IDS[0]}\t1\n{IDS[1]}\t2\n{IDS[0]}\t3\n",
+            4,
+            f"duplicate clip_id {IDS[0]!r}, first on line 2",
+        ),
         # Semicolons: an id not in the reference on line 3.
-        ("clip_id;angle_deg\n" f"{IDS[0]};1\nghost;2\n", 3,
-         "1 clip id is not in the reference"),
+        (f"clip_id;angle_deg\n{IDS[0]};1\nghost;2\n", 3, "1 clip id is not in the reference"),
     ],
-    ids=["bom-crlf-word", "semicolon-negative", "tab-nan", "semicolon-two-commas",
-         "semicolon-inf", "bom-missing-column", "tab-duplicate", "semicolon-unknown"],
+    ids=[
+        "bom-crlf-word",
+        "semicolon-negative",
+        "tab-nan",
+        "semicolon-two-commas",
+        "semicolon-inf",
+        "bom-missing-column",
+        "tab-duplicate",
+        "semicolon-unknown",
+    ],
 )
 def test_spreadsheet_variants_report_the_files_own_line(tmp_path, ref, raw, line, expected):
     err = error_of(tmp_path, raw, ref)
@@ -243,8 +281,11 @@ def test_duplicate_ids_name_both_lines(tmp_path, ref):
 
 @pytest.mark.parametrize(
     "text, expected",
-    [("", "no header and no rows"), ("  \n\n", "no header and no rows"),
-     ("clip_id,angle_deg\n\n", "a header on line 1 and no rows")],
+    [
+        ("", "no header and no rows"),
+        ("  \n\n", "no header and no rows"),
+        ("clip_id,angle_deg\n\n", "a header on line 1 and no rows"),
+    ],
     ids=["zero-bytes", "blank-lines", "header-only"],
 )
 def test_empty_file(tmp_path, ref, text, expected):
@@ -332,11 +373,7 @@ def test_duplicate_header_and_missing_file(tmp_path, ref):
 
 def test_quoted_file_counts_lines_of_a_multiline_field(tmp_path, ref):
     # A quoted note spanning lines 2-3; the bad angle is on line 4.
-    text = (
-        'clip_id,angle_deg,note\n'
-        f'{IDS[0]},92.5,"two\nlines"\n'
-        f'{IDS[1]},oops,""\n'
-    )
+    text = f'clip_id,angle_deg,note\n{IDS[0]},92.5,"two\nlines"\n{IDS[1]},oops,""\n'
     err = error_of(tmp_path, text, ref)
     assert err.where.row == 4 and "'oops' is not a number" in str(err)
 
@@ -350,8 +387,9 @@ def test_not_utf8(tmp_path, ref):
 
 # --- the line scan: its fast path (no blank line) against the line-by-line one ------------
 
-_CELL = st.text(alphabet=st.characters(blacklist_characters='\n"', blacklist_categories=("Cs",)),
-                max_size=6)
+_CELL = st.text(
+    alphabet=st.characters(blacklist_characters='\n"', blacklist_categories=("Cs",)), max_size=6
+)
 
 
 @settings(max_examples=150, deadline=None)
@@ -390,8 +428,9 @@ def test_a_line_of_unicode_white_space_is_blank(tmp_path, ref):
 
 
 @settings(max_examples=300, deadline=None)
-@given(st.text(alphabet=st.sampled_from(["a", ",", " ", "\t", "\r", "\n", "\u00a0", "é"]),
-               max_size=30))
+@given(
+    st.text(alphabet=st.sampled_from(["a", ",", " ", "\t", "\r", "\n", "\u00a0", "é"]), max_size=30)
+)
 def test_blank_line_detection_equals_splitting(text):
     # The definition, line by line: some line of the text split on newlines is empty or
     # white space only.

@@ -49,8 +49,9 @@ def files(tmp_path: Path) -> tuple[Path, Path]:
 
 def test_json_on_stdout_has_the_hand_worked_numbers(files, capsys):
     pred, ref = files
-    code, out, err = run(["score", pred, "--reference", ref, "--format", "json",
-                          "--bootstrap", "100"], capsys)
+    code, out, err = run(
+        ["score", pred, "--reference", ref, "--format", "json", "--bootstrap", "100"], capsys
+    )
     assert code == 0, err
     scores = json.loads(out)
     overall = scores["overall"]
@@ -70,8 +71,9 @@ def test_markdown_is_the_default_and_csv_parses(files, capsys):
     assert code == 0
     assert "| subject | S1 | S9 | S11 | Avg. |" in out
     assert "| Acc. (%) | 100.0 | 100.0 | 0.0 | 66.7 |" in out
-    code, out, _ = run(["score", pred, "-r", ref, "--by", "subject", "--format", "csv",
-                        "--bootstrap", "0"], capsys)
+    code, out, _ = run(
+        ["score", pred, "-r", ref, "--by", "subject", "--format", "csv", "--bootstrap", "0"], capsys
+    )
     frame = pd.read_csv(StringIO(out))
     assert frame["group"].tolist() == ["all", "S1", "S9", "S11", "avg"]
 
@@ -83,8 +85,15 @@ def test_out_dir_writes_everything_and_reruns_are_byte_identical(files, tmp_path
     code, out, err = run(args, capsys)
     assert code == 0, err
     names = sorted(p.name for p in out_dir.iterdir())
-    assert names == sorted([*_cli_score.SCORE_FILES, "confusion_matrix.png",
-                            "predicted_by_bin.png", "abs_error.png", "bland_altman.png"])
+    assert names == sorted(
+        [
+            *_cli_score.SCORE_FILES,
+            "confusion_matrix.png",
+            "predicted_by_bin.png",
+            "abs_error.png",
+            "bland_altman.png",
+        ]
+    )
     for png in out_dir.glob("*.png"):
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert json.loads((out_dir / "scores.json").read_text())["overall"]["n"] == 4
@@ -112,8 +121,10 @@ def test_missing_clips_exit_2_unless_allowed(files, capsys):
     pred.write_text("clip_id,angle_deg\na,92.5\nc,40\n")
     code, _, err = run(["score", pred, "-r", ref], capsys)
     assert code == EXIT_BAD_INPUT and "2 of the reference's 4 clips are missing" in err
-    code, out, err = run(["score", pred, "-r", ref, "--allow-missing", "--format", "json",
-                          "--bootstrap", "0"], capsys)
+    code, out, err = run(
+        ["score", pred, "-r", ref, "--allow-missing", "--format", "json", "--bootstrap", "0"],
+        capsys,
+    )
     assert code == 0
     scores = json.loads(out)
     assert scores["n_missing"] == 2 and scores["overall"]["n"] == 2
@@ -125,16 +136,16 @@ def test_negative_angles_hint_and_abs(files, capsys):
     pred.write_text(PREDICTIONS.replace("170", "-170"))
     code, _, err = run(["score", pred, "-r", ref], capsys)
     assert code == EXIT_BAD_INPUT and "--abs" in err and f"{pred}:3" in err
-    code, out, _ = run(["score", pred, "-r", ref, "--abs", "--format", "json",
-                        "--bootstrap", "0"], capsys)
+    code, out, _ = run(
+        ["score", pred, "-r", ref, "--abs", "--format", "json", "--bootstrap", "0"], capsys
+    )
     assert code == 0 and json.loads(out)["overall"]["accuracy"] == pytest.approx(0.75)
 
 
 def test_radians_warning_still_scores(files, capsys):
     pred, ref = files
     pred.write_text("clip_id,angle_deg\na,1.5708\nb,3.1416\nc,0.7854\nd,2.3562\n")
-    code, out, err = run(["score", pred, "-r", ref, "--format", "json", "--bootstrap", "0"],
-                         capsys)
+    code, out, err = run(["score", pred, "-r", ref, "--format", "json", "--bootstrap", "0"], capsys)
     assert code == 0 and "radians" in err
     assert json.loads(out)["overall"]["accuracy"] == 0.0
 
@@ -170,8 +181,7 @@ def test_a_failure_while_writing_leaves_no_partial_output(files, tmp_path, capsy
 
     monkeypatch.setattr(plots, "write_plots", broken)
     with pytest.raises(RuntimeError, match="disk full"):
-        run(["score", pred, "-r", ref, "--out-dir", out_dir, "--plots", "--bootstrap", "0"],
-            capsys)
+        run(["score", pred, "-r", ref, "--out-dir", out_dir, "--plots", "--bootstrap", "0"], capsys)
     # scores.json was written to the staging folder first; none of it reached out_dir.
     assert not out_dir.exists() or list(out_dir.iterdir()) == []
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
@@ -188,14 +198,24 @@ def test_help_has_an_example(capsys):
 
 def test_console_script_exit_codes(files):
     pred, ref = files
-    ok = subprocess.run([TURN_EVAL, "score", pred, "-r", ref, "--bootstrap", "0"],
-                        capture_output=True, text=True, cwd=REPO)
+    ok = subprocess.run(
+        [TURN_EVAL, "score", pred, "-r", ref, "--bootstrap", "0"],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+    )
     assert ok.returncode == 0 and ok.stdout.startswith("## Overall")
-    bad = subprocess.run([TURN_EVAL, "score", pred, "-r", ref.with_name("nope.csv")],
-                         capture_output=True, text=True, cwd=REPO)
+    bad = subprocess.run(
+        [TURN_EVAL, "score", pred, "-r", ref.with_name("nope.csv")],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+    )
     assert bad.returncode == 2
-    assert bad.stderr.strip() == f"turn-eval: error: {ref.with_name('nope.csv')}: " \
-                                 "reference file not found"
+    assert (
+        bad.stderr.strip() == f"turn-eval: error: {ref.with_name('nope.csv')}: "
+        "reference file not found"
+    )
 
 
 def test_a_real_clip_index_scores_as_it_is(cmu_dir, tmp_path, capsys):
@@ -204,8 +224,11 @@ def test_a_real_clip_index_scores_as_it_is(cmu_dir, tmp_path, capsys):
 
     index = tmp_path / "cmu.csv"
     bvh = sorted(str(p) for p in cmu_dir.glob("*.bvh"))
-    code = run_group(datasets_cli, "turn-datasets",
-                     ["h36m", "mine", *bvh, "--skip-first-frame", "--out", str(index)])
+    code = run_group(
+        datasets_cli,
+        "turn-datasets",
+        ["h36m", "mine", *bvh, "--skip-first-frame", "--out", str(index)],
+    )
     capsys.readouterr()
     assert code == 0
     clips = pd.read_csv(index)
@@ -215,8 +238,9 @@ def test_a_real_clip_index_scores_as_it_is(cmu_dir, tmp_path, capsys):
     predicted = clips["angle_deg"] + offsets
     pred = tmp_path / "pred.csv"
     pd.DataFrame({"clip_id": clips["clip_id"], "angle_deg": predicted}).to_csv(pred, index=False)
-    code, out, err = run(["score", pred, "-r", index, "--format", "json", "--bootstrap", "50"],
-                         capsys)
+    code, out, err = run(
+        ["score", pred, "-r", index, "--format", "json", "--bootstrap", "50"], capsys
+    )
     assert code == 0, err
     overall = json.loads(out)["overall"]
 
@@ -249,8 +273,10 @@ def test_plots_of_one_clip_are_drawn_and_reproducible(tmp_path):
 
 def test_bin_width_option(files, capsys):
     pred, ref = files
-    code, out, _ = run(["score", pred, "-r", ref, "--bin-width-deg", "90", "--format", "json",
-                        "--bootstrap", "0"], capsys)
+    code, out, _ = run(
+        ["score", pred, "-r", ref, "--bin-width-deg", "90", "--format", "json", "--bootstrap", "0"],
+        capsys,
+    )
     assert code == 0
     scores = json.loads(out)
     # 90-degree bins: ref 90, 180, 45, 135 -> 90, 180, 90, 180; pred 92.5, 170, 40, 100 ->
@@ -276,10 +302,13 @@ def test_plots_of_a_submission_in_the_wrong_unit_stay_bounded(tmp_path):
 
 def test_out_dir_that_is_a_file_or_under_one_is_one_line_exit_2(files, capsys):
     pred, ref = files
-    for out_dir, expected in ((ref, "--out-dir is a file, not a folder"),
-                              (ref / "sub", f"cannot write the scores: {ref}: File exists")):
-        code, out, err = run(["score", pred, "-r", ref, "--bootstrap", "0", "--out-dir",
-                              out_dir], capsys)
+    for out_dir, expected in (
+        (ref, "--out-dir is a file, not a folder"),
+        (ref / "sub", f"cannot write the scores: {ref}: File exists"),
+    ):
+        code, out, err = run(
+            ["score", pred, "-r", ref, "--bootstrap", "0", "--out-dir", out_dir], capsys
+        )
         assert code == EXIT_BAD_INPUT and out == "", out_dir
         assert err == f"turn-eval: error: {out_dir}: {expected}\n"
     assert ref.read_text() == REFERENCE
@@ -291,8 +320,9 @@ def test_json_without_durations_has_null_speed_everywhere(files, capsys):
     # overall entry, every group, every avg and every interval; fractions stay fractions.
     pred, ref = files
     ref.write_text("clip_id,subject,angle_deg\na,S1,90\nb,S1,180\nc,S9,45\nd,S11,135\n")
-    code, out, err = run(["score", pred, "-r", ref, "--format", "json", "--bootstrap", "20"],
-                         capsys)
+    code, out, err = run(
+        ["score", pred, "-r", ref, "--format", "json", "--bootstrap", "20"], capsys
+    )
     assert code == 0, err
     scores = json.loads(out)
     assert list(scores) == ["overall", "by", "n_missing", "settings"]

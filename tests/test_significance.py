@@ -255,16 +255,25 @@ def test_difference_intervals_equal_scipy_paired_bootstrap_on_the_same_seed():
 
     def wprec(pa, pb, r):
         def one(p):
-            return precision_score(quantise_deg(r), quantise_deg(p), average="weighted",
-                                   zero_division=0)
+            return precision_score(
+                quantise_deg(r), quantise_deg(p), average="weighted", zero_division=0
+            )
+
         return one(pb) - one(pa)
 
     for name, statistic, vectorized in [
-        ("accuracy", accuracy, True), ("mae_deg", mae, True), ("wprec", wprec, False)
+        ("accuracy", accuracy, True),
+        ("mae_deg", mae, True),
+        ("wprec", wprec, False),
     ]:
         res = stats.bootstrap(
-            (a, b, ref), statistic, paired=True, vectorized=vectorized,
-            n_resamples=n_resamples, method="percentile", rng=seed,
+            (a, b, ref),
+            statistic,
+            paired=True,
+            vectorized=vectorized,
+            n_resamples=n_resamples,
+            method="percentile",
+            rng=seed,
         )
         low, high = res.confidence_interval
         assert (ours[name].ci_low, ours[name].ci_high) == pytest.approx(

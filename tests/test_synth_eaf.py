@@ -99,7 +99,9 @@ def test_reader_returns_exactly_what_was_written(synth):
     assert len(got) == len(want)
     for col in ("session", "tier", "annotator", "participant", "scenario", "location", "value"):
         assert got[col].astype(str).tolist() == want[col].astype(str).tolist(), col
-    np.testing.assert_allclose(got[["start_s", "end_s", "angle_deg"]], want[["start_s", "end_s", "angle_deg"]])
+    np.testing.assert_allclose(
+        got[["start_s", "end_s", "angle_deg"]], want[["start_s", "end_s", "angle_deg"]]
+    )
 
 
 def test_truth_kinds_are_what_they_say(synth):
@@ -136,10 +138,13 @@ def test_truth_kinds_are_what_they_say(synth):
     assert (both["a_start_s"] != both["b_start_s"]).mean() > 0.9
     # ... and really a few hundred ms, not a token millisecond: for errors drawn with sd
     # 0.15 s the median |error| is 0.674 x 0.15 = 0.10 s (half-normal), the sd about 0.15 s.
-    errors = np.concatenate([
-        (both[f"{side}_{edge}_s"] - both[f"{edge}_s"]).to_numpy()
-        for side in ("a", "b") for edge in ("start", "end")
-    ])
+    errors = np.concatenate(
+        [
+            (both[f"{side}_{edge}_s"] - both[f"{edge}_s"]).to_numpy()
+            for side in ("a", "b")
+            for edge in ("start", "end")
+        ]
+    )
     assert 0.07 < np.median(np.abs(errors)) < 0.15
     assert 0.10 < errors.std() < 0.20
     # Angle slips are mostly to the next bin (far_disagreement_fraction 0.25 by default).

@@ -23,8 +23,11 @@ def table4a_files(tmp_path: Path) -> tuple[Path, Path]:
     prediction is 180 (error 90°), so a group's MAE is 90 x (1 - accuracy).
     """
     rows, preds = [], []
-    for scenario, n, right in [("clinical", 1000, 376), ("free-living", 200, 53),
-                               ("scripted", 100, 44)]:
+    for scenario, n, right in [
+        ("clinical", 1000, 376),
+        ("free-living", 200, 53),
+        ("scripted", 100, 44),
+    ]:
         for i in range(n):
             clip = f"{scenario}_{i:04d}"
             rows.append(f"{clip},{scenario},90,3.0")
@@ -46,9 +49,7 @@ def test_avg_is_the_papers_unweighted_mean(table4a):
     scores = build_scores(table4a, by=["scenario"], n_resamples=0)
     block = scores["by"]["scenario"]
     assert list(block["groups"]) == ["clinical", "free-living", "scripted"]
-    assert [g["accuracy"] for g in block["groups"].values()] == pytest.approx(
-        [0.376, 0.265, 0.44]
-    )
+    assert [g["accuracy"] for g in block["groups"].values()] == pytest.approx([0.376, 0.265, 0.44])
     # Table 4a: (37.6 + 26.5 + 44.0) / 3 = 36.03 -> "36.0"; pooled it would be 473/1300 = 36.4.
     assert block["avg"]["accuracy"] == pytest.approx((0.376 + 0.265 + 0.44) / 3)
     assert scores["overall"]["accuracy"] == pytest.approx(473 / 1300)
@@ -66,7 +67,12 @@ def test_markdown_rows_in_the_papers_order(table4a):
     md = scores_markdown(build_scores(table4a, by=["scenario"], n_resamples=0))
     section = md.split("## By scenario")[1].split("\n\n")[1].splitlines()
     assert [line.split(" | ")[0] for line in section] == [
-        "| scenario", "| ---", "| Acc. (%)", "| MAE (°)", "| WPrec (%)", "| MAE speed (°/s)",
+        "| scenario",
+        "| ---",
+        "| Acc. (%)",
+        "| MAE (°)",
+        "| WPrec (%)",
+        "| MAE speed (°/s)",
         "| # Turns",
     ]
     assert section[1] == "| --- | ---: | ---: | ---: | ---: |"
@@ -87,8 +93,13 @@ def test_json_document_shape(table4a):
     group = scores["by"]["scenario"]["groups"]["clinical"]
     assert group["n"] == 1000 and set(group["ci95"]) == set(METRICS)
     assert scores["settings"] == {
-        "bin_width_deg": 45, "bootstrap": 50, "seed": 3, "confidence": 0.95,
-        "ci_method": "percentile", "kappa_weights": "quadratic", "version": __version__,
+        "bin_width_deg": 45,
+        "bootstrap": 50,
+        "seed": 3,
+        "confidence": 0.95,
+        "ci_method": "percentile",
+        "kappa_weights": "quadratic",
+        "version": __version__,
     }
     assert scores["n_missing"] == 0
 
@@ -107,8 +118,13 @@ def test_avg_interval_matches_scipy_on_the_mean_of_group_accuracies(table4a):
         )
 
     res = stats.bootstrap(
-        (correct, group), mean_of_group_accuracies, paired=True, vectorized=True,
-        n_resamples=n_resamples, method="percentile", rng=seed,
+        (correct, group),
+        mean_of_group_accuracies,
+        paired=True,
+        vectorized=True,
+        n_resamples=n_resamples,
+        method="percentile",
+        rng=seed,
     )
     assert scores["by"]["scenario"]["avg"]["ci95"]["accuracy"] == pytest.approx(
         list(res.confidence_interval), rel=1e-12
@@ -119,8 +135,11 @@ def test_csv_one_row_per_group_then_avg(table4a):
     frame = scores_frame(build_scores(table4a, by=["scenario"], n_resamples=20))
     assert list(frame.columns) == list(SCORES_CSV_COLUMNS)
     assert frame[["grouping", "group"]].values.tolist() == [
-        ["overall", "all"], ["scenario", "clinical"], ["scenario", "free-living"],
-        ["scenario", "scripted"], ["scenario", "avg"],
+        ["overall", "all"],
+        ["scenario", "clinical"],
+        ["scenario", "free-living"],
+        ["scenario", "scripted"],
+        ["scenario", "avg"],
     ]
     assert frame["accuracy"].tolist()[1:4] == pytest.approx([0.376, 0.265, 0.44])
     assert frame["n"].tolist()[:4] == [1300, 1000, 200, 100]
@@ -157,14 +176,42 @@ def test_all_empty_column_is_not_a_default_grouping(tmp_path):
 
 def test_markdown_of_a_hand_made_document_rounds_half_up():
     scores = {
-        "overall": {"n": 16, "accuracy": 1 / 16, "mae_deg": 6.25, "wprec": 0.5,
-                    "mae_speed_deg_s": None, "kappa": None, "per_bin": {}},
-        "by": {"cohort": {"groups": {"HC": {"n": 8, "accuracy": 0.125, "mae_deg": 2.05,
-                                            "wprec": 0.0, "mae_speed_deg_s": None},
-                                     "PD": {"n": 8, "accuracy": 0.0, "mae_deg": 10.45,
-                                            "wprec": 1.0, "mae_speed_deg_s": None}},
-                          "avg": {"n": 8.0, "accuracy": 0.0625, "mae_deg": 6.25, "wprec": 0.5,
-                                  "mae_speed_deg_s": None}}},
+        "overall": {
+            "n": 16,
+            "accuracy": 1 / 16,
+            "mae_deg": 6.25,
+            "wprec": 0.5,
+            "mae_speed_deg_s": None,
+            "kappa": None,
+            "per_bin": {},
+        },
+        "by": {
+            "cohort": {
+                "groups": {
+                    "HC": {
+                        "n": 8,
+                        "accuracy": 0.125,
+                        "mae_deg": 2.05,
+                        "wprec": 0.0,
+                        "mae_speed_deg_s": None,
+                    },
+                    "PD": {
+                        "n": 8,
+                        "accuracy": 0.0,
+                        "mae_deg": 10.45,
+                        "wprec": 1.0,
+                        "mae_speed_deg_s": None,
+                    },
+                },
+                "avg": {
+                    "n": 8.0,
+                    "accuracy": 0.0625,
+                    "mae_deg": 6.25,
+                    "wprec": 0.5,
+                    "mae_speed_deg_s": None,
+                },
+            }
+        },
         "n_missing": 2,
         "settings": {"bin_width_deg": 45, "bootstrap": 0, "seed": 0, "version": "x"},
     }
@@ -201,9 +248,14 @@ def test_every_group_entry_equals_sklearn_on_its_clips(tmp_path):
     n = 240
     ref_angle = rng.uniform(30, 250, n).round(1)
     subject = rng.choice(["P1", "P2", "P3", "P4"], n)
-    pd.DataFrame({"clip_id": [f"c{i}" for i in range(n)], "subject": subject,
-                  "angle_deg": ref_angle, "duration_s": rng.uniform(1, 3, n).round(2)}
-                 ).to_csv(tmp_path / "ref.csv", index=False)
+    pd.DataFrame(
+        {
+            "clip_id": [f"c{i}" for i in range(n)],
+            "subject": subject,
+            "angle_deg": ref_angle,
+            "duration_s": rng.uniform(1, 3, n).round(2),
+        }
+    ).to_csv(tmp_path / "ref.csv", index=False)
     pred_angle = np.abs(ref_angle + rng.normal(0, 40, n)).round(1)
     pd.DataFrame({"clip_id": [f"c{i}" for i in range(n)], "angle_deg": pred_angle}).to_csv(
         tmp_path / "pred.csv", index=False
@@ -213,13 +265,17 @@ def test_every_group_entry_equals_sklearn_on_its_clips(tmp_path):
     t = joined.table
     for label, entry in scores["by"]["subject"]["groups"].items():
         keep = (t["subject"] == label).to_numpy()
-        expected = compute_metrics(t["pred_angle_deg"][keep], t["ref_angle_deg"][keep],
-                                   ref_duration_s=t["ref_duration_s"][keep])
+        expected = compute_metrics(
+            t["pred_angle_deg"][keep],
+            t["ref_angle_deg"][keep],
+            ref_duration_s=t["ref_duration_s"][keep],
+        )
         assert entry["n"] == expected["n"]
         for m in METRICS:
             assert entry[m] == pytest.approx(expected[m], abs=1e-12), (label, m)
-    whole = compute_metrics(t["pred_angle_deg"], t["ref_angle_deg"],
-                            ref_duration_s=t["ref_duration_s"])
+    whole = compute_metrics(
+        t["pred_angle_deg"], t["ref_angle_deg"], ref_duration_s=t["ref_duration_s"]
+    )
     assert {m: scores["overall"][m] for m in METRICS} == pytest.approx(
         {m: whole[m] for m in METRICS}, abs=1e-12
     )

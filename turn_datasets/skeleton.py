@@ -75,9 +75,7 @@ H36M32 = Layout("h36m32", 32, MappingProxyType(dict(_H36M32_JOINTS)))
 H36M17 = Layout(
     "h36m17",
     17,
-    MappingProxyType(
-        {name: H36M17_FROM_32.index(i32) for name, i32 in _H36M32_JOINTS.items()}
-    ),
+    MappingProxyType({name: H36M17_FROM_32.index(i32) for name, i32 in _H36M32_JOINTS.items()}),
 )
 LAYOUTS: Mapping[str, Layout] = MappingProxyType({"h36m32": H36M32, "h36m17": H36M17})
 

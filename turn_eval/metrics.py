@@ -175,9 +175,7 @@ def clip_outcomes(
     if ref_duration_s is not None:
         duration = np.asarray(ref_duration_s, dtype=np.float64).reshape(-1)
         ref_speed = np.asarray(angular_speed_deg_s(ref, duration), dtype=np.float64).reshape(-1)
-        pred_speed = np.asarray(
-            angular_speed_deg_s(pred, duration), dtype=np.float64
-        ).reshape(-1)
+        pred_speed = np.asarray(angular_speed_deg_s(pred, duration), dtype=np.float64).reshape(-1)
         if pred_speed_deg_s is not None:
             given = np.asarray(pred_speed_deg_s, dtype=np.float64).reshape(-1)
             pred_speed = np.where(np.isfinite(given), given, pred_speed)
@@ -518,7 +516,8 @@ class _Engine:
             if not own_speed_count:
                 where[2:2] = [slice(0, 0)]
             layout = _Rows(
-                p, *where,
+                p,
+                *where,
                 group_of_pairs=sparse.csr_array(
                     (np.ones(ref_keys.shape[0]), (ref_keys // k, np.arange(ref_keys.shape[0]))),
                     shape=(n_groups, ref_keys.shape[0]),
@@ -583,9 +582,7 @@ class _Engine:
             for rows in self.layout:
                 true, true_right = totals[rows.true], totals[rows.true_right]
                 count = rows.group_of_pairs @ true
-                predicted = np.where(
-                    rows.has_twin[:, None], totals[rows.predicted][rows.twin], 0.0
-                )
+                predicted = np.where(rows.has_twin[:, None], totals[rows.predicted][rows.twin], 0.0)
                 terms = _precision_terms(true, predicted, true_right)
                 result = {
                     "n": count.T,
@@ -648,9 +645,7 @@ def grouped_bootstrap(
             for name, values in result.items():
                 store.setdefault(name, []).append(values)
     return [
-        {name: np.concatenate(values, axis=0) for name, values in store.items()}
-        if store
-        else {}
+        {name: np.concatenate(values, axis=0) for name, values in store.items()} if store else {}
         for store in parts
     ]
 

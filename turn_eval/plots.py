@@ -81,7 +81,12 @@ def _confusion(
         for j in range(m):
             if counts[i, j]:
                 ax.text(
-                    j, i, str(counts[i, j]), ha="center", va="center", fontsize=8,
+                    j,
+                    i,
+                    str(counts[i, j]),
+                    ha="center",
+                    va="center",
+                    fontsize=8,
                     color="white" if share[i, j] > 0.6 else "black",
                 )
     fig.colorbar(image, ax=ax, label="fraction of the reference bin")
@@ -106,8 +111,14 @@ def _predicted_by_bin(
         flierprops={"markersize": 2, "alpha": 0.5},
     )
     low, high = bins[0] - bin_width_deg, bins[-1] + bin_width_deg
-    ax.plot([low, high], [low, high], linestyle="--", color="grey", linewidth=1,
-            label="predicted = reference")
+    ax.plot(
+        [low, high],
+        [low, high],
+        linestyle="--",
+        color="grey",
+        linewidth=1,
+        label="predicted = reference",
+    )
     ax.set_xlim(low, high)
     ticks = bins[:: -(-bins.shape[0] // _MAX_TICKS)]
     ax.set_xticks(ticks, [group_label(b) for b in ticks])
@@ -129,8 +140,13 @@ def _abs_error(error_deg: np.ndarray, bin_width_deg: float, path: Path) -> Path:
     ax.hist(error_deg, bins=np.arange(0.0, top + step, step), color="#4c78a8")
     mae = float(error_deg.mean())
     ax.axvline(mae, color="black", linewidth=1.2, label=f"MAE {mae:.1f}°")
-    ax.axvline(bin_width_deg / 2, color="#d62728", linestyle="--", linewidth=1,
-               label=f"half a bin ({bin_width_deg / 2:g}°)")
+    ax.axvline(
+        bin_width_deg / 2,
+        color="#d62728",
+        linestyle="--",
+        linewidth=1,
+        label=f"half a bin ({bin_width_deg / 2:g}°)",
+    )
     ax.set_xlabel("absolute error (°)")
     ax.set_ylabel("clips")
     ax.set_title("Absolute angle error")
@@ -149,8 +165,13 @@ def _bland_altman(pred_deg: np.ndarray, ref_deg: np.ndarray, path: Path) -> Path
     ax.scatter(mean, diff, s=6, alpha=0.5, color="#4c78a8", linewidths=0, rasterized=True)
     ax.axhline(bias, color="black", linewidth=1.2, label=f"mean difference {bias:.1f}°")
     for sign in (-1, 1):
-        ax.axhline(bias + sign * 1.96 * sd, color="#d62728", linestyle="--", linewidth=1,
-                   label="± 1.96 SD" if sign > 0 else None)
+        ax.axhline(
+            bias + sign * 1.96 * sd,
+            color="#d62728",
+            linestyle="--",
+            linewidth=1,
+            label="± 1.96 SD" if sign > 0 else None,
+        )
     ax.set_xlabel("mean of predicted and reference angle (°)")
     ax.set_ylabel("predicted − reference (°)")
     ax.set_title("Bland–Altman")

@@ -309,8 +309,10 @@ def scores_markdown(scores: Mapping[str, Any]) -> str:
         rows.append(row)
     kappa = overall.get("kappa")
     rows.append(
-        [f"Kappa ({settings.get('kappa_weights', KAPPA_WEIGHTS)})",
-         "–" if kappa is None else f"{kappa:.3f}"]
+        [
+            f"Kappa ({settings.get('kappa_weights', KAPPA_WEIGHTS)})",
+            "–" if kappa is None else f"{kappa:.3f}",
+        ]
         + ([""] if ci is not None else [])
     )
     rows.append(["# Turns", _format("n", overall["n"])] + ([""] if ci is not None else []))

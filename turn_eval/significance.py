@@ -76,7 +76,6 @@ __all__ = [
 ]
 
 
-
 @dataclass(frozen=True)
 class PairedDifference:
     """One metric of a paired comparison: A, B, the difference B - A and its uncertainty.

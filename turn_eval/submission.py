@@ -115,8 +115,7 @@ def _check_header(header: list[str], *, name: str, line: int) -> None:
     for i, col in enumerate(header):
         if col and col in seen:
             raise TurnbenchError(
-                f"column {col!r} appears twice in the header (columns {seen[col] + 1} and "
-                f"{i + 1})",
+                f"column {col!r} appears twice in the header (columns {seen[col] + 1} and {i + 1})",
                 file=name,
                 row=line,
             )
@@ -417,9 +416,7 @@ def group_label(value: object) -> str:
     return str(value)
 
 
-def read_reference(
-    path: str | os.PathLike[str], *, bin_width_deg: float = 45.0
-) -> pd.DataFrame:
+def read_reference(path: str | os.PathLike[str], *, bin_width_deg: float = 45.0) -> pd.DataFrame:
     """Read a reference table: clip index, labels, or any CSV with ``clip_id, angle_deg``.
 
     Parameters

@@ -73,4 +73,3 @@ def remap() -> None:
 def main(args: list[str] | None = None) -> None:
     """Console-script entry point."""
     sys.exit(run_group(cli, "turn-datasets", args))
-

@@ -131,9 +131,7 @@ def agreement(
         raise click.UsageError("--review-eaf writes into --out-dir; give one")
     schema = load_schema(schema_path)
     paths = expand_eaf_paths(inputs)
-    annotations = read_annotations(
-        list(progress(paths, label="reading ELAN files")), schema=schema
-    )
+    annotations = read_annotations(list(progress(paths, label="reading ELAN files")), schema=schema)
     if annotations.empty:
         raise no_turns_error(paths, schema)
     audit = audit_agreement(
@@ -165,8 +163,14 @@ def agreement(
     if out_dir is not None:
         participants = annotations.groupby("session")["participant"].nunique().to_dict()
         _write_outputs(
-            out_dir, audit, document, markdown, paths=paths, review_eaf=review_eaf,
-            keep_media_paths=keep_media_paths, participants_per_session=participants,
+            out_dir,
+            audit,
+            document,
+            markdown,
+            paths=paths,
+            review_eaf=review_eaf,
+            keep_media_paths=keep_media_paths,
+            participants_per_session=participants,
         )
 
     click.echo(to_json_text(document) if fmt == "json" else markdown, nl=False)

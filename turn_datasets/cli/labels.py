@@ -77,7 +77,9 @@ def no_turns_error(paths: list[Path], schema: Schema) -> TurnbenchError:
 
 
 @remap.command("inspect", context_settings=CONTEXT_SETTINGS)
-@click.argument("files", nargs=-1, required=True, metavar="FILE...", type=click.Path(path_type=Path))
+@click.argument(
+    "files", nargs=-1, required=True, metavar="FILE...", type=click.Path(path_type=Path)
+)
 @_schema_option
 @format_option(default="md", choices=("md", "json"))
 @click.option(
@@ -116,7 +118,9 @@ def inspect_cmd(
 
 
 @remap.command("labels", context_settings=CONTEXT_SETTINGS)
-@click.argument("inputs", nargs=-1, required=True, metavar="EAF_OR_DIR...", type=click.Path(path_type=Path))
+@click.argument(
+    "inputs", nargs=-1, required=True, metavar="EAF_OR_DIR...", type=click.Path(path_type=Path)
+)
 @click.option(
     "--participants",
     "participants_path",
@@ -171,7 +175,9 @@ def labels_cmd(
     """
     out_annotations = out.parent / ANNOTATIONS_NAME
     if out.name == ANNOTATIONS_NAME:
-        raise click.UsageError(f"--out must not be named {ANNOTATIONS_NAME}: that file goes beside it")
+        raise click.UsageError(
+            f"--out must not be named {ANNOTATIONS_NAME}: that file goes beside it"
+        )
     schema = load_schema(schema_path)
     paths = expand_eaf_paths(inputs)
     inputs_all = [*paths, participants_path, *([schema_path] if schema_path else [])]

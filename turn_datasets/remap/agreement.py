@@ -130,7 +130,7 @@ def match_annotations(
     left = _side(a, "_a")
     right = _side(b, "_b")
     pairs = left.merge(right, on=list(_KEYS), how="inner", sort=False)
-    overlap = (pairs[["end_a", "end_b"]].min(axis=1) - pairs[["start_a", "start_b"]].max(axis=1))
+    overlap = pairs[["end_a", "end_b"]].min(axis=1) - pairs[["start_a", "start_b"]].max(axis=1)
     longer = pd.concat(
         [pairs["end_a"] - pairs["start_a"], pairs["end_b"] - pairs["start_b"]], axis=1
     ).max(axis=1)
@@ -332,19 +332,19 @@ def pair_items(
         }
     )
     parts = [df for df in (matched, unmatched_a, unmatched_b) if len(df)]
-    items = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=list(PAIR_COLUMNS))
+    items = (
+        pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=list(PAIR_COLUMNS))
+    )
     for col in PAIR_COLUMNS:
         if col not in items.columns:
             items[col] = np.nan
-    items["agree"] = (items["status"] == "matched") & (
-        items["angle_a_deg"] == items["angle_b_deg"]
-    )
+    items["agree"] = (items["status"] == "matched") & (items["angle_a_deg"] == items["angle_b_deg"])
     # Sort by where the item happens, so the table reads like the timeline.
     items["_t"] = items[["start_a_s", "start_b_s"]].min(axis=1)
     items["_s"] = items["status"].map(_STATUS_ORDER)
-    items = items.sort_values(
-        ["session", "participant", "_t", "_s"], kind="mergesort"
-    ).drop(columns=["_t", "_s"])
+    items = items.sort_values(["session", "participant", "_t", "_s"], kind="mergesort").drop(
+        columns=["_t", "_s"]
+    )
     return typed_frame(items, PAIR_COLUMNS), single
 
 
@@ -579,8 +579,12 @@ def pair_stats(
     yb = [float(x) for x in matched["angle_b_deg"]]
     kappa = _sk_kappa(ya, yb, labels, None)
     kappa_linear = _sk_kappa(ya, yb, labels, "linear")
-    reason = None if kappa is not None else _undefined_reason(
-        [_fmt_deg(x) for x in ya], [_fmt_deg(x) for x in yb], "matched pairs"
+    reason = (
+        None
+        if kappa is not None
+        else _undefined_reason(
+            [_fmt_deg(x) for x in ya], [_fmt_deg(x) for x in yb], "matched pairs"
+        )
     )
     codes_a = np.array([position[x] for x in ya], dtype=np.int64)
     codes_b = np.array([position[x] for x in yb], dtype=np.int64)
@@ -591,8 +595,12 @@ def pair_stats(
             codes_a, codes_b, n_labels=len(labels), n_bootstrap=n_bootstrap, seed=seed
         )
         ci_linear, _ = bootstrap_kappa_ci(
-            codes_a, codes_b, n_labels=len(labels), weights="linear",
-            n_bootstrap=n_bootstrap, seed=seed,
+            codes_a,
+            codes_b,
+            n_labels=len(labels),
+            weights="linear",
+            n_bootstrap=n_bootstrap,
+            seed=seed,
         )
 
     # Holle & Rein / ELAN: an unmatched annotation is an item the other rater put in the
@@ -621,9 +629,7 @@ def pair_stats(
         single_annotated=dict(single_annotated or {a: 0, b: 0}),
         matched=n_matched,
         unmatched={a: n_ua, b: n_ub},
-        percent_agreement=(
-            float(np.mean(np.asarray(ya) == np.asarray(yb))) if n_matched else None
-        ),
+        percent_agreement=(float(np.mean(np.asarray(ya) == np.asarray(yb))) if n_matched else None),
         kappa=kappa,
         kappa_linear=kappa_linear,
         kappa_ci95=ci,
@@ -689,8 +695,10 @@ class AgreementAudit:
         if by == "session":
             keyed = [({"session": s}, st) for s, st in self.by_session.items()]
         elif by == "rater_pair":
-            keyed = [({"rater_a": st.raters[0], "rater_b": st.raters[1]}, st)
-                     for st in self.by_rater_pair]
+            keyed = [
+                ({"rater_a": st.raters[0], "rater_b": st.raters[1]}, st)
+                for st in self.by_rater_pair
+            ]
         else:
             raise ValueError(f"by must be 'session' or 'rater_pair', not {by!r}")
         rows = []
@@ -715,16 +723,23 @@ class AgreementAudit:
                     "median_end_diff_s": _nan(st.median_end_diff_s),
                 }
             )
-        key_cols = {"session": "object"} if by == "session" else {
-            "rater_a": "object", "rater_b": "object"
-        }
+        key_cols = (
+            {"session": "object"} if by == "session" else {"rater_a": "object", "rater_b": "object"}
+        )
         dtypes = {
             **key_cols,
-            "annotations_a": "int64", "annotations_b": "int64", "matched": "int64",
-            "unmatched_a": "int64", "unmatched_b": "int64",
-            "percent_agreement": "float64", "kappa": "float64", "kappa_ci95_lo": "float64",
-            "kappa_ci95_hi": "float64", "kappa_linear": "float64",
-            "kappa_with_unmatched": "float64", "median_start_diff_s": "float64",
+            "annotations_a": "int64",
+            "annotations_b": "int64",
+            "matched": "int64",
+            "unmatched_a": "int64",
+            "unmatched_b": "int64",
+            "percent_agreement": "float64",
+            "kappa": "float64",
+            "kappa_ci95_lo": "float64",
+            "kappa_ci95_hi": "float64",
+            "kappa_linear": "float64",
+            "kappa_with_unmatched": "float64",
+            "median_start_diff_s": "float64",
             "median_end_diff_s": "float64",
         }
         return typed_frame(pd.DataFrame(rows, columns=list(dtypes)), dtypes)
@@ -810,9 +825,7 @@ def audit_agreement(
         str(session): pair_stats(group, raters=(rater_a, rater_b), **stats_kw)
         for session, group in items.groupby("session", sort=True)
     }
-    others = [
-        r for r in present if r.casefold().strip() != consensus_annotator.casefold().strip()
-    ]
+    others = [r for r in present if r.casefold().strip() != consensus_annotator.casefold().strip()]
     pairs = [tuple(p) for p in combinations(sorted(others, key=lambda r: (r.casefold(), r)), 2)]
     if (rater_a, rater_b) not in pairs and (rater_b, rater_a) not in pairs:
         pairs.insert(0, (rater_a, rater_b))
@@ -897,9 +910,17 @@ def _stats_row(st: PairStats) -> list[str]:
 
 
 _STATS_HEADER = [
-    "turns A", "turns B", "matched", "unmatched A", "unmatched B", "agreement",
-    "kappa (95% CI)", "linear kappa (95% CI)", "kappa incl. unmatched",
-    "median start B-A (s)", "median end B-A (s)",
+    "turns A",
+    "turns B",
+    "matched",
+    "unmatched A",
+    "unmatched B",
+    "agreement",
+    "kappa (95% CI)",
+    "linear kappa (95% CI)",
+    "kappa incl. unmatched",
+    "median start B-A (s)",
+    "median end B-A (s)",
 ]
 
 
@@ -958,9 +979,7 @@ def _markdown(audit: AgreementAudit) -> str:
     lines.append("")
     n_angle = int((audit.disagreements["kind"] == "angle").sum())
     n_un = int((audit.disagreements["kind"] == UNMATCHED).sum())
-    lines.append(
-        f"Disagreements to review: {n_angle} with different angles, {n_un} unmatched."
-    )
+    lines.append(f"Disagreements to review: {n_angle} with different angles, {n_un} unmatched.")
     return "\n".join(lines) + "\n"
 
 
@@ -991,8 +1010,15 @@ def write_confusion_png(audit: AgreementAudit, path: str | os.PathLike[str]) -> 
     for i in range(conf.shape[0]):
         for j in range(conf.shape[1]):
             if conf[i, j]:
-                ax.text(j, i, str(int(conf[i, j])), ha="center", va="center", fontsize=8,
-                        color="white" if conf[i, j] > half else "black")
+                ax.text(
+                    j,
+                    i,
+                    str(int(conf[i, j])),
+                    ha="center",
+                    va="center",
+                    fontsize=8,
+                    color="white" if conf[i, j] > half else "black",
+                )
     fig.tight_layout()
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png", metadata={"Software": None})
@@ -1035,8 +1061,8 @@ def _review_spans(rows: pd.DataFrame, *, rater_a: str, rater_b: str) -> list[tup
 def _max_numeric_id(values: Iterable[str | None], prefix: str) -> int:
     best = 0
     for v in values:
-        if v and v.startswith(prefix) and v[len(prefix):].isdigit():
-            best = max(best, int(v[len(prefix):]))
+        if v and v.startswith(prefix) and v[len(prefix) :].isdigit():
+            best = max(best, int(v[len(prefix) :]))
     return best
 
 
@@ -1083,8 +1109,9 @@ def write_review_eaf(
     try:
         tree = safe_et.parse(str(src), forbid_dtd=True, forbid_entities=True, forbid_external=True)
     except Exception as exc:  # the file was read once already; a change since is the user's
-        raise TurnbenchError(f"cannot read the file again for the review copy ({exc})",
-                             file=str(src)) from None
+        raise TurnbenchError(
+            f"cannot read the file again for the review copy ({exc})", file=str(src)
+        ) from None
     root = tree.getroot()
     ET.register_namespace("xsi", _XSI)
 
@@ -1118,14 +1145,18 @@ def write_review_eaf(
         for el in root.iter(tag)
     ]
     counters = [
-        prop for prop in (header.findall("PROPERTY") if header is not None else [])
+        prop
+        for prop in (header.findall("PROPERTY") if header is not None else [])
         if prop.get("NAME") in _ID_PROPERTIES
     ]
     # Past every id in the file and past ELAN's counter, so no id is ever given twice.
-    aid_next = max(
-        [_max_numeric_id(ann_ids, "a")]
-        + [int(p.text.strip()) for p in counters if p.text and p.text.strip().isdigit()]
-    ) + 1
+    aid_next = (
+        max(
+            [_max_numeric_id(ann_ids, "a")]
+            + [int(p.text.strip()) for p in counters if p.text and p.text.strip().isdigit()]
+        )
+        + 1
+    )
 
     children = list(root)
     tier_ids = {el.get("TIER_ID") for el in root.findall("TIER")}
@@ -1147,8 +1178,12 @@ def write_review_eaf(
         tier_ids.add(tier_id)
         tier = ET.Element(
             "TIER",
-            {"TIER_ID": tier_id, "LINGUISTIC_TYPE_REF": lt_id, "PARTICIPANT": participant,
-             "ANNOTATOR": REVIEW_ANNOTATOR},
+            {
+                "TIER_ID": tier_id,
+                "LINGUISTIC_TYPE_REF": lt_id,
+                "PARTICIPANT": participant,
+                "ANNOTATOR": REVIEW_ANNOTATOR,
+            },
         )
         spans = _review_spans(
             rows[rows["participant"] == participant], rater_a=rater_a, rater_b=rater_b
@@ -1164,9 +1199,13 @@ def write_review_eaf(
                 ts_next += 1
             ann = ET.SubElement(tier, "ANNOTATION")
             al = ET.SubElement(
-                ann, "ALIGNABLE_ANNOTATION",
-                {"ANNOTATION_ID": f"a{aid_next}", "TIME_SLOT_REF1": ids[0],
-                 "TIME_SLOT_REF2": ids[1]},
+                ann,
+                "ALIGNABLE_ANNOTATION",
+                {
+                    "ANNOTATION_ID": f"a{aid_next}",
+                    "TIME_SLOT_REF1": ids[0],
+                    "TIME_SLOT_REF2": ids[1],
+                },
             )
             aid_next += 1
             ET.SubElement(al, "ANNOTATION_VALUE").text = text

@@ -65,7 +65,6 @@ ANNOTATION_COLUMNS = {
 KNOWN_VERSIONS = ("2.7", "2.8", "3.0")
 
 
-
 # ---------------------------------------------------------------------------------------
 # Loading
 
@@ -161,7 +160,9 @@ def load_eaf(path: str | PathLike[str]) -> pympi.Elan.Eaf:
     return _load(path).eaf
 
 
-def expand_eaf_paths(paths_or_dirs: str | PathLike[str] | Iterable[str | PathLike[str]]) -> list[Path]:
+def expand_eaf_paths(
+    paths_or_dirs: str | PathLike[str] | Iterable[str | PathLike[str]],
+) -> list[Path]:
     """Files given, and the ``.eaf`` files directly inside folders given (sorted by name).
 
     Hidden files in a folder (names starting with ``.``) are skipped; a file named on its own
@@ -782,11 +783,24 @@ def inspect_markdown(results: Iterable[dict[str, Any]]) -> str:
     out: list[str] = []
     for r in results:
         out += [f"## {Path(r['file']).name}", ""]
-        out += [f"Session `{r['session']}`, EAF format {r['format'] or 'unknown'}, "
-                f"{len(r['tiers'])} tier(s).", ""]
+        out += [
+            f"Session `{r['session']}`, EAF format {r['format'] or 'unknown'}, "
+            f"{len(r['tiers'])} tier(s).",
+            "",
+        ]
         out += _md_table(
-            ["tier", "type", "parent", "annotator", "participant", "vocabulary",
-             "annotations", "from (s)", "to (s)", "role"],
+            [
+                "tier",
+                "type",
+                "parent",
+                "annotator",
+                "participant",
+                "vocabulary",
+                "annotations",
+                "from (s)",
+                "to (s)",
+                "role",
+            ],
             [
                 [
                     t["tier"],
@@ -834,7 +848,8 @@ def inspect_markdown(results: Iterable[dict[str, Any]]) -> str:
         context = [
             f"{kind}: "
             + ", ".join(
-                f"`{c['tier']}`" + (f" (participant {c['participant']})" if c["participant"] else "")
+                f"`{c['tier']}`"
+                + (f" (participant {c['participant']})" if c["participant"] else "")
                 for c in tiers
             )
             for kind, tiers in r["context_tiers"].items()
@@ -844,7 +859,9 @@ def inspect_markdown(results: Iterable[dict[str, Any]]) -> str:
         if "header" in r:
             h = r["header"]
             media = ", ".join(m.get("MEDIA_URL", "") for m in h["media"]) or "none"
-            out.append(f"Header: author {h['author'] or '–'}, date {h['date'] or '–'}, media {media}.")
+            out.append(
+                f"Header: author {h['author'] or '–'}, date {h['date'] or '–'}, media {media}."
+            )
         if r["notes"]:
             out += ["", "Notes:"] + [f"- {n}" for n in r["notes"]]
         out.append("")

@@ -280,7 +280,9 @@ def _label_row(
     r = records[idx]
     start, end = float(r["start_s"]), float(r["end_s"])
     return {
-        "clip_id": clip_id_for(session=r["session"], subject=r["participant"], start_s=start, end_s=end),
+        "clip_id": clip_id_for(
+            session=r["session"], subject=r["participant"], start_s=start, end_s=end
+        ),
         "session": r["session"],
         "subject": r["participant"],
         "cohort": "",
@@ -344,9 +346,7 @@ def adjudicate(
     rows: list[dict[str, Any]] = []
     unresolved: list[dict[str, Any]] = []
     records = annotations.to_dict("index")
-    for (session, participant), group in annotations.groupby(
-        ["session", "participant"], sort=True
-    ):
+    for (session, participant), group in annotations.groupby(["session", "participant"], sort=True):
         is_consensus = group["annotator"].map(normalise_value) == consensus_key
         raters = list(dict.fromkeys(group.loc[~is_consensus, "annotator"]))
         turns: list[_Turn] = []
@@ -372,7 +372,9 @@ def adjudicate(
             for a, b in zip(links["index_a"], links["index_b"], strict=True):
                 by_rep[a].consensus = b
             linked = set(links["index_b"])
-            turns += [_Turn(rep=i, members={}, consensus=i) for i in consensus.index if i not in linked]
+            turns += [
+                _Turn(rep=i, members={}, consensus=i) for i in consensus.index if i not in linked
+            ]
 
         for t in turns:
             double = len(t.members) >= 2
@@ -394,8 +396,7 @@ def adjudicate(
                     "start_s": float(first["start_s"]),
                     "end_s": float(first["end_s"]),
                     "values": ", ".join(
-                        f"{rater} {records[i]['angle_deg']:g}"
-                        for rater, i in t.members.items()
+                        f"{rater} {records[i]['angle_deg']:g}" for rater, i in t.members.items()
                     ),
                     "file": first["file"],
                     "tier": first["tier"],
@@ -592,10 +593,7 @@ def table1(labels: pd.DataFrame, participants: pd.DataFrame | None = None) -> pd
     subjects = _subject_table(labels, participants)
     rows = []
     for name, mask_s, mask_t in [
-        *(
-            (c, subjects["cohort"] == c, labels["cohort"] == c)
-            for c in COHORTS
-        ),
+        *((c, subjects["cohort"] == c, labels["cohort"] == c) for c in COHORTS),
         ("all", subjects["cohort"].notna(), labels["cohort"].notna()),
     ]:
         s = subjects[mask_s]
@@ -619,8 +617,12 @@ def _ordered(present: list[Any], preferred: list[Any]) -> list[Any]:
     return list(preferred) + sorted(p for p in present if p not in preferred)
 
 
-def table2(labels: pd.DataFrame, *, angles_deg: tuple[float, ...] | None = None,
-           scenarios: tuple[str, ...] | None = None) -> pd.DataFrame:
+def table2(
+    labels: pd.DataFrame,
+    *,
+    angles_deg: tuple[float, ...] | None = None,
+    scenarios: tuple[str, ...] | None = None,
+) -> pd.DataFrame:
     """The paper's Table 2: turns per scenario (rows) and angle (columns), with totals.
 
     Parameters
@@ -659,9 +661,11 @@ def turns_per_location(labels: pd.DataFrame) -> pd.DataFrame:
     loc = labels["location"].replace("", "(none)")
     counts = pd.crosstab(loc, labels["cohort"]).reindex(columns=list(COHORTS), fill_value=0)
     counts["total"] = counts.sum(axis=1)
-    counts = counts.assign(_name=counts.index).sort_values(
-        ["total", "_name"], ascending=[False, True], kind="mergesort"
-    ).drop(columns="_name")
+    counts = (
+        counts.assign(_name=counts.index)
+        .sort_values(["total", "_name"], ascending=[False, True], kind="mergesort")
+        .drop(columns="_name")
+    )
     counts.loc["total"] = counts.sum(axis=0)
     counts.index.name = "location"
     counts.columns.name = None
@@ -683,10 +687,9 @@ def _mean_sd(mean: float, sd: float) -> str:
 
 
 def _md(header: list[str], rows: list[list[str]]) -> list[str]:
-    return (
-        ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-        + ["| " + " | ".join(r) + " |" for r in rows]
-    )
+    return ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)] + [
+        "| " + " | ".join(r) + " |" for r in rows
+    ]
 
 
 def _angle_name(col: Any) -> str:
@@ -709,11 +712,20 @@ def stats_markdown(t1: pd.DataFrame, t2: pd.DataFrame, locations: pd.DataFrame) 
             for r in t1.itertuples(index=False)
         ],
     )
-    lines += ["", "Ages and years since diagnosis: mean ± sample standard deviation over "
-              "subjects with turns.", "", "## Table 2: turns per scenario and angle", ""]
+    lines += [
+        "",
+        "Ages and years since diagnosis: mean ± sample standard deviation over "
+        "subjects with turns.",
+        "",
+        "## Table 2: turns per scenario and angle",
+        "",
+    ]
     lines += _md(
         ["scenario", *(_angle_name(c) for c in t2.columns)],
-        [[str(idx), *(str(int(v)) for v in row)] for idx, row in zip(t2.index, t2.to_numpy(), strict=True)],
+        [
+            [str(idx), *(str(int(v)) for v in row)]
+            for idx, row in zip(t2.index, t2.to_numpy(), strict=True)
+        ],
     )
     lines += ["", "## Turns per location and cohort", ""]
     lines += _md(

@@ -212,7 +212,9 @@ def _regex(value: Any, key: str, source: str, *, groups: set[str]) -> re.Pattern
     try:
         pattern = re.compile(text)
     except re.error as exc:
-        raise TurnbenchError(f"{key} is not a valid regular expression: {exc}", file=source) from None
+        raise TurnbenchError(
+            f"{key} is not a valid regular expression: {exc}", file=source
+        ) from None
     extra = set(pattern.groupindex) - groups
     if extra:
         raise TurnbenchError(
@@ -246,9 +248,7 @@ def _vocab_values(name: str, values: Any, source: str) -> tuple[str, ...]:
     return tuple(out)
 
 
-def _build_vocabulary(
-    name: str, values: tuple[str, ...], aliases: Any, source: str
-) -> Vocabulary:
+def _build_vocabulary(name: str, values: tuple[str, ...], aliases: Any, source: str) -> Vocabulary:
     if not isinstance(aliases, dict):
         raise TurnbenchError(f"[aliases.{name}] must be a table", file=source)
     numeric = name == "turn_angle"
@@ -258,7 +258,9 @@ def _build_vocabulary(
         if numeric and isinstance(target, (int, float)) and not isinstance(target, bool):
             target = _format_angle(float(target))
         if not isinstance(target, str):
-            raise TurnbenchError(f"alias {alias!r} in [aliases.{name}] must map to a value", file=source)
+            raise TurnbenchError(
+                f"alias {alias!r} in [aliases.{name}] must map to a value", file=source
+            )
         canonical = plain.parse(target)
         if canonical is None:
             raise TurnbenchError(
@@ -282,7 +284,9 @@ def _schema_from_dict(data: dict[str, Any], source: str, base: dict[str, Any]) -
     _check_keys(data, _TOP_KEYS, "top level", source)
     version = data.get("version", 1)
     if version != 1:
-        raise TurnbenchError(f"schema version {version!r} is not supported (expected 1)", file=source)
+        raise TurnbenchError(
+            f"schema version {version!r} is not supported (expected 1)", file=source
+        )
     turn = {**base["turn"], **_check_keys(data.get("turn", {}), _TURN_KEYS, "turn", source)}
     context = {
         **base["context"],
@@ -310,7 +314,9 @@ def _schema_from_dict(data: dict[str, Any], source: str, base: dict[str, Any]) -
         raise TurnbenchError("turn.consensus_annotator must not be empty", file=source)
     return Schema(
         turn_tier_regex=_regex(turn["tier_regex"], "turn.tier_regex", source, groups=_GROUPS),
-        annotator_attribute=_string(turn["annotator_attribute"], "turn.annotator_attribute", source),
+        annotator_attribute=_string(
+            turn["annotator_attribute"], "turn.annotator_attribute", source
+        ),
         participant_attribute=_string(
             turn["participant_attribute"], "turn.participant_attribute", source
         ),
@@ -319,14 +325,20 @@ def _schema_from_dict(data: dict[str, Any], source: str, base: dict[str, Any]) -
         ).strip(),
         consensus_annotator=consensus,
         location_tier_regex=_regex(
-            context["location_tier_regex"], "context.location_tier_regex", source,
+            context["location_tier_regex"],
+            "context.location_tier_regex",
+            source,
             groups={"participant"},
         ),
         scenario_tier_regex=_regex(
-            context["scenario_tier_regex"], "context.scenario_tier_regex", source,
+            context["scenario_tier_regex"],
+            "context.scenario_tier_regex",
+            source,
             groups={"participant"},
         ),
-        turn_angle=_build_vocabulary("turn_angle", values["turn_angle"], aliases["turn_angle"], source),
+        turn_angle=_build_vocabulary(
+            "turn_angle", values["turn_angle"], aliases["turn_angle"], source
+        ),
         scenario=_build_vocabulary("scenario", values["scenario"], aliases["scenario"], source),
         location=_build_vocabulary("location", values["location"], aliases["location"], source),
         source=source,

@@ -59,14 +59,24 @@ __all__ = [
 ANGLES_DEG = (90, 135, 180, 225, 270, 315, 360)
 #: Share of each angle among the planted turns (Table 2's shape: mostly 90° and 180°).
 ANGLE_MIX: Mapping[int, float] = {
-    90: 0.45, 135: 0.12, 180: 0.30, 225: 0.05, 270: 0.04, 315: 0.02, 360: 0.02
+    90: 0.45,
+    135: 0.12,
+    180: 0.30,
+    225: 0.05,
+    270: 0.04,
+    315: 0.02,
+    360: 0.02,
 }
 #: Share of turns per scenario; each session records the three in this order.
 SCENARIO_MIX: Mapping[str, float] = {"scripted": 0.40, "clinical": 0.15, "free-living": 0.45}
 #: Rooms the turns happen in (all in the default schema's location vocabulary).
 LOCATION_MIX: Mapping[str, float] = {
-    "living room": 0.30, "kitchen": 0.25, "hallway": 0.20, "dining room": 0.10,
-    "bedroom": 0.10, "staircase": 0.05,
+    "living room": 0.30,
+    "kitchen": 0.25,
+    "hallway": 0.20,
+    "dining room": 0.10,
+    "bedroom": 0.10,
+    "staircase": 0.05,
 }
 
 #: One row per planted turn. ``a_*`` are what ``raters[0]`` wrote, ``b_*`` what ``raters[1]``
@@ -474,12 +484,18 @@ def write_sessions(
                     eaf.add_annotation(tier_names[(rater, subject)], w0, w1, str(value))
                     written_rows.append(
                         {
-                            "session": session, "file": file_name,
-                            "tier": tier_names[(rater, subject)], "annotator": rater,
-                            "participant": subject, "start_s": w0 / 1000.0,
-                            "end_s": w1 / 1000.0, "angle_deg": float(value),
-                            "scenario": turn["scenario"], "location": turn["location"],
-                            "value": str(value), "turn_id": turn_id,
+                            "session": session,
+                            "file": file_name,
+                            "tier": tier_names[(rater, subject)],
+                            "annotator": rater,
+                            "participant": subject,
+                            "start_s": w0 / 1000.0,
+                            "end_s": w1 / 1000.0,
+                            "angle_deg": float(value),
+                            "scenario": turn["scenario"],
+                            "location": turn["location"],
+                            "value": str(value),
+                            "turn_id": turn_id,
                         }
                     )
                 wa, wb = wrote.get(raters[0]), wrote.get(raters[1])
@@ -487,11 +503,18 @@ def write_sessions(
                 nan = float("nan")
                 truth_rows.append(
                     {
-                        "turn_id": turn_id, "session": session, "file": file_name,
-                        "subject": subject, "cohort": turn["cohort"], "pair": pair,
-                        "scenario": turn["scenario"], "location": turn["location"],
-                        "start_s": start_ms / 1000.0, "end_s": end_ms / 1000.0,
-                        "angle_deg": float(angle), "double_annotated": is_double,
+                        "turn_id": turn_id,
+                        "session": session,
+                        "file": file_name,
+                        "subject": subject,
+                        "cohort": turn["cohort"],
+                        "pair": pair,
+                        "scenario": turn["scenario"],
+                        "location": turn["location"],
+                        "start_s": start_ms / 1000.0,
+                        "end_s": end_ms / 1000.0,
+                        "angle_deg": float(angle),
+                        "double_annotated": is_double,
                         "kind": kind,
                         "a_start_s": wa[0] / 1000.0 if wa else nan,
                         "a_end_s": wa[1] / 1000.0 if wa else nan,

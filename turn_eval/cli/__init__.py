@@ -43,4 +43,3 @@ def cli() -> None:
 def main(args: list[str] | None = None) -> None:
     """Console-script entry point."""
     sys.exit(run_group(cli, "turn-eval", args))
-

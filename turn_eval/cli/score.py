@@ -73,7 +73,10 @@ def _bootstrap_progress(chunks, n_chunks: int):
     help="Bootstrap resamples for the 95% intervals (0: none).",
 )
 @click.option(
-    "--seed", type=click.IntRange(min=0), default=0, show_default=True,
+    "--seed",
+    type=click.IntRange(min=0),
+    default=0,
+    show_default=True,
     help="Seed of the bootstrap.",
 )
 @click.option(
