@@ -23,13 +23,10 @@ from turn_datasets.fileio import (
     write_json,
     write_text,
 )
-from turn_datasets.remap.agreement import (
-    AgreementAudit,
-    audit_agreement,
-    write_confusion_png,
-    write_review_eaf,
-)
+from turn_datasets.remap.agreement import AgreementAudit, audit_agreement
+from turn_datasets.remap.agreement_report import write_confusion_png
 from turn_datasets.remap.eaf import expand_eaf_paths, read_annotations
+from turn_datasets.remap.review_eaf import write_review_eaf
 from turn_datasets.remap.schema import load_schema
 
 #: Files written into --out-dir (review copies go to its ``review/`` folder).

@@ -33,7 +33,7 @@ import pandas as pd
 
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import typed_frame
-from turn_datasets.remap.agreement import match_annotations
+from turn_datasets.remap.matching import match_annotations
 from turn_datasets.remap.schema import load_schema, normalise_value
 
 __all__ = [
@@ -339,7 +339,9 @@ def adjudicate(
     ``double_annotated`` is true when at least two raters (consensus aside) labelled it.
     """
     if resolve not in RESOLVE_CHOICES:
-        raise ValueError(f"resolve must be one of {RESOLVE_CHOICES}, not {resolve!r}")
+        raise TurnbenchError(
+            f"resolve must be one of {RESOLVE_CHOICES}, not {resolve!r}", item="resolve"
+        )
     if not annotations.index.is_unique:
         raise ValueError("annotations have duplicate index labels")
     consensus_key = normalise_value(consensus_annotator)
