@@ -28,10 +28,10 @@ from turn_datasets.h36m.curation import (
     unmatched_overrides,
 )
 from turn_datasets.h36m.miner import MinerParams, build_index, mine_clips
+from turn_datasets.mocap.arrays import UNITS
 from turn_datasets.mocap.bvh import parse_joint_map
 from turn_datasets.mocap.readers import (
     FORMATS,
-    UNITS,
     SourceFile,
     discover,
     read_source,

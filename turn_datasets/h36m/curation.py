@@ -51,7 +51,7 @@ from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import sha256_file, typed_frame
 from turn_datasets.geometry import quantise_deg
 from turn_datasets.h36m.miner import MinerParams, SequenceClips, clip_id_of, measure_clip
-from turn_datasets.mocap.readers import natural_key
+from turn_datasets.render.order import natural_key
 from turn_datasets.skeleton import MocapSequence
 
 __all__ = [

@@ -16,7 +16,7 @@ Frame accuracy
     checked afterwards. When a video's frame rate differs from the index's ``fps``, frames are
     mapped through time: ``round(frame * video_fps / fps)``.
 
-Video names are matched through :func:`turn_datasets.mocap.readers.parse_h36m_action`, so the
+Video names are matched through :func:`turn_datasets.mocap.h36m.parse_h36m_action`, so the
 index's canonical ``Photo`` finds ``TakingPhoto.55011271.mp4`` and ``WalkDog`` finds
 ``WalkingDog 1.58860488.mp4``; files whose names are no action (``_ALL.54138969.mp4``, the
 whole session) are ignored.
@@ -36,7 +36,7 @@ import pandas as pd
 
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import atomic_path, check_not_input, staged_dir
-from turn_datasets.mocap.readers import parse_h36m_action
+from turn_datasets.mocap.h36m import parse_h36m_action
 
 __all__ = [
     "INDEX_COLUMNS",
