@@ -22,7 +22,5 @@ def natural_key(text: str) -> tuple:
     """
     text = str(text)
     parts = _NUMBER.split(text)
-    key = tuple(
-        (0, Decimal(p), "") if i % 2 else (1, Decimal(0), p) for i, p in enumerate(parts)
-    )
+    key = tuple((0, Decimal(p), "") if i % 2 else (1, Decimal(0), p) for i, p in enumerate(parts))
     return (key, text)
