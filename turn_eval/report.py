@@ -43,7 +43,7 @@ from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import write_text
 from turn_datasets.render.labels import METRIC_LABELS
-from turn_datasets.render.numbers import MISSING, format_metric, is_missing
+from turn_datasets.render.numbers import MISSING, fixed, format_metric, is_missing
 
 __all__ = [
     "METRICS",
@@ -364,7 +364,7 @@ class Section:
         for record in df.itertuples(index=False, name=None):
             rows.append(
                 [
-                    (f"{v:.{float_digits}f}" if isinstance(v, float) and math.isfinite(v) else v)
+                    (fixed(v, float_digits) if isinstance(v, float) and math.isfinite(v) else v)
                     for v in record
                 ]
             )
