@@ -55,8 +55,16 @@ def test_format_metric_by_kind() -> None:
 def test_natural_key_orders_numbers_as_numbers() -> None:
     assert sorted(["S11", "S2", "S1", "S9"], key=natural_key) == ["S1", "S2", "S9", "S11"]
     assert sorted(["135", "22.5", "45", "90"], key=natural_key) == ["22.5", "45", "90", "135"]
-    # upper case first (code points), and names equal as numbers are ordered by their text
-    assert sorted(["b", "A", "a"], key=natural_key) == ["A", "a", "b"]
+    # text by code point, as the clip index and its manifest have always listed subjects,
+    # actions and files (upper case first: "WalkTogether" before "Walking"); names equal as
+    # numbers are ordered by their exact text
+    assert sorted(["Walking", "WalkTogether", "b", "a", "A"], key=natural_key) == [
+        "A",
+        "WalkTogether",
+        "Walking",
+        "a",
+        "b",
+    ]
     assert sorted(["01", "1"], key=natural_key) == ["01", "1"]
 
 
