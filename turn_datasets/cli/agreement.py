@@ -12,8 +12,18 @@ import click
 
 from turn_datasets import __version__
 from turn_datasets.cli import CONTEXT_SETTINGS, remap
-from turn_datasets.cli.common import format_option, info, progress, warn, wrote
-from turn_datasets.cli.labels import min_overlap_option, no_turns_error, reject_nan
+from turn_datasets.cli.common import (
+    KAPPA,
+    SEED,
+    format_option,
+    info,
+    progress,
+    resamples,
+    warn,
+    warn_below,
+    wrote,
+)
+from turn_datasets.cli.labels import min_overlap_option, no_turns_error
 from turn_datasets.errors import GateFailed
 from turn_datasets.fileio import (
     check_not_input,
@@ -67,9 +77,9 @@ REVIEW_DIR = "review"
 @min_overlap_option
 @click.option(
     "--min-kappa",
-    type=click.FloatRange(-1.0, 1.0),
+    type=KAPPA,
     default=None,
-    callback=reject_nan,
+    callback=warn_below(0.0, "a gate below chance agreement passes almost any audit"),
     help="Gate: exit 3 after the report when Cohen's kappa is below this (or undefined).",
 )
 @format_option(default="md", choices=("md", "json"))
@@ -92,12 +102,12 @@ REVIEW_DIR = "review"
 )
 @click.option(
     "--bootstrap",
-    type=click.IntRange(min=0),
+    type=resamples(),
     default=1000,
     show_default=True,
     help="Bootstrap resamples of the matched pairs for the 95% CI (0: no CI).",
 )
-@click.option("--seed", type=int, default=0, show_default=True, help="Bootstrap seed.")
+@click.option("--seed", type=SEED, default=0, show_default=True, help="Bootstrap seed.")
 def agreement(
     inputs: tuple[Path, ...],
     schema_path: Path | None,

@@ -11,7 +11,16 @@ from pathlib import Path
 
 import click
 
-from turn_datasets.cli.common import emit, format_option, progress, warn, wrote
+from turn_datasets.cli.common import (
+    BIN_WIDTH_DEG,
+    SEED,
+    emit,
+    format_option,
+    progress,
+    resamples,
+    warn,
+    wrote,
+)
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import (
     check_not_input,
@@ -67,21 +76,21 @@ def _bootstrap_progress(chunks, n_chunks: int):
 @click.option(
     "--bootstrap",
     "n_resamples",
-    type=click.IntRange(min=0),
+    type=resamples(),
     default=1000,
     show_default=True,
     help="Bootstrap resamples for the 95% intervals (0: none).",
 )
 @click.option(
     "--seed",
-    type=click.IntRange(min=0),
+    type=SEED,
     default=0,
     show_default=True,
     help="Seed of the bootstrap.",
 )
 @click.option(
     "--bin-width-deg",
-    type=click.FloatRange(min=0, min_open=True),
+    type=BIN_WIDTH_DEG,
     default=45.0,
     show_default=True,
     help="Width of the angle bins (the paper's 45°).",
