@@ -213,7 +213,9 @@ def _write_outputs(
     review_targets = [out_dir / REVIEW_DIR / f"{s}.eaf" for s in sessions_to_review]
     for target in (*targets, *review_targets):
         check_not_input(target, paths)
-    with staged_dir(out_dir) as stage:
+    removed: list[Path] = []
+    # The folder holds one run: review copies of sessions that agree now are removed.
+    with staged_dir(out_dir, owns=(f"{REVIEW_DIR}/*.eaf",), removed=removed) as stage:
         write_json(stage / "agreement.json", document)
         write_text(stage / "agreement.md", markdown)
         write_csv(audit.items, stage / "pairs.csv")
@@ -239,3 +241,5 @@ def _write_outputs(
     wrote(out_dir, what=what + ") to")
     if review_eaf and not review_targets:
         info("no disagreements: no review copies written")
+    if removed:
+        info(f"removed {len(removed)} file(s) of the previous run: " + ", ".join(map(str, removed)))

@@ -6,9 +6,12 @@ Exit codes: 0 ok, 2 bad input (a :class:`TurnbenchError` or a usage error), 3 fa
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import math
+import signal
 import sys
+import threading
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import TypeVar
@@ -41,10 +44,41 @@ EXIT_GATE = 3
 T = TypeVar("T")
 
 
+class Terminated(BaseException):
+    """SIGTERM arrived: unwinds like Ctrl-C, so every staging folder is removed on the way."""
+
+
+def _raise_terminated(signum, frame) -> None:
+    raise Terminated
+
+
+@contextlib.contextmanager
+def _sigterm_unwinds() -> Iterator[None]:
+    # `timeout`, systemd and CI stop a job with SIGTERM, whose default action kills at once
+    # and left hidden staging folders with full copies of the output behind. Raising instead
+    # runs the same `finally` blocks as SIGINT does. Signals can only be set in the main thread.
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def run_group(group: click.Group, prog_name: str, args: list[str] | None = None) -> int:
     """Run a click group, mapping turnbench errors to one line on stderr and an exit code."""
+    with _sigterm_unwinds():
+        return _run_group(group, prog_name, args)
+
+
+def _run_group(group: click.Group, prog_name: str, args: list[str] | None) -> int:
     try:
         rv = group.main(args=args, prog_name=prog_name, standalone_mode=False)
+    except Terminated:
+        click.echo(f"{prog_name}: terminated", err=True)
+        return 128 + signal.SIGTERM
     except TurnbenchError as exc:
         click.echo(f"{prog_name}: error: {exc}", err=True)
         return EXIT_BAD_INPUT

@@ -16,6 +16,7 @@ from turn_datasets.cli.common import (
     SEED,
     emit,
     format_option,
+    info,
     progress,
     resamples,
     warn,
@@ -150,8 +151,10 @@ def score(
     }
     frame = scores_frame(scores)
     if out_dir is not None:
+        removed: list[Path] = []
         try:
-            with staged_dir(out_dir) as tmp:
+            # The folder holds one run: figures of an earlier --plots run go when this has none.
+            with staged_dir(out_dir, owns=PLOT_FILES, removed=removed) as tmp:
                 write_json(tmp / "scores.json", scores)
                 write_text(tmp / "scores.md", texts["md"])
                 write_csv(frame, tmp / "scores.csv")
@@ -175,6 +178,11 @@ def score(
             ) from None
         names = [*SCORE_FILES, *(PLOT_FILES if plots else ())]
         wrote(*(out_dir / name for name in names), what="scores")
+        if removed:
+            info(
+                f"removed {len(removed)} file(s) of the previous run: "
+                + ", ".join(map(str, removed))
+            )
     if fmt == "csv":
         emit(frame.to_csv(index=False, lineterminator="\n"))
     else:
