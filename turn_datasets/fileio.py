@@ -202,14 +202,20 @@ def write_json(path: str | os.PathLike[str], obj: Any) -> Path:
     return write_text(path, to_json_text(obj))
 
 
-def check_not_input(out: str | os.PathLike[str], inputs: Iterable[str | os.PathLike[str]]) -> None:
-    """Refuse to write over one of the command's own inputs."""
+def check_not_input(
+    out: str | os.PathLike[str],
+    inputs: Iterable[str | os.PathLike[str]],
+    *,
+    option: str = "--out",
+) -> None:
+    """Refuse to write over one of the command's own inputs (``option``: the command's
+    output option, named in the message)."""
     out_path = Path(out).resolve()
     for item in inputs:
         p = Path(item)
         if p.exists() and p.resolve() == out_path:
             raise TurnbenchError(
-                "the output would overwrite this input; choose another --out", file=str(item)
+                f"{out} would overwrite this input; choose another {option}", file=str(item)
             )
 
 

@@ -212,7 +212,7 @@ def _write_outputs(
     files = dict(zip(audit.items["session"], audit.items["file"], strict=True))
     review_targets = [out_dir / REVIEW_DIR / f"{s}.eaf" for s in sessions_to_review]
     for target in (*targets, *review_targets):
-        check_not_input(target, paths)
+        check_not_input(target, paths, option="--out-dir")
     removed: list[Path] = []
     # The folder holds one run: review copies of sessions that agree now are removed.
     with staged_dir(out_dir, owns=(f"{REVIEW_DIR}/*.eaf",), removed=removed) as stage:

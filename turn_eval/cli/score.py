@@ -135,7 +135,7 @@ def score(
     inputs = [predictions, reference]
     if out_dir is not None:
         for name in (*SCORE_FILES, *(PLOT_FILES if plots else ())):
-            check_not_input(out_dir / name, inputs)
+            check_not_input(out_dir / name, inputs, option="--out-dir")
         if out_dir.exists() and not out_dir.is_dir():
             raise TurnbenchError("--out-dir is a file, not a folder", file=str(out_dir))
     ref = read_reference(reference, bin_width_deg=bin_width_deg)
