@@ -141,7 +141,9 @@ def agreement(
         raise click.UsageError("--review-eaf writes into --out-dir; give one")
     schema = load_schema(schema_path)
     paths = expand_eaf_paths(inputs)
-    annotations = read_annotations(list(progress(paths, label="reading ELAN files")), schema=schema)
+    annotations = read_annotations(
+        list(progress(paths, label="reading ELAN files")), schema=schema, warn=warn
+    )
     if annotations.empty:
         raise no_turns_error(paths, schema)
     audit = audit_agreement(

@@ -11,7 +11,7 @@ import click
 import pandas as pd
 
 from turn_datasets.cli import CONTEXT_SETTINGS, remap
-from turn_datasets.cli.common import FRACTION, emit, format_option, info, progress, wrote
+from turn_datasets.cli.common import FRACTION, emit, format_option, info, progress, warn, wrote
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, staged_dir, to_json_text, write_csv
 from turn_datasets.remap.eaf import (
@@ -177,7 +177,10 @@ def labels_cmd(
 
     participants = read_participants(participants_path)
     annotations = read_annotations(
-        paths, schema=schema, iterate=lambda ps: progress(ps, label="reading ELAN files")
+        paths,
+        schema=schema,
+        iterate=lambda ps: progress(ps, label="reading ELAN files"),
+        warn=warn,
     )
     if annotations.empty:
         raise no_turns_error(paths, schema)
