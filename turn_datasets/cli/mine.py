@@ -12,8 +12,21 @@ from typing import Any
 import click
 import pandas as pd
 
+from turn_datasets import limits
 from turn_datasets.cli import h36m
-from turn_datasets.cli.common import emit, format_option, info, progress, warn
+from turn_datasets.cli.common import (
+    ANGLE_DEG,
+    DURATION_S,
+    FPS_HZ,
+    POSITIVE_DURATION_S,
+    SPEED_DEG_S,
+    Number,
+    emit,
+    format_option,
+    info,
+    progress,
+    warn,
+)
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import atomic_path, check_not_input, sha256_file, to_json_text
 from turn_datasets.h36m.curation import (
@@ -102,7 +115,7 @@ def _sha256_or_none(path: Path) -> str | None:
     default=None,
     help="Joint layout of generic arrays (.npy/.npz/.h5 of shape frames x joints x 3).",
 )
-@click.option("--fps", type=float, default=None, help="Frame rate of generic arrays, in Hz.")
+@click.option("--fps", type=FPS_HZ, default=None, help="Frame rate of generic arrays, in Hz.")
 @click.option(
     "--up-axis",
     type=click.Choice(UP_AXES),
@@ -129,49 +142,49 @@ def _sha256_or_none(path: Path) -> str | None:
 )
 @click.option(
     "--min-turn-deg",
-    type=float,
+    type=ANGLE_DEG,
     default=_D.min_turn_deg,
     show_default=True,
     help="Smallest net hip rotation of a clip, in degrees (the paper's 45).",
 )
 @click.option(
     "--max-gap-s",
-    type=float,
+    type=DURATION_S,
     default=_D.max_gap_s,
     show_default=True,
     help="Dropouts up to this long (seconds) are bridged; longer ones cut the sequence.",
 )
 @click.option(
     "--smooth-s",
-    type=float,
+    type=POSITIVE_DURATION_S,
     default=_D.smooth_s,
     show_default=True,
     help="Savitzky-Golay window of the yaw rate, in seconds (about one step).",
 )
 @click.option(
     "--start-speed-deg-s",
-    type=float,
+    type=Number(float, min=0, min_open=True, max=limits.MAX_SPEED_DEG_S),
     default=_D.start_speed_deg_s,
     show_default=True,
     help="A turn must somewhere rotate faster than this, in degrees per second.",
 )
 @click.option(
     "--stop-speed-deg-s",
-    type=float,
+    type=SPEED_DEG_S,
     default=_D.stop_speed_deg_s,
     show_default=True,
     help="A turn starts and stops where the rotation crosses this speed, in degrees per second.",
 )
 @click.option(
     "--merge-gap-s",
-    type=float,
+    type=DURATION_S,
     default=_D.merge_gap_s,
     show_default=True,
     help="Rotations in the same direction this close (seconds) are one turn.",
 )
 @click.option(
     "--position-cutoff-hz",
-    type=float,
+    type=Number(float, min=0, max=limits.MAX_FPS_HZ),
     default=_D.position_cutoff_hz,
     show_default=True,
     help="Zero-phase low-pass of the hip positions against joint noise, in Hz (0: off).",
@@ -236,8 +249,6 @@ def mine_cmd(
         merge_gap_s=merge_gap_s,
         position_cutoff_hz=position_cutoff_hz,
     )
-    if fps is not None and not fps > 0:
-        raise TurnbenchError(f"--fps must be positive, got {fps}")
     jmap = parse_joint_map(joint_map) if joint_map else None
     mpath = manifest_path(out)
     _check_out_folder(out)

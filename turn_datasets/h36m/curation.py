@@ -51,6 +51,7 @@ from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import sha256_file, typed_frame
 from turn_datasets.geometry import quantise_deg
 from turn_datasets.h36m.miner import MinerParams, SequenceClips, clip_id_of, measure_clip
+from turn_datasets.limits import MAX_ANGLE_DEG
 from turn_datasets.mocap.readers import natural_key
 from turn_datasets.skeleton import MocapSequence
 
@@ -426,6 +427,11 @@ def read_clip_index(path: str | os.PathLike[str]) -> pd.DataFrame:
     # angle edited by hand, a column shifted) would put a clip in the wrong row unnoticed.
     checks = (
         (frame["angle_deg"] < 0, "angle_deg {} is negative (it is a magnitude)", "angle_deg"),
+        (
+            frame["angle_deg"] > MAX_ANGLE_DEG,
+            f"angle_deg {{}} is beyond the plausible {MAX_ANGLE_DEG:g} (see the README)",
+            "angle_deg",
+        ),
         (frame["duration_s"] <= 0, "duration_s {} is not positive", "duration_s"),
         (
             frame["bin_deg"] != quantise_deg(frame["angle_deg"].to_numpy()),

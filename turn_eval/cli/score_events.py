@@ -10,7 +10,16 @@ from pathlib import Path
 
 import click
 
-from turn_datasets.cli.common import emit, format_option, progress, warn, wrote
+from turn_datasets.cli.common import (
+    FRACTION,
+    SEED,
+    emit,
+    format_option,
+    progress,
+    resamples,
+    warn,
+    wrote,
+)
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import (
     check_not_input,
@@ -66,7 +75,7 @@ _path = click.Path(dir_okay=True, path_type=Path)
 )
 @click.option(
     "--iou",
-    type=click.FloatRange(0.0, 1.0, min_open=True),
+    type=FRACTION,
     default=0.5,
     show_default=True,
     help="A detection and a turn can match when their temporal IoU is at least this.",
@@ -81,15 +90,13 @@ _path = click.Path(dir_okay=True, path_type=Path)
 @click.option(
     "--bootstrap",
     "n_resamples",
-    type=click.IntRange(min=0, max=100_000),
+    type=resamples(),
     default=1000,
     show_default=True,
     help="Cluster-bootstrap resamples of the (session, subject) units for the 95% intervals "
     "(0: none).",
 )
-@click.option(
-    "--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Bootstrap seed."
-)
+@click.option("--seed", type=SEED, default=0, show_default=True, help="Bootstrap seed.")
 @click.option(
     "--ignore-unknown",
     is_flag=True,
