@@ -37,7 +37,7 @@ from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import typed_frame
 from turn_datasets.render.labels import METRIC_LABELS
-from turn_datasets.render.markdown import markdown_table
+from turn_datasets.render.markdown import metric_table
 from turn_datasets.render.numbers import MISSING, fixed, format_metric
 from turn_datasets.render.order import natural_key
 from turn_eval.metrics import (
@@ -274,7 +274,7 @@ def scores_markdown(scores: Mapping[str, Any]) -> str:
         + ([""] if ci is not None else [])
     )
     rows.append(["# Turns", format_metric("n", overall["n"])] + ([""] if ci is not None else []))
-    out += markdown_table(header, rows, align="l" + "r" * (len(header) - 1), padded_rule=True)
+    out += metric_table(header, rows)
 
     for col, block in scores.get("by", {}).items():
         groups = block["groups"]
@@ -294,13 +294,13 @@ def scores_markdown(scores: Mapping[str, Any]) -> str:
             + [format_metric("n", avg["n"])]
         )
         header = [col, *names, "Avg."]
-        out += markdown_table(header, rows, align="l" + "r" * (len(header) - 1), padded_rule=True)
+        out += metric_table(header, rows)
 
     per_bin = overall.get("per_bin")
     if per_bin:
         out += ["", "## Per bin (reference bin, degrees)", ""]
         labels = list(per_bin)
-        out += markdown_table(
+        out += metric_table(
             ["Bin", *labels],
             [
                 ["Precision (%)"]
@@ -309,8 +309,6 @@ def scores_markdown(scores: Mapping[str, Any]) -> str:
                 ["# Turns"] + [str(per_bin[b]["n"]) for b in labels],
                 ["# Predicted"] + [str(per_bin[b]["n_predicted"]) for b in labels],
             ],
-            align="l" + "r" * len(labels),
-            padded_rule=True,
         )
 
     notes = [

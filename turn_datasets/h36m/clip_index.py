@@ -17,6 +17,7 @@ import pandas as pd
 
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.geometry import quantise_deg
+from turn_datasets.limits import MAX_ANGLE_DEG
 from turn_datasets.mocap.h36m import parse_h36m_action
 
 __all__ = ["read_clip_index"]
@@ -114,6 +115,13 @@ def _check_angles(frame: pd.DataFrame, p: Path) -> pd.DataFrame:
         checks.append(
             (frame["angle_deg"] < 0, "angle_deg {} is negative (it is a magnitude)", "angle_deg")
         )
+        checks.append(
+            (
+                frame["angle_deg"] > MAX_ANGLE_DEG,
+                f"angle_deg {{}} is beyond the plausible {MAX_ANGLE_DEG:g} (see the README)",
+                "angle_deg",
+            )
+        )
     if "duration_s" in cols:
         checks.append((frame["duration_s"] <= 0, "duration_s {} is not positive", "duration_s"))
     if {"angle_deg", "bin_deg"} <= set(cols):
@@ -147,7 +155,7 @@ def read_clip_index(
         non-empty and unique; ``start_frame``/``end_frame`` whole numbers with
         ``0 <= start_frame < end_frame`` (int64); ``fps`` positive (float64);
         ``angle_deg``, ``duration_s`` and ``bin_deg`` finite (float64), the angle not
-        negative (a magnitude), the duration positive and the bin
+        negative (a magnitude) nor beyond :data:`turn_datasets.limits.MAX_ANGLE_DEG`, the duration positive and the bin
         :func:`turn_datasets.geometry.quantise_deg` of the angle. Other columns are text
         (an empty cell is ``""``).
     h36m_actions

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 from typing import Any
 
-__all__ = ["markdown_cell", "markdown_table"]
+__all__ = ["markdown_cell", "markdown_table", "metric_table"]
 
 
 def markdown_cell(value: Any) -> str:
@@ -41,3 +41,9 @@ def markdown_table(
     lines = ["| " + " | ".join(markdown_cell(h) for h in header) + " |", rule]
     lines += ["| " + " | ".join(markdown_cell(c) for c in row) + " |" for row in rows]
     return lines
+
+
+def metric_table(header: Sequence[Any], rows: Iterable[Sequence[Any]]) -> list[str]:
+    """The harness's metric tables (scores.md, score-events' Markdown): the first column (a
+    label) left-aligned, every other (a number) right-aligned, the rule padded."""
+    return markdown_table(header, rows, align="l" + "r" * (len(header) - 1), padded_rule=True)
