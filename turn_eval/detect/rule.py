@@ -63,8 +63,8 @@ class DetectParams:
         A move of the mid-hip point between consecutive frames by more than this many body
         sizes (trunk + upper arms, about 1.1 m in an adult) is a jump to another person.
     identity_size_change
-        A sustained change of the body's size by more than this fraction (over half a
-        second) is a jump to another person.
+        A change of the body's size by more than this fraction (the median over one second
+        after a frame against the second before) is a jump to another person.
     identity_size_tolerance
         Stretches whose size differs from most of the stream's by more than this fraction
         are another person's and ignored.
