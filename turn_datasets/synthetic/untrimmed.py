@@ -86,6 +86,10 @@ __all__ = [
     "write_untrimmed_corpus",
     "SCENARIO_DEGRADE",
     "camera_frame_m",
+    "plant_sitting",
+    "plant_bystander",
+    "draw_swaps",
+    "swap_sides",
 ]
 
 #: Share of labelled turns per bin (Table 2's shape restricted to 90-225°).
@@ -406,7 +410,7 @@ def timeline_segments(
     return b.segments, events, heading0
 
 
-def _sit(positions: np.ndarray, a: int, b: int, fps: float) -> None:
+def plant_sitting(positions: np.ndarray, a: int, b: int, fps: float) -> None:
     """Sit down at the start of frames ``[a, b)`` and stand up at their end, in place.
 
     The pelvis and everything above it drops by 450 mm and moves 120 mm back (onto the
@@ -439,7 +443,7 @@ def _sit(positions: np.ndarray, a: int, b: int, fps: float) -> None:
         )
 
 
-def _bystander(rng: np.random.Generator, n: int, fps: float, near_mm: np.ndarray) -> np.ndarray:
+def plant_bystander(rng: np.random.Generator, n: int, fps: float, near_mm: np.ndarray) -> np.ndarray:
     """Another person for ``n`` frames, 12-25% larger or smaller, 1.5-3 m from ``near_mm``,
     standing or walking, turning 90-180° half of the time: what the tracker jumps to."""
     if rng.random() < 0.5 and n >= 12:
@@ -467,7 +471,13 @@ def _bystander(rng: np.random.Generator, n: int, fps: float, near_mm: np.ndarray
     return other
 
 
-def _swaps(
+def swap_sides(positions17: np.ndarray, a: int, b: int) -> None:
+    """Exchange the left and right joints of frames ``[a, b)`` in place (17-joint layout)."""
+    for left, right in _LR_PAIRS:
+        positions17[a:b, [left, right]] = positions17[a:b, [right, left]]
+
+
+def draw_swaps(
     rng: np.random.Generator, facing_deg: np.ndarray, fps: float, params: ArtefactParams
 ) -> list[tuple[int, int]]:
     """Frame runs whose left and right joints get exchanged, mostly with the back turned."""
@@ -541,10 +551,10 @@ def synthesize_stream(
     body = seq.positions
     for ev in events.itertuples(index=False):
         if ev.kind == "sit_stand":
-            _sit(body, ev.start_frame, ev.end_frame, fps_hz)
+            plant_sitting(body, ev.start_frame, ev.end_frame, fps_hz)
         elif ev.kind == "bystander":
             near = body[ev.start_frame, 0, :]
-            body[ev.start_frame : ev.end_frame] = _bystander(
+            body[ev.start_frame : ev.end_frame] = plant_bystander(
                 rng, ev.end_frame - ev.start_frame, fps_hz, near
             )
     body17 = body[:, list(H36M17_FROM_32), :]
@@ -573,10 +583,9 @@ def synthesize_stream(
     for ev in events.itertuples(index=False):
         if ev.kind == "absence":
             out[ev.start_frame : ev.end_frame] = np.nan
-    swaps = _swaps(rng, facing, fps_hz, artefacts)
+    swaps = draw_swaps(rng, facing, fps_hz, artefacts)
     for a, b in swaps:
-        for left, right in _LR_PAIRS:
-            out[a:b, [left, right]] = out[a:b, [right, left]]
+        swap_sides(out, a, b)
     rows.append(
         pd.DataFrame(
             {

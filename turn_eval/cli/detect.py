@@ -5,6 +5,7 @@ from __future__ import annotations
 import importlib
 import inspect
 import re
+import sys
 from dataclasses import fields
 from pathlib import Path
 
@@ -187,7 +188,7 @@ def detect_command(
     with click.progressbar(
         length=len(files),
         label=f"detecting {where}".strip(),
-        file=click.get_text_stream("stderr"),
+        file=sys.stderr,
         show_pos=True,
     ) as bar:
         run = detect_files(

@@ -118,9 +118,10 @@ def identity_pieces(
         before = np.concatenate((np.full(half + 1, centred[0]), centred[: -half - 1]))
         after = np.concatenate((centred[half:], np.full(half, centred[-1])))
         change = np.abs(np.log(after / before))
-        # one cut per excursion above the threshold, where the change is largest
+        # one cut per excursion above the threshold, in its middle: the medians turn a step
+        # of size into a plateau of change centred on it, about one window wide
         for a, b in zip(*runs(change > np.log1p(size_change)), strict=True):
-            cuts.add(int(a + np.argmax(change[a:b])))
+            cuts.add(int((a + b) // 2))
     bounds = [0, *sorted(cuts), idx.size]
     spans = [
         (bounds[i], bounds[i + 1]) for i in range(len(bounds) - 1) if bounds[i + 1] > bounds[i]
