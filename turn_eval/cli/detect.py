@@ -11,7 +11,16 @@ from pathlib import Path
 
 import click
 
-from turn_datasets.cli.common import info, wrote
+from turn_datasets import limits
+from turn_datasets.cli.common import (
+    ANGLE_DEG,
+    DURATION_S,
+    FPS_HZ,
+    SPEED_DEG_S,
+    Number,
+    info,
+    wrote,
+)
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import atomic_path, check_not_input, to_json_text
 from turn_datasets.h36m.curation import manifest_path
@@ -35,6 +44,19 @@ def _attribute_docs(cls: type) -> dict[str, str]:
     return out
 
 
+def _option_type(name: str) -> Number:
+    """The checked option type for a parameter, by the unit its name ends in."""
+    if name.endswith("_deg_s"):
+        return SPEED_DEG_S
+    if name.endswith("_deg"):
+        return ANGLE_DEG
+    if name.endswith("_s"):
+        return DURATION_S
+    if name.endswith("_hz"):
+        return Number(float, min=0, max=limits.MAX_FPS_HZ)
+    return Number(float, min=0, min_open=True, max=100.0)  # sizes and fractions
+
+
 def _param_options(func):
     """One option per float parameter of DetectParams and of the miner (units in the names)."""
     detect_docs = _attribute_docs(DetectParams)
@@ -53,7 +75,7 @@ def _param_options(func):
         func = click.option(
             f"--{name.replace('_', '-')}",
             name,
-            type=float,
+            type=_option_type(name),
             default=default,
             show_default=True,
             help=text,
@@ -107,7 +129,7 @@ def _load_detector(spec: str | None, params: DetectParams) -> TurnDetector:
 @click.option(
     "--fps",
     "fps_hz",
-    type=click.FloatRange(min=0, min_open=True),
+    type=FPS_HZ,
     required=True,
     help="Frame rate of the streams, Hz.",
 )
@@ -127,7 +149,7 @@ def _load_detector(spec: str | None, params: DetectParams) -> TurnDetector:
 )
 @click.option(
     "--workers",
-    type=click.IntRange(min=1),
+    type=Number(int, min=1, max=4096),
     default=None,
     help="Map over files on a local Dask cluster of N processes (default: serial, no Dask).",
 )

@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 import pandas as pd
 
-from turn_datasets.cli.common import progress, wrote
+from turn_datasets.cli.common import FPS_HZ, progress, wrote
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, write_csv
 from turn_datasets.geometry import METHODS, parse_joints
@@ -57,7 +57,7 @@ from turn_eval.predict import predict_angles
 @click.option(
     "--fps",
     "fps_hz",
-    type=click.FloatRange(min=0, min_open=True),
+    type=FPS_HZ,
     default=None,
     help="Frame rate in Hz; adds speed_deg_s = angle / (frames / fps) (equation 4).",
 )
