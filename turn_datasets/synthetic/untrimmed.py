@@ -443,7 +443,9 @@ def plant_sitting(positions: np.ndarray, a: int, b: int, fps: float) -> None:
         )
 
 
-def plant_bystander(rng: np.random.Generator, n: int, fps: float, near_mm: np.ndarray) -> np.ndarray:
+def plant_bystander(
+    rng: np.random.Generator, n: int, fps: float, near_mm: np.ndarray
+) -> np.ndarray:
     """Another person for ``n`` frames, 12-25% larger or smaller, 1.5-3 m from ``near_mm``,
     standing or walking, turning 90-180° half of the time: what the tracker jumps to."""
     if rng.random() < 0.5 and n >= 12:
