@@ -23,7 +23,7 @@ from turn_datasets.cli.common import (
 )
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import atomic_path, check_not_input, to_json_text
-from turn_datasets.h36m.curation import manifest_path
+from turn_datasets.h36m.manifest import manifest_path
 from turn_datasets.h36m.miner import MinerParams
 from turn_datasets.skeleton import LAYOUTS, UP_AXES, get_layout
 from turn_eval.cli import CONTEXT_SETTINGS, cli

@@ -2,7 +2,7 @@
 
 A *stream* is the skeleton of one person over a whole recording: ``(frames, joints, 3)``
 positions, NaN on frames where the person is not seen. Files hold streams as
-:func:`turn_datasets.mocap.readers.iter_arrays` reads them:
+:func:`turn_datasets.mocap.arrays.iter_arrays` reads them:
 
 ``.npz``
     One array per person; the file's stem is the **session**, each key a **subject**
@@ -34,7 +34,8 @@ from pathlib import Path
 import numpy as np
 
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.mocap.readers import ARRAY_SUFFIXES, iter_arrays, natural_key
+from turn_datasets.mocap.arrays import ARRAY_SUFFIXES, iter_arrays
+from turn_datasets.render.order import natural_key
 from turn_datasets.skeleton import Layout, to_z_up
 
 __all__ = [
@@ -129,7 +130,7 @@ def iter_layout_arrays(
     """``(name, array)`` of each array of a file, refusing one whose joints do not fit ``layout``.
 
     The arrays are as stored (dtype and axes unchanged), one at a time
-    (:func:`turn_datasets.mocap.readers.iter_arrays`).
+    (:func:`turn_datasets.mocap.arrays.iter_arrays`).
 
     Raises
     ------
