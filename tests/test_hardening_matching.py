@@ -105,3 +105,64 @@ def test_matching_ten_thousand_per_rater_takes_linear_memory():
     assert (links["index_a"].to_numpy() == links["index_b"].to_numpy()).all()
     # about 5 MB here; the all-pairs matching peaked at 427 MB for only 2,000 per rater
     assert peak < 5_000 * len(a)
+
+
+# -- #6: overlapping labels of one participant after adjudication --------------------------
+
+
+def _two_raters(tmp_path, consensus=()):
+    from _eaf_builder import Tier, write_eaf
+
+    tiers = [
+        Tier("Turn alice", annotator="alice", participant="PD01", annotations=[(1000, 2000, "90")]),
+        # overlaps alice's by 0.4 s of the longer 2 s: ratio 0.2, too little to be one turn
+        Tier("Turn bob", annotator="bob", participant="PD01", annotations=[(1600, 3600, "90")]),
+    ]
+    if consensus:
+        tiers.append(
+            Tier("Turn consensus", annotator="consensus", participant="PD01", annotations=consensus)
+        )
+    eaf = tmp_path / "eaf"
+    eaf.mkdir()
+    write_eaf(eaf / "S01.eaf", tiers)
+    parts = tmp_path / "p.csv"
+    parts.write_text("subject,cohort,pair,sex,age,years_since_diagnosis\nPD01,PD,a,F,60,4\n")
+    return eaf, parts
+
+
+def _labels(args, capsys):
+    from turn_datasets.cli import cli
+    from turn_datasets.cli.common import run_group
+
+    code = run_group(cli, "turn-datasets", ["remap", "labels", *map(str, args)])
+    cap = capsys.readouterr()
+    return code, cap.err
+
+
+def test_two_raters_turns_overlapping_too_little_are_unresolved_not_two_labels(tmp_path, capsys):
+    eaf, parts = _two_raters(tmp_path)
+    out = tmp_path / "o" / "labels.csv"
+    code, err = _labels([eaf, "--participants", parts, "--out", out], capsys)
+    assert code == 2 and not out.exists()
+    assert (
+        "unresolved: " + str(eaf / "S01.eaf") + ", tier 'Turn alice', participant PD01, "
+        "1.000-3.600 s: overlapping turns: alice 90 (1.000-2.000 s), bob 90 (1.600-3.600 s)"
+    ) in err
+
+
+def test_overlapping_turns_take_the_consensus_or_the_first_rater(tmp_path, capsys):
+    eaf, parts = _two_raters(tmp_path, consensus=[(1100, 3000, "135")])
+    out = tmp_path / "o" / "labels.csv"
+    code, err = _labels([eaf, "--participants", parts, "--out", out], capsys)
+    assert code == 0, err
+    labels = pd.read_csv(out)
+    assert labels[["annotator", "start_s", "end_s", "angle_deg"]].values.tolist() == [
+        ["consensus", 1.1, 3.0, 135.0]
+    ]
+    eaf2, parts2 = _two_raters(tmp_path / "x" if (tmp_path / "x").mkdir() is None else None)
+    code, err = _labels(
+        [eaf2, "--participants", parts2, "--out", out, "--resolve", "first-rater"], capsys
+    )
+    assert code == 0, err
+    labels = pd.read_csv(out)
+    assert labels[["annotator", "start_s", "end_s"]].values.tolist() == [["alice", 1.0, 2.0]]
