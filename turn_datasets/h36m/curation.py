@@ -271,6 +271,7 @@ def apply_overrides(
     end = clips.end_frame.copy()
     angle = clips.angle_deg.copy()
     net = clips.net_deg.copy()
+    hip = clips.hip_rotation_deg.copy()
     keep = np.ones(len(clips), dtype=bool)
     applied: list[dict[str, Any]] = []
     for i, ov in hits:
@@ -296,6 +297,7 @@ def apply_overrides(
                 ) from None
             start[i], end[i] = int(ov.start_frame), int(ov.end_frame)
             angle[i], net[i] = turn.angle_deg, turn.net_deg
+            hip[i] = turn.hip_rotation_deg
             record["result_clip_id"] = clip_id_of(
                 clips.subject, clips.action, clips.subaction, start[i], end[i]
             )
@@ -310,7 +312,7 @@ def apply_overrides(
                 file=overrides.path,
                 row=ov.line,
             )
-    return clips.replace_clips(start[keep], end[keep], angle[keep], net[keep]), applied
+    return clips.replace_clips(start[keep], end[keep], angle[keep], net[keep], hip[keep]), applied
 
 
 def unmatched_overrides(
