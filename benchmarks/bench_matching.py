@@ -1,6 +1,6 @@
 """Time the matching of two raters' turns (``remap labels`` / ``agreement``) on 10,000 each.
 
-What is timed: :func:`turn_datasets.remap.agreement.match_annotations` linking two raters'
+What is timed: :func:`turn_datasets.remap.matching.match_annotations` linking two raters'
 10,000 turn annotations of one participant (the rule of ELAN's reliability check: overlap /
 longer duration >= 0.6, greedy by ratio). It sweeps start-sorted intervals, so only
 overlapping pairs are candidates: before, every annotation was paired with every other of
@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 import pympi.Elan
 
-from turn_datasets.remap.agreement import match_annotations
+from turn_datasets.remap.matching import match_annotations
 from turn_datasets.remap.eaf import read_annotations
 
 N_PER_RATER = 10_000

@@ -14,7 +14,7 @@ import pandas as pd
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from turn_datasets.remap.agreement import match_annotations
+from turn_datasets.remap.matching import match_annotations
 
 
 def _all_pairs(a: pd.DataFrame, b: pd.DataFrame, min_overlap: float) -> list[tuple]:
