@@ -168,7 +168,7 @@ def _without_overlaps(
         key=lambda c: (c[0]["start_s"], c[0]["end_s"]),
     )
     clusters: list[list[tuple[dict[str, Any], int, Any]]] = []
-    reach = -np.inf
+    reach = float("-inf")
     for c in others:
         if clusters and c[0]["start_s"] < reach:
             clusters[-1].append(c)
