@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 import pympi.Elan
 
-from turn_datasets.remap.matching import match_annotations
 from turn_datasets.remap.eaf import read_annotations
+from turn_datasets.remap.matching import match_annotations
 
 N_PER_RATER = 10_000
 N_SMALL = 2_000
