@@ -328,7 +328,9 @@ def _read_table(
     if not text.strip():
         raise TurnbenchError(f"empty {what} file: no header and no rows", file=name)
     # The first line with something on it, found without splitting the whole text.
-    start = re.search(r"\S", text).start()
+    first = re.search(r"\S", text)
+    assert first is not None  # the text is not blank (checked above)
+    start = first.start()
     end = text.find("\n", start)
     first_line = text[text.rfind("\n", 0, start) + 1 : end if end >= 0 else len(text)]
     delimiter = _sniff_delimiter(first_line)
