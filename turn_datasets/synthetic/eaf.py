@@ -456,6 +456,27 @@ def _truth_row(
     }
 
 
+def _assign_sessions(
+    rng: np.random.Generator,
+    n_pairs: int,
+    sessions_per_pair: int,
+    double_annotated_fraction: float,
+    names: Sequence[str],
+) -> tuple[list[tuple[str, str]], set[str], dict[str, str]]:
+    """(pair, session) in order, the double-annotated sessions (drawn), and the rater of
+    each single-annotated one (the two alternately, in session order)."""
+    sessions = [
+        (f"pair{p:02d}", f"pair{p:02d}_day{k}")
+        for p in range(1, n_pairs + 1)
+        for k in range(1, sessions_per_pair + 1)
+    ]
+    n_double = int(round(double_annotated_fraction * len(sessions)))
+    order = rng.permutation(len(sessions))
+    double = {sessions[i][1] for i in order[:n_double]}
+    single_sessions = [s for _, s in sessions if s not in double]
+    return sessions, double, {s: names[i % 2] for i, s in enumerate(single_sessions)}
+
+
 def _write_session(
     rng: np.random.Generator,
     out: Path,
@@ -627,17 +648,9 @@ def write_sessions(
     rng = np.random.default_rng(seed)
     participants = _participants(rng, n_pairs)
 
-    sessions = [
-        (f"pair{p:02d}", f"pair{p:02d}_day{k}")
-        for p in range(1, n_pairs + 1)
-        for k in range(1, sessions_per_pair + 1)
-    ]
-    n_double = int(round(double_annotated_fraction * len(sessions)))
-    order = rng.permutation(len(sessions))
-    double = {sessions[i][1] for i in order[:n_double]}
-    single_sessions = [s for _, s in sessions if s not in double]
-    # Single-annotated sessions go to the raters alternately, in session order.
-    single_rater = {s: names[i % 2] for i, s in enumerate(single_sessions)}
+    sessions, double, single_rater = _assign_sessions(
+        rng, n_pairs, sessions_per_pair, double_annotated_fraction, names
+    )
 
     truth_rows: list[dict] = []
     written_rows: list[dict] = []
