@@ -12,19 +12,9 @@ from _eaf_builder import Tier, write_eaf
 
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.remap.eaf import read_annotations
-from turn_datasets.remap.labels import (
-    LABEL_COLUMNS,
-    PARTICIPANT_COLUMNS,
-    adjudicate,
-    clip_id_for,
-    make_labels,
-    read_labels,
-    read_participants,
-    stats_csv,
-    table1,
-    table2,
-    turns_per_location,
-)
+from turn_datasets.remap.labels import LABEL_COLUMNS, adjudicate, clip_id_for, make_labels
+from turn_datasets.remap.participants import PARTICIPANT_COLUMNS, read_participants
+from turn_datasets.remap.stats import read_labels, stats_csv, table1, table2, turns_per_location
 
 REPO = Path(__file__).resolve().parents[1]
 

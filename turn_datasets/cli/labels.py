@@ -20,11 +20,11 @@ from turn_datasets.remap.eaf import (
     inspect_markdown,
     read_annotations,
 )
-from turn_datasets.remap.labels import (
-    RESOLVE_CHOICES,
-    make_labels,
+from turn_datasets.remap.labels import RESOLVE_CHOICES, make_labels
+from turn_datasets.remap.participants import read_participants
+from turn_datasets.remap.schema import Schema, load_schema
+from turn_datasets.remap.stats import (
     read_labels,
-    read_participants,
     stats_csv,
     stats_dict,
     stats_markdown,
@@ -32,7 +32,6 @@ from turn_datasets.remap.labels import (
     table2,
     turns_per_location,
 )
-from turn_datasets.remap.schema import Schema, load_schema
 
 #: The raw per-rater rows are written beside the labels under this name (DESIGN.md).
 ANNOTATIONS_NAME = "annotations.csv"

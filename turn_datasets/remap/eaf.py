@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import os
 import warnings
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from os import PathLike
 from pathlib import Path
@@ -34,6 +34,8 @@ from defusedxml.common import DTDForbidden, EntitiesForbidden, ExternalReference
 from turn_datasets.errors import TurnbenchError, Where
 from turn_datasets.fileio import typed_frame
 from turn_datasets.remap.schema import Schema, Vocabulary, load_schema
+from turn_datasets.render.markdown import markdown_table
+from turn_datasets.render.numbers import MISSING, fixed
 
 __all__ = [
     "ANNOTATION_COLUMNS",
@@ -41,7 +43,6 @@ __all__ = [
     "expand_eaf_paths",
     "inspect_eaf",
     "inspect_markdown",
-    "iter_inspect",
     "load_eaf",
     "read_annotations",
 ]
@@ -830,31 +831,16 @@ def _count_cve_disagreements(
     return len(doc.cve_disagreements)
 
 
-def iter_inspect(
-    paths_or_dirs: str | PathLike[str] | Iterable[str | PathLike[str]],
-    *,
-    schema: Schema | None = None,
-    keep_media_paths: bool = False,
-) -> Iterator[dict[str, Any]]:
-    """:func:`inspect_eaf` for each file of :func:`expand_eaf_paths`."""
-    schema = schema if schema is not None else load_schema()
-    for path in expand_eaf_paths(paths_or_dirs):
-        yield inspect_eaf(path, schema=schema, keep_media_paths=keep_media_paths)
-
-
-def _cell(value: Any) -> str:
+def _cell(value: Any) -> Any:
     if value is None or value == "":
-        return "–"
+        return MISSING
     if isinstance(value, float):
-        return f"{value:.3f}"
-    # A "|" would end the Markdown cell; line breaks would end the row.
-    return " ".join(str(value).split()).replace("|", "\\|")
+        return fixed(value, 3)
+    return value
 
 
 def _md_table(header: list[str], rows: list[list[Any]]) -> list[str]:
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(_cell(v) for v in row) + " |" for row in rows]
-    return lines
+    return markdown_table(header, [[_cell(v) for v in row] for row in rows])
 
 
 def inspect_markdown(results: Iterable[dict[str, Any]]) -> str:

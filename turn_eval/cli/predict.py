@@ -13,7 +13,7 @@ from turn_datasets.cli.common import FPS_HZ, progress, wrote
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, write_csv
 from turn_datasets.geometry import METHODS, parse_joints
-from turn_datasets.mocap.readers import iter_arrays
+from turn_datasets.mocap.arrays import iter_arrays
 from turn_datasets.skeleton import LAYOUTS, UP_AXES, get_layout
 from turn_eval.cli import CONTEXT_SETTINGS, cli
 from turn_eval.predict import predict_angles

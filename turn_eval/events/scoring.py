@@ -42,6 +42,7 @@ import pandas as pd
 
 from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.render.order import natural_key
 from turn_eval.events.ap import AP_IOUS, average_precision
 from turn_eval.events.bootstrap import (
     CI_METRICS,
@@ -71,7 +72,7 @@ from turn_eval.metrics import (
     clip_outcomes,
     grouped_metrics,
 )
-from turn_eval.scores import BLANK_GROUP, _natural_key
+from turn_eval.scores import BLANK_GROUP
 
 __all__ = ["DEFAULT_BY", "UNKNOWN_GROUP", "MATCHING_RULE", "EventScores", "score_events"]
 
@@ -273,7 +274,7 @@ def _event_groups(
 def _partition(name: str, labels: np.ndarray) -> Partition:
     codes, uniq = pd.factorize(labels)
     names = [str(u) for u in uniq]
-    order = sorted(range(len(names)), key=lambda i: _natural_key(names[i]))
+    order = sorted(range(len(names)), key=lambda i: natural_key(names[i]))
     rank = np.empty(len(names), dtype=np.int64)
     rank[order] = np.arange(len(names))
     return Partition(name, tuple(names[i] for i in order), rank[codes])
