@@ -34,7 +34,13 @@ from turn_datasets.h36m.clip_index import read_clip_index
 from turn_datasets.h36m.manifest import build_manifest, manifest_path
 from turn_datasets.h36m.miner import MinerParams, build_index, mine_clips
 from turn_datasets.h36m.overrides import apply_overrides, read_overrides, unmatched_overrides
-from turn_datasets.h36m.stats import STATS_INDEX_COLUMNS, stats_csv, stats_dict, stats_markdown
+from turn_datasets.h36m.stats import (
+    STATS_INDEX_COLUMNS,
+    STATS_OPTIONAL_COLUMNS,
+    stats_csv,
+    stats_dict,
+    stats_markdown,
+)
 from turn_datasets.mocap.arrays import UNITS
 from turn_datasets.mocap.bvh import parse_joint_map
 from turn_datasets.mocap.readers import (
@@ -446,16 +452,20 @@ def stats_cmd(index_csv: Path, as_csv: bool, fmt: str) -> None:
     """Summarise a clip index as the paper's Table 3, and per subject and action.
 
     Table 3: per 45° bin, the number of clips, the smallest, largest and mean angle and the
-    mean duration, with a Total row; then the same figures per subject and per action.
-    Markdown by default; --csv prints one CSV (table, group, clips, min_deg, max_deg,
-    mean_deg, mean_duration_s).
+    mean duration, with a Total row; then the same figures per subject and per action. An
+    index with hip_rotation_deg (the paper's hip rotation, beside the heading change
+    angle_deg) also gets Table 3 over that column and the median and quartiles of
+    hip_rotation_deg - angle_deg. Markdown by default; --csv prints one CSV (table, group,
+    clips, min_deg, max_deg, mean_deg, mean_duration_s).
 
     \b
     Example:
       turn-datasets h36m stats turn-h36m.csv
       turn-datasets h36m stats turn-h36m.csv --csv > table3.csv
     """
-    index: pd.DataFrame = read_clip_index(index_csv, STATS_INDEX_COLUMNS)
+    index: pd.DataFrame = read_clip_index(
+        index_csv, STATS_INDEX_COLUMNS, optional=STATS_OPTIONAL_COLUMNS
+    )
     fmt = "csv" if as_csv else fmt
     if fmt == "csv":
         emit(stats_csv(index))
