@@ -24,6 +24,7 @@ CONTEXT_SETTINGS = {"help_option_names": ["-h", "--help"], "max_content_width": 
         "compare": "turn_eval.cli.compare",
         "predict": "turn_eval.cli.predict",
         "score-events": "turn_eval.cli.score_events",
+        "detect": "turn_eval.cli.detect",
     },
 )
 @click.version_option(__version__, prog_name="turn-eval")
@@ -35,6 +36,7 @@ def cli() -> None:
       turn-eval score predictions.csv --reference turn-h36m.csv --format md
       turn-eval compare a.csv b.csv --reference turn-h36m.csv
       turn-eval predict skeletons.npz --layout h36m17 --out predictions.csv
+      turn-eval detect streams/ --layout h36m17 --up-axis -y --fps 30 --out detections.csv
       turn-eval score-events detections.csv --reference labels.csv
     """
 
