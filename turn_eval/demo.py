@@ -32,7 +32,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 import click
 import numpy as np
@@ -249,7 +249,15 @@ def prepare_out_dir(out: Path) -> None:
 
 #: The corpus of ``--quick`` (and of the tests): three subjects (both splits), two actions, three
 #: pairs; every step still runs.
-QUICK = {
+class QuickCorpus(TypedDict):
+    """The size of a ``--quick`` demo corpus."""
+
+    subjects: tuple[str, ...]
+    actions: dict[str, tuple[int, int]]
+    n_pairs: int
+
+
+QUICK: QuickCorpus = {
     "subjects": ("S1", "S5", "S9"),
     "actions": {"Walking": (3, 4), "Phoning": (1, 2)},
     "n_pairs": 3,

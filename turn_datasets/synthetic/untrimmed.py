@@ -577,7 +577,9 @@ def synthesize_stream(
             joint_noise_mm=artefacts.joint_noise_mm,
             depth_smooth_s=artefacts.depth_smooth_s,
             dropout_mean_s=artefacts.dropout_mean_s,
-            **SCENARIO_DEGRADE[row.scenario],
+            depth_sd_facing_mm=SCENARIO_DEGRADE[row.scenario]["depth_sd_facing_mm"],
+            depth_sd_away_mm=SCENARIO_DEGRADE[row.scenario]["depth_sd_away_mm"],
+            dropout_rate_per_s=SCENARIO_DEGRADE[row.scenario]["dropout_rate_per_s"],
         )
         out[a:b] = deg.positions
         facing[a:b] = deg.facing_to_camera_deg

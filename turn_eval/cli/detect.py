@@ -196,7 +196,7 @@ def detect_command(
     miner_names = {f.name for f in fields(MinerParams)}
     miner = MinerParams(**{k: v for k, v in values.items() if k in miner_names})
     params = DetectParams(
-        joints=joints.split(","),
+        joints=tuple(joints.split(",")),
         miner=miner,
         **{k: v for k, v in values.items() if k not in miner_names},
     )
