@@ -470,6 +470,106 @@ def _average(groups: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
     return out
 
 
+def _bootstrap_intervals(
+    sums: Mapping[str, np.ndarray], *, n_resamples: int, seed: int, progress: Progress | None
+) -> dict[str, Any]:
+    """Each partition's percentile intervals from the cluster bootstrap of its unit sums."""
+    distributions = cluster_bootstrap(sums, n_resamples=n_resamples, seed=seed, progress=progress)
+    return {name: _intervals(d) for name, d in distributions.items()}
+
+
+def _matched_metrics(outcomes: Any, partitions: Sequence[Partition], tp: np.ndarray) -> list:
+    """The harness's angle metrics of the matched pairs, per group of every partition."""
+    if outcomes.n == 0:
+        return [{} for _ in partitions]
+    return grouped_metrics(outcomes, [Partition(p.name, p.labels, p.codes[tp]) for p in partitions])
+
+
+def _check_settings(iou: float, n_resamples: int, seed: int) -> None:
+    if not (0.0 < iou <= 1.0):
+        raise TurnbenchError(f"--iou must be in (0, 1], got {iou}")
+    if n_resamples < 0 or seed < 0:
+        raise TurnbenchError("--bootstrap and --seed must be 0 or more")
+
+
+def _add_ap(
+    overall: dict[str, Any],
+    det: pd.DataFrame,
+    det_unit: np.ndarray,
+    ref: pd.DataFrame,
+    ref_unit: np.ndarray,
+    overlaps: Any,
+) -> dict[str, dict[str, np.ndarray]] | None:
+    """With detection scores: AP into ``overall["ap"]``; returns the PR curves (else None)."""
+    if "score" not in det:
+        return None
+    ap = average_precision(det, det_unit, ref, ref_unit, ious=AP_IOUS, overlaps=overlaps)
+    overall["ap"] = {"by_iou": ap["by_iou"], "mean": ap["mean"]}
+    return ap["curves"]
+
+
+def _components(events: pd.DataFrame, tp: np.ndarray, outcomes: Any) -> np.ndarray:
+    """Per event: TP, FP, FN, bin right, angle error (the additive parts of every metric)."""
+    kind = events["kind"].to_numpy()
+    correct = np.zeros(events.shape[0])
+    error = np.zeros(events.shape[0])
+    correct[tp] = outcomes.correct
+    error[tp] = outcomes.abs_error_deg
+    components = np.stack([tp, kind == "FP", kind == "FN", correct, error], axis=1).astype(
+        np.float64
+    )
+    return components
+
+
+def _grouped_doc(
+    partitions: Sequence[Any],
+    entry: Callable[[int, int], dict[str, Any]],
+    distributions: Mapping[str, Any] | None,
+    *,
+    has_context: bool,
+) -> dict[str, Any]:
+    """``by.<column>``: each group's entry and the unweighted average over groups."""
+    by_doc: dict[str, Any] = {}
+    for part, p in enumerate(partitions[1:], start=1):
+        groups = {label: entry(part, g) for g, label in enumerate(p.labels)}
+        avg = _average(groups)
+        if distributions is not None:
+            avg["ci95"] = _ci(distributions[p.name][1], None)
+        by_doc[p.name] = {
+            "groups": groups,
+            "avg": avg,
+            "fp_groups": (
+                ("context at the midpoint" if has_context else UNKNOWN_GROUP)
+                if p.name in CONTEXT_GROUPS
+                else "the (session, subject)'s"
+            ),
+        }
+    return by_doc
+
+
+def _settings(
+    *,
+    iou: float,
+    bin_width_deg: float,
+    n_resamples: int,
+    seed: int,
+    has_ap: bool,
+    has_context: bool,
+) -> dict[str, Any]:
+    return {
+        "iou": iou,
+        "matching": MATCHING_RULE.format(iou=iou),
+        "bin_width_deg": int(bin_width_deg) if float(bin_width_deg).is_integer() else bin_width_deg,
+        "resamples": n_resamples,
+        "seed": seed,
+        "confidence": CONFIDENCE,
+        "ci_method": "percentile, cluster bootstrap over (session, subject)",
+        "ap_ious": list(AP_IOUS) if has_ap else None,
+        "context": has_context,
+        "version": __version__,
+    }
+
+
 def score_events(
     detections: Frame,
     reference: Frame,
@@ -518,10 +618,7 @@ def score_events(
         ``overall.turns_per_hour`` (with sessions), ``by.<column>.groups.<group>`` and
         ``by.<column>.avg``, ``settings``.
     """
-    if not (0.0 < iou <= 1.0):
-        raise TurnbenchError(f"--iou must be in (0, 1], got {iou}")
-    if n_resamples < 0 or seed < 0:
-        raise TurnbenchError("--bootstrap and --seed must be 0 or more")
+    _check_settings(iou, n_resamples, seed)
     det = _load(detections, read_detections, check_detections)
     ref = _load(reference, read_event_reference, check_event_reference)
     ctx = _load(context, read_context, check_context)
@@ -535,14 +632,7 @@ def score_events(
     events = categorize_events(det, det_unit, ref, ref_unit, iou=iou, overlaps=overlaps)
     labels = _event_groups(events, ref, ref_unit, det, units, ctx, groupings)
     tp, outcomes, agree, dstart, dend = _matched_block(events, det, ref, bin_width_deg)
-    kind = events["kind"].to_numpy()
-    correct = np.zeros(events.shape[0])
-    error = np.zeros(events.shape[0])
-    correct[tp] = outcomes.correct
-    error[tp] = outcomes.abs_error_deg
-    components = np.stack([tp, kind == "FP", kind == "FN", correct, error], axis=1).astype(
-        np.float64
-    )
+    components = _components(events, tp, outcomes)
     unit = events["unit"].to_numpy(dtype=np.int64)
 
     partitions = [Partition.whole(events.shape[0])]
@@ -551,21 +641,11 @@ def score_events(
         p.name: unit_sums(unit, p.codes, components, len(units), len(p.labels)) for p in partitions
     }
     distributions = (
-        {
-            name: _intervals(d)
-            for name, d in cluster_bootstrap(
-                sums, n_resamples=n_resamples, seed=seed, progress=progress
-            ).items()
-        }
+        _bootstrap_intervals(sums, n_resamples=n_resamples, seed=seed, progress=progress)
         if n_resamples > 0 and len(units) > 0
         else None
     )
-    matched = (
-        grouped_metrics(outcomes, [Partition(p.name, p.labels, p.codes[tp]) for p in partitions])
-        if outcomes.n > 0
-        else [{} for _ in partitions]
-    )
-
+    matched = _matched_metrics(outcomes, partitions, tp)
     pair_stats = [_pair_stats(p.codes[tp], len(p.labels), agree, dstart, dend) for p in partitions]
     totals = [sums[p.name].sum(axis=0) for p in partitions]
 
@@ -581,26 +661,8 @@ def score_events(
     rates = None
     if ses is not None:
         rates, overall["turns_per_hour"] = _rates(units, ref_unit, det_unit, ses)
-    curves: dict[str, dict[str, np.ndarray]] | None = None
-    if "score" in det:
-        ap = average_precision(det, det_unit, ref, ref_unit, ious=AP_IOUS, overlaps=overlaps)
-        overall["ap"] = {"by_iou": ap["by_iou"], "mean": ap["mean"]}
-        curves = ap["curves"]
-    by_doc: dict[str, Any] = {}
-    for part, p in enumerate(partitions[1:], start=1):
-        groups = {label: entry(part, g) for g, label in enumerate(p.labels)}
-        avg = _average(groups)
-        if distributions is not None:
-            avg["ci95"] = _ci(distributions[p.name][1], None)
-        by_doc[p.name] = {
-            "groups": groups,
-            "avg": avg,
-            "fp_groups": (
-                ("context at the midpoint" if ctx is not None else UNKNOWN_GROUP)
-                if p.name in CONTEXT_GROUPS
-                else "the (session, subject)'s"
-            ),
-        }
+    curves = _add_ap(overall, det, det_unit, ref, ref_unit, overlaps)
+    by_doc = _grouped_doc(partitions, entry, distributions, has_context=ctx is not None)
     doc = {
         "overall": overall,
         "by": by_doc,
@@ -610,20 +672,14 @@ def score_events(
             "detections": int(det.shape[0]),
             "dropped_unknown": n_dropped,
         },
-        "settings": {
-            "iou": iou,
-            "matching": MATCHING_RULE.format(iou=iou),
-            "bin_width_deg": int(bin_width_deg)
-            if float(bin_width_deg).is_integer()
-            else bin_width_deg,
-            "resamples": n_resamples,
-            "seed": seed,
-            "confidence": CONFIDENCE,
-            "ci_method": "percentile, cluster bootstrap over (session, subject)",
-            "ap_ious": list(AP_IOUS) if curves is not None else None,
-            "context": ctx is not None,
-            "version": __version__,
-        },
+        "settings": _settings(
+            iou=iou,
+            bin_width_deg=bin_width_deg,
+            n_resamples=n_resamples,
+            seed=seed,
+            has_ap=curves is not None,
+            has_context=ctx is not None,
+        ),
     }
     return EventScores(
         doc=doc,
