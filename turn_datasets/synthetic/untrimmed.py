@@ -506,6 +506,55 @@ def _context(rng: np.random.Generator, session: str, duration_s: float) -> pd.Da
     return typed_frame(pd.DataFrame(rows, columns=list(CONTEXT_DTYPES)), CONTEXT_DTYPES)
 
 
+def _degrade_by_context(
+    rng: np.random.Generator,
+    body17: np.ndarray,
+    context: pd.DataFrame,
+    fps_hz: float,
+    camera_mm: tuple[float, float, float],
+    artefacts: ArtefactParams,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The estimator's errors, scenario by scenario (:data:`SCENARIO_DEGRADE`); the degraded
+    skeletons and the per-frame angle between the facing and the camera."""
+    out = np.empty_like(body17)
+    facing = np.empty(body17.shape[0])
+    n = body17.shape[0]
+    for row in context.itertuples(index=False):
+        a = int(round(row.start_s * fps_hz))
+        b = min(int(round(row.end_s * fps_hz)), n)
+        if b <= a:
+            continue
+        deg = degrade_skeleton(
+            body17[a:b],
+            H36M17,
+            seed=rng,
+            fps=fps_hz,
+            camera_position_mm=camera_mm,
+            joint_noise_mm=artefacts.joint_noise_mm,
+            depth_smooth_s=artefacts.depth_smooth_s,
+            dropout_mean_s=artefacts.dropout_mean_s,
+            depth_sd_facing_mm=SCENARIO_DEGRADE[row.scenario]["depth_sd_facing_mm"],
+            depth_sd_away_mm=SCENARIO_DEGRADE[row.scenario]["depth_sd_away_mm"],
+            dropout_rate_per_s=SCENARIO_DEGRADE[row.scenario]["dropout_rate_per_s"],
+        )
+        out[a:b] = deg.positions
+        facing[a:b] = deg.facing_to_camera_deg
+    return out, facing
+
+
+def _artefact_rows(kind: str, spans: list[tuple[int, int]]) -> pd.DataFrame:
+    """Event rows of planted artefacts (no heading change, no label)."""
+    return pd.DataFrame(
+        {
+            "kind": kind,
+            "start_frame": [a for a, _ in spans],
+            "end_frame": [b for _, b in spans],
+            "heading_deg": 0.0,
+            "label_deg": np.nan,
+        }
+    )
+
+
 def synthesize_stream(
     rng: np.random.Generator,
     labels: pd.DataFrame,
@@ -560,29 +609,7 @@ def synthesize_stream(
                 rng, ev.end_frame - ev.start_frame, fps_hz, near
             )
     body17 = body[:, list(H36M17_FROM_32), :]
-    out = np.empty_like(body17)
-    facing = np.empty(body17.shape[0])
-    n = body17.shape[0]
-    for row in context.itertuples(index=False):
-        a = int(round(row.start_s * fps_hz))
-        b = min(int(round(row.end_s * fps_hz)), n)
-        if b <= a:
-            continue
-        deg = degrade_skeleton(
-            body17[a:b],
-            H36M17,
-            seed=rng,
-            fps=fps_hz,
-            camera_position_mm=camera_mm,
-            joint_noise_mm=artefacts.joint_noise_mm,
-            depth_smooth_s=artefacts.depth_smooth_s,
-            dropout_mean_s=artefacts.dropout_mean_s,
-            depth_sd_facing_mm=SCENARIO_DEGRADE[row.scenario]["depth_sd_facing_mm"],
-            depth_sd_away_mm=SCENARIO_DEGRADE[row.scenario]["depth_sd_away_mm"],
-            dropout_rate_per_s=SCENARIO_DEGRADE[row.scenario]["dropout_rate_per_s"],
-        )
-        out[a:b] = deg.positions
-        facing[a:b] = deg.facing_to_camera_deg
+    out, facing = _degrade_by_context(rng, body17, context, fps_hz, camera_mm, artefacts)
     rows = [events]
     for ev in events.itertuples(index=False):
         if ev.kind == "absence":
@@ -590,29 +617,8 @@ def synthesize_stream(
     swaps = draw_swaps(rng, facing, fps_hz, artefacts)
     for a, b in swaps:
         swap_sides(out, a, b)
-    rows.append(
-        pd.DataFrame(
-            {
-                "kind": "swap",
-                "start_frame": [a for a, _ in swaps],
-                "end_frame": [b for _, b in swaps],
-                "heading_deg": 0.0,
-                "label_deg": np.nan,
-            }
-        )
-    )
-    lost = _runs_of(np.isnan(out).any(axis=(1, 2)))
-    rows.append(
-        pd.DataFrame(
-            {
-                "kind": "dropout",
-                "start_frame": [a for a, _ in lost],
-                "end_frame": [b for _, b in lost],
-                "heading_deg": 0.0,
-                "label_deg": np.nan,
-            }
-        )
-    )
+    rows.append(_artefact_rows("swap", swaps))
+    rows.append(_artefact_rows("dropout", _runs_of(np.isnan(out).any(axis=(1, 2)))))
     ev_all = pd.concat(rows, ignore_index=True).sort_values(["start_frame", "kind"], kind="stable")
     ev_all["start_s"] = ev_all["start_frame"] / fps_hz
     ev_all["end_s"] = ev_all["end_frame"] / fps_hz
