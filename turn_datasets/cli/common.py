@@ -35,6 +35,7 @@ __all__ = [
     "LazyGroup",
     "Number",
     "warn_below",
+    "counted",
 ]
 
 EXIT_OK = 0
@@ -131,6 +132,11 @@ def wrote(*paths: str | Path, what: str = "") -> None:
     """The one-line summary of what a command wrote, on stderr."""
     names = ", ".join(str(p) for p in paths)
     info(f"wrote {what + ' ' if what else ''}{names}")
+
+
+def counted(n: int, noun: str) -> str:
+    """``1 clip``, ``2 clips``: a count with its noun, in the singular for one."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"
 
 
 def progress(items: Iterable[T], *, label: str, length: int | None = None) -> Iterator[T]:

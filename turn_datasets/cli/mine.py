@@ -22,6 +22,7 @@ from turn_datasets.cli.common import (
     POSITIVE_DURATION_S,
     SPEED_DEG_S,
     Number,
+    counted,
     emit,
     format_option,
     info,
@@ -53,13 +54,19 @@ def _discover_each(
     sources: tuple[Path, ...], fmt: str | None, bad: dict[Path, TurnbenchError]
 ) -> list[SourceFile]:
     """Every source file to read, in path order; a named file that cannot even be opened is
-    put in ``bad`` (listed or skipped like any unreadable file) instead of stopping the run.
+    put in ``bad`` (listed or skipped like any unreadable file) instead of stopping the run,
+    and so is a subfolder that cannot be read (format ``folder``).
     A missing path or a folder with nothing to read is a mistake in the command: it stops it.
     """
     found: list[SourceFile] = []
+
+    def unreadable(folder: Path, exc: TurnbenchError) -> None:
+        bad[folder] = exc
+        found.append(SourceFile(folder, "folder"))
+
     for item in sources:
         try:
-            found.extend(discover([item], fmt=fmt))
+            found.extend(discover([item], fmt=fmt, on_unreadable=unreadable))
         except TurnbenchError as exc:
             if not item.is_file():
                 raise
@@ -265,7 +272,13 @@ def mine_cmd(
     --min-turn-deg, from where the heading starts to change to where it stops (see the
     miner's documentation for the rule); hip_rotation_deg keeps the paper's net hip rotation. By default any unreadable file, or unusable sequence in a
     file of many, fails the run (exit 2, nothing written) after all are listed; --skip-bad
-    writes the index without them and lists them in the manifest.
+    writes the index without them and lists them in the manifest. Folders reached through
+    symbolic links are walked; a folder that cannot be read is listed like a bad file.
+
+    VideoPose3D's npz holds a pickle, and unpickling can run code: it is read only when
+    named, or as data_3d_h36m.npz at the top of a dataset root, after its header is checked,
+    with an unpickler that builds NumPy arrays only. Any other npz is read as an array
+    without unpickling (--format array), never because a walk met it.
 
     \b
     Example:
@@ -424,17 +437,20 @@ def mine_cmd(
             tmp_manifest.write_text(to_json_text(manifest), encoding="utf-8", newline="\n")
     except OSError as exc:
         # a folder that cannot be made or written (a file in the way, no permission, full)
+        # the file that failed (the manifest, if a folder of its name is in the way)
         raise TurnbenchError(
-            f"cannot write the clip index: {exc.strerror or exc}", file=out
+            f"cannot write the clip index: {exc.strerror or exc}", file=exc.filename or out
         ) from None
     if skipped:
         what = [f"{len(bad)} unreadable file(s)"] if bad else []
         if bad_sequences:
             what.append(f"{len(bad_sequences)} unusable sequence(s)")
         warn(f"skipped {' and '.join(what)}, listed in {mpath}")
+    n_read = sum(1 for f in good if f.fmt != "folder")
     info(
-        f"wrote {len(index)} clips from {manifest['counts']['sequences']} sequences "
-        f"to {out}, manifest {mpath}"
+        f"wrote {counted(len(index), 'clip')} from "
+        f"{counted(manifest['counts']['sequences'], 'sequence')} to {out}, manifest {mpath} "
+        f"({counted(n_read, 'file')} read)"
     )
 
 
