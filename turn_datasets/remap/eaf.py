@@ -45,6 +45,8 @@ __all__ = [
     "inspect_markdown",
     "load_eaf",
     "read_annotations",
+    "read_annotations_and_context",
+    "FileContext",
 ]
 
 #: Column contract of :func:`read_annotations` (``annotations.csv``).
@@ -494,12 +496,34 @@ def _context_value(contexts: list[_Context], participant: str, start_ms: int, en
     return ""
 
 
-def _file_rows(doc: _Document, schema: Schema) -> list[dict[str, Any]]:
-    eaf = doc.eaf
-    file = str(doc.path)
-    roles = _classify(eaf, schema)
-    times = _annotation_times_ms(eaf)
+@dataclass(frozen=True)
+class FileContext:
+    """What one session's file says about its context, for untrimmed scoring.
 
+    Attributes
+    ----------
+    session
+        The session id (the file stem).
+    participants
+        Participants with turn annotations, in order of first appearance.
+    contexts
+        ``"scenario"`` and ``"location"``: the context tiers' annotations (participant
+        ``""`` for a tier shared by everyone), in time order.
+    last_time_ms
+        The file's last aligned time slot (ms), 0 when it has none.
+    """
+
+    session: str
+    participants: tuple[str, ...]
+    contexts: dict[str, list[_Context]]
+    last_time_ms: int
+
+
+def _file_contexts(
+    doc: _Document, schema: Schema, roles: list[_TierRole], times
+) -> dict[str, list[_Context]]:
+    """The context tiers' annotations of a file, by role, in time order."""
+    eaf = doc.eaf
     contexts: dict[str, list[_Context]] = {"location": [], "scenario": []}
     for r in roles:
         if r.role == "turn":
@@ -515,6 +539,15 @@ def _file_rows(doc: _Document, schema: Schema) -> list[dict[str, Any]]:
             contexts[r.role].append(_Context(r.participant, a.start_ms, a.end_ms, value))
     for pool in contexts.values():
         pool.sort(key=lambda c: (c.start_ms, c.end_ms))
+    return contexts
+
+
+def _file_rows(doc: _Document, schema: Schema) -> tuple[list[dict[str, Any]], FileContext]:
+    eaf = doc.eaf
+    file = str(doc.path)
+    roles = _classify(eaf, schema)
+    times = _annotation_times_ms(eaf)
+    contexts = _file_contexts(doc, schema, roles, times)
 
     rows: list[dict[str, Any]] = []
     seen: dict[tuple[str, str], str] = {}
@@ -574,17 +607,25 @@ def _file_rows(doc: _Document, schema: Schema) -> list[dict[str, Any]]:
                     "value": a.value,
                 }
             )
-    return rows
+    participants = tuple(dict.fromkeys(str(r["participant"]) for r in rows))
+    slots = [t for t in eaf.timeslots.values() if t is not None]
+    return rows, FileContext(
+        session=doc.path.stem,
+        participants=participants,
+        contexts=contexts,
+        last_time_ms=int(max(slots)) if slots else 0,
+    )
 
 
-def read_annotations(
+def read_annotations_and_context(
     paths_or_dirs: str | PathLike[str] | Iterable[str | PathLike[str]],
     *,
     schema: Schema | None = None,
     iterate: Callable[[list[Path]], Iterable[Path]] | None = None,
     warn: Callable[[str], None] | None = None,
-) -> pd.DataFrame:
-    """Every turn annotation of every rater in ELAN files, one row each.
+) -> tuple[pd.DataFrame, list[FileContext]]:
+    """Every turn annotation of every rater in ELAN files, one row each, and each file's
+    context (:class:`FileContext`, for ``context.csv`` and ``sessions.csv``).
 
     Parameters
     ----------
@@ -622,6 +663,7 @@ def read_annotations(
     """
     schema = schema if schema is not None else load_schema()
     rows: list[dict[str, Any]] = []
+    contexts: list[FileContext] = []
     sessions: dict[str, Path] = {}
     paths = expand_eaf_paths(paths_or_dirs)
     for path in iterate(paths) if iterate is not None else paths:
@@ -633,12 +675,26 @@ def read_annotations(
             )
         sessions[path.stem] = path
         doc = _load(path)
-        rows.extend(_file_rows(doc, schema))
+        file_rows, context = _file_rows(doc, schema)
+        rows.extend(file_rows)
+        contexts.append(context)
         if warn is not None:
             for message in doc.cve_disagreements:
                 warn(message)
     frame = pd.DataFrame(rows, columns=list(ANNOTATION_COLUMNS))
-    return typed_frame(frame, ANNOTATION_COLUMNS)
+    return typed_frame(frame, ANNOTATION_COLUMNS), contexts
+
+
+def read_annotations(
+    paths_or_dirs: str | PathLike[str] | Iterable[str | PathLike[str]],
+    *,
+    schema: Schema | None = None,
+    iterate: Callable[[list[Path]], Iterable[Path]] | None = None,
+    warn: Callable[[str], None] | None = None,
+) -> pd.DataFrame:
+    """Every turn annotation of every rater in ELAN files, one row each (the first part of
+    :func:`read_annotations_and_context`, whose documentation says it all)."""
+    return read_annotations_and_context(paths_or_dirs, schema=schema, iterate=iterate, warn=warn)[0]
 
 
 # ---------------------------------------------------------------------------------------
