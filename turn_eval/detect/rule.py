@@ -31,15 +31,16 @@ the share of its frames that were seen (not bridged): larger and fully seen turn
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field
+from textwrap import indent
 
 import numpy as np
 import pandas as pd
 
-from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import typed_frame
 from turn_datasets.geometry import angular_speed_deg_s, frontal_vectors, parse_joints, usable_frames
 from turn_datasets.h36m.miner import MinerParams, mine_sequence
+from turn_datasets.params import check_params, describe_params, param
 from turn_datasets.skeleton import Layout
 from turn_eval.detect.preprocess import identity_pieces, repair_swaps
 from turn_eval.detect.protocol import TURN_DTYPES, empty_turns
@@ -68,38 +69,44 @@ DETECT_MINER_DEFAULTS = MinerParams(
 class DetectParams:
     """Every parameter of the built-in detector, with units (module docstring).
 
-    Attributes
-    ----------
-    joints
-        Joint pairs whose frontal vectors are combined: any of ``hip``, ``knee``,
-        ``shoulder``.
-    identity_jump_sizes
-        A move of the mid-hip point between consecutive frames by more than this many body
-        sizes (trunk + upper arms, about 1.1 m in an adult) is a jump to another person.
-    identity_size_change
-        A change of the body's size by more than this fraction (the median over one second
-        after a frame against the second before) is a jump to another person.
-    identity_size_tolerance
-        Stretches whose size differs from most of the stream's by more than this fraction
-        are another person's and ignored.
-    miner
-        The miner's rule (:class:`turn_datasets.h36m.miner.MinerParams`: ``min_turn_deg``,
-        ``max_gap_s``, ``smooth_s``, ``start_speed_deg_s``, ``stop_speed_deg_s``,
-        ``merge_gap_s``, ``position_cutoff_hz``).
+    The preprocessing's own fields are declared here once, with their help and bounds
+    (:func:`turn_datasets.params.param`; ``turn-eval detect`` makes its options from them);
+    ``joints`` names the joint pairs whose frontal vectors are combined (any of ``hip``,
+    ``knee``, ``shoulder``); ``miner`` holds the miner's rule
+    (:class:`turn_datasets.h36m.miner.MinerParams`), by default
+    :data:`DETECT_MINER_DEFAULTS`.
     """
 
+    identity_jump_sizes: float = param(
+        0.5,
+        "A move of the mid-hip point between consecutive frames by more than this many body "
+        "sizes (trunk + upper arms, about 1.1 m in an adult) is a jump to another person.",
+        min=0,
+        min_open=True,
+        max=100.0,
+    )
+    identity_size_change: float = param(
+        0.15,
+        "A change of the body's size by more than this fraction (median over the second "
+        "after a frame against the second before) is a jump to another person.",
+        min=0,
+        min_open=True,
+        max=10.0,
+    )
+    identity_size_tolerance: float = param(
+        0.1,
+        "Stretches whose size differs from most of the stream's by more than this fraction "
+        "are another person's and ignored.",
+        min=0,
+        min_open=True,
+        max=10.0,
+    )
     joints: tuple[str, ...] = ("hip", "shoulder")
-    identity_jump_sizes: float = 0.5
-    identity_size_change: float = 0.15
-    identity_size_tolerance: float = 0.1
     miner: MinerParams = field(default_factory=lambda: DETECT_MINER_DEFAULTS)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "joints", parse_joints(self.joints))
-        for f in fields(self):
-            value = getattr(self, f.name)
-            if isinstance(value, float) and not (np.isfinite(value) and value > 0):
-                raise TurnbenchError(f"{f.name} must be a finite positive number, got {value}")
+        check_params(self)
 
     def as_dict(self) -> dict[str, object]:
         """Flat, JSON-ready: the detector's own fields and the miner's, by name."""
@@ -107,6 +114,11 @@ class DetectParams:
         out["joints"] = ",".join(self.joints)
         out.update(self.miner.as_dict())
         return out
+
+
+DetectParams.__doc__ = (
+    (DetectParams.__doc__ or "") + "\n" + indent(describe_params(DetectParams), "    ")
+)
 
 
 class MinerRule:
