@@ -125,7 +125,10 @@ def test_truth_kinds_are_what_they_say(synth):
     wrong_b = dis["b_angle_deg"] != dis["angle_deg"]
     assert (wrong_a ^ wrong_b).all()
     assert (dis["consensus_angle_deg"] == dis["angle_deg"]).all()
-    assert t.loc[t["kind"] != "disagree", "consensus_angle_deg"].isna().all()
+    # a shifted pair (two overlapping turns of one person) is adjudicated too (issue 10 #6)
+    shifted = t[t["kind"] == "shifted"]
+    assert (shifted["consensus_angle_deg"] == shifted["angle_deg"]).all()
+    assert t.loc[~t["kind"].isin(["disagree", "shifted"]), "consensus_angle_deg"].isna().all()
 
     assert t.loc[t["kind"] == "missed_a", "a_angle_deg"].isna().all()
     assert t.loc[t["kind"] == "missed_a", "b_angle_deg"].notna().all()

@@ -233,8 +233,11 @@ def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.nd
         lines = np.arange(2, 2 + ends.size, dtype=np.int64)
         return header_text, 1, lines, fields + 1, body
     # Variable-width strings: one long line must not widen every other one in memory.
-    all_lines = np.asarray(text.split("\n"), dtype=np.dtypes.StringDType())
-    nonblank = np.strings.strip(all_lines) != ""
+    split = text.split("\n")
+    all_lines = np.asarray(split, dtype=np.dtypes.StringDType())
+    # Python's strip, as the fast path's: numpy's string functions drop trailing NULs, so a
+    # line of a NUL would be blank here and not there.
+    nonblank = np.fromiter((bool(line.strip()) for line in split), dtype=bool, count=len(split))
     numbers = np.flatnonzero(nonblank) + 1
     kept = all_lines[nonblank]
     body_lines = kept[1:]

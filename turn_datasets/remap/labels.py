@@ -137,6 +137,71 @@ def _label_row(
     }
 
 
+def _overlapping(rows: list[dict[str, Any]], start: float, end: float) -> bool:
+    return any(r["start_s"] < end and start < r["end_s"] for r in rows)
+
+
+def _without_overlaps(
+    chosen: list[tuple[dict[str, Any], int, Any]],
+    records: dict[Any, dict[str, Any]],
+    *,
+    resolve: str,
+    unresolved: list[dict[str, Any]],
+) -> list[dict[str, Any]]:
+    """One participant's labels with no two overlapping in time.
+
+    Two raters' turns that overlap too little to be matched (overlap ratio below
+    ``min_overlap``) would otherwise both become labels: two turns of one person at once.
+    The consensus rater's labels stand, and a rater's label overlapping one of them goes
+    (the consensus decided that stretch). The other labels are swept in start order into
+    clusters of overlapping ones; in a cluster of several, ``resolve="first-rater"`` keeps the
+    labels of the first rater present, and ``"consensus"`` lists the cluster as unresolved,
+    like an angle disagreement.
+    """
+    consensus = [row for row, rank, _ in chosen if rank < 0]
+    others = sorted(
+        (
+            c
+            for c in chosen
+            if c[1] >= 0 and not _overlapping(consensus, c[0]["start_s"], c[0]["end_s"])
+        ),
+        key=lambda c: (c[0]["start_s"], c[0]["end_s"]),
+    )
+    clusters: list[list[tuple[dict[str, Any], int, Any]]] = []
+    reach = float("-inf")
+    for c in others:
+        if clusters and c[0]["start_s"] < reach:
+            clusters[-1].append(c)
+            reach = max(reach, c[0]["end_s"])
+        else:
+            clusters.append([c])
+            reach = c[0]["end_s"]
+    kept = list(consensus)
+    for cluster in clusters:
+        if len(cluster) == 1 or resolve == "first-rater":
+            best = min(rank for _, rank, _ in cluster)
+            kept += [row for row, rank, _ in cluster if rank == best]
+            continue
+        first = records[cluster[0][2]]
+        unresolved.append(
+            {
+                "session": first["session"],
+                "participant": first["participant"],
+                "start_s": min(row["start_s"] for row, _, _ in cluster),
+                "end_s": max(row["end_s"] for row, _, _ in cluster),
+                "values": "overlapping turns: "
+                + ", ".join(
+                    f"{row['annotator']} {row['angle_deg']:g} "
+                    f"({row['start_s']:.3f}-{row['end_s']:.3f} s)"
+                    for row, _, _ in cluster
+                ),
+                "file": first["file"],
+                "tier": first["tier"],
+            }
+        )
+    return kept
+
+
 def adjudicate(
     annotations: pd.DataFrame,
     *,
@@ -173,7 +238,9 @@ def adjudicate(
     last (an unmatched one is a turn only the consensus labelled). A turn then takes, in
     order: its consensus annotation; the single annotation of a turn one rater labelled; the
     first rater's annotation when all raters agree on the angle; else it is a disagreement.
-    Times, scenario and location come from the annotation the label is taken from.
+    Times, scenario and location come from the annotation the label is taken from. Labels of
+    one participant never overlap: turns of two raters that overlap too little to be matched
+    are a disagreement too (see :func:`_without_overlaps`).
     ``double_annotated`` is true when at least two raters (consensus aside) labelled it.
     """
     if resolve not in RESOLVE_CHOICES:
@@ -216,17 +283,19 @@ def adjudicate(
                 _Turn(rep=i, members={}, consensus=i) for i in consensus.index if i not in linked
             ]
 
+        rank = {rater: k for k, rater in enumerate(raters)}
+        chosen: list[tuple[dict[str, Any], int, Any]] = []  # label row, rater rank, source
         for t in turns:
             double = len(t.members) >= 2
             if t.consensus is not None:
-                rows.append(
-                    _label_row(records, t.consensus, annotator=consensus_annotator, double=double)
-                )
+                row = _label_row(records, t.consensus, annotator=consensus_annotator, double=double)
+                chosen.append((row, -1, t.consensus))
                 continue
             first_rater, first_idx = next(iter(t.members.items()))
             angles = {float(records[i]["angle_deg"]) for i in t.members.values()}
             if len(angles) == 1 or resolve == "first-rater":
-                rows.append(_label_row(records, first_idx, annotator=first_rater, double=double))
+                row = _label_row(records, first_idx, annotator=first_rater, double=double)
+                chosen.append((row, rank[first_rater], first_idx))
                 continue
             first = records[first_idx]
             unresolved.append(
@@ -242,6 +311,7 @@ def adjudicate(
                     "tier": first["tier"],
                 }
             )
+        rows += _without_overlaps(chosen, records, resolve=resolve, unresolved=unresolved)
 
     labels = pd.DataFrame(rows, columns=list(LABEL_COLUMNS))
     labels = labels.sort_values(

@@ -46,6 +46,64 @@ def _check_columns(df: pd.DataFrame, name: str) -> None:
         raise ValueError(f"annotations {name} lack columns {missing}")
 
 
+def _overlapping_pairs(a: pd.DataFrame, b: pd.DataFrame) -> dict[str, np.ndarray]:
+    """Every pair of an annotation of ``a`` and one of ``b`` of the same session and
+    participant whose intervals overlap, found by sweeping start-sorted intervals.
+
+    Pairing every annotation with every other of its participant took memory quadratic in
+    the annotations (11 GB for 10,000 per rater). Here, per participant, ``b`` is sorted by
+    start and the running maximum of its ends is kept: the annotations of ``b`` that can
+    overlap one of ``a`` lie between the first whose running end passes ``a``'s start and the
+    last that starts before ``a``'s end, both found by binary search. For a rater's tier,
+    whose turns do not overlap, that range holds only the overlapping annotations, so time
+    and memory grow with the number of annotations plus the overlapping pairs.
+
+    Returns positions (row numbers in ``a`` and ``b``) and times, one entry per pair;
+    annotations without a positive duration are left out (they are never linked).
+    """
+
+    def side(df: pd.DataFrame) -> tuple[pd.DataFrame, np.ndarray]:
+        start = df["start_s"].to_numpy(dtype="float64")
+        end = df["end_s"].to_numpy(dtype="float64")
+        pos = np.flatnonzero(end > start)
+        keys = pd.DataFrame({k: df[k].to_numpy(dtype=object)[pos] for k in _KEYS}, index=pos)
+        return keys, np.column_stack([start[pos], end[pos]]) if pos.size else np.empty((0, 2))
+
+    keys_a, times_a = side(a)
+    keys_b, times_b = side(b)
+    parts: list[tuple[np.ndarray, np.ndarray]] = []
+    groups_b = keys_b.groupby(list(_KEYS), sort=False, dropna=False).indices if len(keys_b) else {}
+    if len(keys_a):
+        for key, rows_a in keys_a.groupby(list(_KEYS), sort=False, dropna=False).indices.items():
+            rows_b = groups_b.get(key)
+            if rows_b is None:
+                continue
+            order = rows_b[np.argsort(times_b[rows_b, 0], kind="stable")]
+            sb = times_b[order, 0]
+            reach = np.maximum.accumulate(times_b[order, 1])
+            sa, ea = times_a[rows_a, 0], times_a[rows_a, 1]
+            lo = np.searchsorted(reach, sa, side="right")
+            hi = np.searchsorted(sb, ea, side="left")
+            count = np.maximum(hi - lo, 0)
+            if not count.any():
+                continue
+            which_a = np.repeat(np.arange(rows_a.size), count)
+            offset = np.arange(which_a.size) - np.repeat(np.cumsum(count) - count, count)
+            which_b = order[np.repeat(lo, count) + offset]
+            overlaps = times_b[which_b, 1] > sa[which_a]
+            parts.append((rows_a[which_a[overlaps]], which_b[overlaps]))
+    ia = np.concatenate([p[0] for p in parts]) if parts else np.empty(0, dtype=np.intp)
+    ib = np.concatenate([p[1] for p in parts]) if parts else np.empty(0, dtype=np.intp)
+    return {
+        "pos_a": keys_a.index.to_numpy()[ia].astype(np.int64),
+        "pos_b": keys_b.index.to_numpy()[ib].astype(np.int64),
+        "start_a": times_a[ia, 0],
+        "end_a": times_a[ia, 1],
+        "start_b": times_b[ib, 0],
+        "end_b": times_b[ib, 1],
+    }
+
+
 def match_annotations(
     a: pd.DataFrame, b: pd.DataFrame, *, min_overlap: float = 0.6
 ) -> pd.DataFrame:
@@ -85,30 +143,21 @@ def match_annotations(
         if not df.index.is_unique:
             raise ValueError(f"annotations {name} have duplicate index labels")
 
-    def _side(df: pd.DataFrame, suffix: str) -> pd.DataFrame:
-        out = pd.DataFrame(
-            {
-                "session": df["session"].to_numpy(dtype=object),
-                "participant": df["participant"].to_numpy(dtype=object),
-                f"start{suffix}": df["start_s"].to_numpy(dtype="float64"),
-                f"end{suffix}": df["end_s"].to_numpy(dtype="float64"),
-                f"pos{suffix}": range(len(df)),
-            }
-        )
-        return out[out[f"end{suffix}"] > out[f"start{suffix}"]]
-
-    left = _side(a, "_a")
-    right = _side(b, "_b")
-    pairs = left.merge(right, on=list(_KEYS), how="inner", sort=False)
-    overlap = pairs[["end_a", "end_b"]].min(axis=1) - pairs[["start_a", "start_b"]].max(axis=1)
-    longer = pd.concat(
-        [pairs["end_a"] - pairs["start_a"], pairs["end_b"] - pairs["start_b"]], axis=1
-    ).max(axis=1)
-    pairs = pairs.assign(
-        ratio=(overlap / longer) if len(pairs) else pd.Series([], dtype="float64"),
-        start_gap=(pairs["start_a"] - pairs["start_b"]).abs(),
+    pairs = _overlapping_pairs(a, b)
+    overlap = np.minimum(pairs["end_a"], pairs["end_b"]) - np.maximum(
+        pairs["start_a"], pairs["start_b"]
     )
-    pairs = pairs[(overlap > 0) & (pairs["ratio"] >= float(min_overlap) - _RATIO_TOLERANCE)]
+    longer = np.maximum(pairs["end_a"] - pairs["start_a"], pairs["end_b"] - pairs["start_b"])
+    ratio = overlap / longer if overlap.size else np.empty(0)
+    keep = (overlap > 0) & (ratio >= float(min_overlap) - _RATIO_TOLERANCE)
+    pairs = pd.DataFrame(
+        {
+            "pos_a": pairs["pos_a"][keep],
+            "pos_b": pairs["pos_b"][keep],
+            "ratio": ratio[keep],
+            "start_gap": np.abs(pairs["start_a"] - pairs["start_b"])[keep],
+        }
+    )
     pairs = pairs.sort_values(
         ["ratio", "start_gap", "pos_a", "pos_b"],
         ascending=[False, True, True, True],

@@ -16,7 +16,7 @@ them against:
 - about half of the sessions double-annotated: both raters label every turn, boundaries
   jittered by a few hundred milliseconds, with planted angle disagreements (one bin apart,
   sometimes two), turns one rater missed and, optionally, pairs shifted too far to match;
-  a ``consensus`` rater adjudicates the angle disagreements;
+  a ``consensus`` rater adjudicates the angle disagreements and the shifted pairs;
 - the other sessions labelled by one rater (alternately);
 - ``participants.csv`` (``subject, cohort, pair, sex, age, years_since_diagnosis``).
 
@@ -313,7 +313,7 @@ def write_sessions(
         The two raters' names (``ANNOTATOR`` attribute and tier names).
     consensus
         Name of the adjudicating rater, who writes the true angle of every planted angle
-        disagreement; ``None`` writes no consensus tiers.
+        disagreement and shifted pair; ``None`` writes no consensus tiers.
     disagreement_rate, missed_rate, shifted_rate
         Per double-annotated turn, the chance of an angle disagreement (one rater writes a
         neighbouring bin; two bins away with ``far_disagreement_fraction``), of one rater
@@ -488,7 +488,9 @@ def write_sessions(
                         wrote[raters[0]] = (a[0], a[1], angle_a)
                     if kind != "missed_b":
                         wrote[raters[1]] = (b[0], b[1], angle_b)
-                    if kind == "disagree" and consensus:
+                    if kind in ("disagree", "shifted") and consensus:
+                        # a shifted pair is two overlapping turns of one person, which the
+                        # labels refuse without an adjudicated one (issue 10)
                         wrote[consensus] = (start_ms, end_ms, angle)
 
                 for rater, (w0, w1, value) in wrote.items():
