@@ -90,12 +90,14 @@ import re
 from collections.abc import Iterable, Iterator
 from dataclasses import asdict, dataclass, replace
 from functools import lru_cache
+from textwrap import indent
 from types import MappingProxyType
 
 import numpy as np
 import pandas as pd
 from scipy import signal
 
+from turn_datasets import limits
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import typed_frame
 from turn_datasets.geometry import (
@@ -107,6 +109,7 @@ from turn_datasets.geometry import (
     turning_angle,
     usable_frames,
 )
+from turn_datasets.params import check_params, describe_params, param
 from turn_datasets.render.order import natural_key
 from turn_datasets.skeleton import Layout, MocapSequence
 
@@ -193,66 +196,95 @@ _BUTTER_ORDER = 2  # applied forwards and backwards: squared magnitude, zero pha
 class MinerParams:
     """Every parameter of the miner, with its default (see the module docstring for the rule).
 
-    Attributes
-    ----------
-    min_turn_deg
-        Smallest heading change of a clip, degrees (the paper's 45).
-    max_gap_s
-        Longest dropout bridged by interpolation, seconds; longer ones cut the sequence.
-    smooth_s
-        Moving-mean window of the hip yaw against joint noise, seconds.
-    start_speed_deg_s
-        A turn's heading must somewhere change faster than this, degrees per second.
-    stop_speed_deg_s
-        A turn lasts while its heading changes faster than this, degrees per second.
-    merge_gap_s
-        Runs in the same direction this close (seconds) are one turn.
-    position_cutoff_hz
-        Low-pass cut-off of the hip positions, Hz (0 turns the filter off, as does a cut-off
-        at or above 0.45 times the frame rate, too near the Nyquist frequency to filter).
-    stride_s
-        Typical stride period, seconds: the first guess when looking for the sway's period.
-    min_stride_s
-        Shortest stride period looked for in the hip's sway, seconds.
-    max_stride_s
-        Longest stride period looked for in the hip's sway, seconds.
-    no_sway_window_s
-        Window of the heading rate where the hips show no stride (standing, turning in
-        place), seconds.
-    onset_deg
-        Departure of the heading, degrees, above which (to four times it) a turn's start
-        and end are fitted.
+    Each field is declared once, with its unit in its name and its help and bounds in its
+    metadata (:func:`turn_datasets.params.param`); ``turn-datasets h36m mine`` makes its
+    options from them. A ``position_cutoff_hz`` at or above 0.45 times the frame rate, too
+    near the Nyquist frequency to filter, leaves the hips unfiltered as 0 does.
     """
 
-    min_turn_deg: float = 45.0
-    max_gap_s: float = 0.25
-    smooth_s: float = 0.3
-    start_speed_deg_s: float = 20.0
-    stop_speed_deg_s: float = 10.0
-    merge_gap_s: float = 0.3
-    position_cutoff_hz: float = 6.0
-    stride_s: float = 1.1
-    min_stride_s: float = 0.8
-    max_stride_s: float = 1.6
-    no_sway_window_s: float = 0.6
-    onset_deg: float = 6.0
+    min_turn_deg: float = param(
+        45.0,
+        "Smallest heading change of a clip, in degrees (the paper's 45).",
+        min=0,
+        min_open=True,
+        max=limits.MAX_ANGLE_DEG,
+    )
+    max_gap_s: float = param(
+        0.25,
+        "Dropouts up to this long (seconds) are bridged; longer ones cut the sequence.",
+        min=0,
+        max=limits.MAX_DURATION_S,
+    )
+    smooth_s: float = param(
+        0.3,
+        "Moving-mean window of the hip yaw against joint noise, in seconds.",
+        min=0,
+        min_open=True,
+        max=limits.MAX_DURATION_S,
+    )
+    start_speed_deg_s: float = param(
+        20.0,
+        "A turn's heading must somewhere change faster than this, in degrees per second.",
+        min=0,
+        min_open=True,
+        max=limits.MAX_SPEED_DEG_S,
+    )
+    stop_speed_deg_s: float = param(
+        10.0,
+        "A turn lasts while its heading changes faster than this, in degrees per second.",
+        min=0,
+        max=limits.MAX_SPEED_DEG_S,
+    )
+    merge_gap_s: float = param(
+        0.3,
+        "Rotations in the same direction this close (seconds) are one turn.",
+        min=0,
+        max=limits.MAX_DURATION_S,
+    )
+    position_cutoff_hz: float = param(
+        6.0,
+        "Zero-phase low-pass of the hip positions against joint noise, in Hz (0: off).",
+        min=0,
+        max=limits.MAX_FPS_HZ,
+    )
+    stride_s: float = param(
+        1.1,
+        "Typical stride period, in seconds: the first guess when looking for the sway's period.",
+        min=0,
+        min_open=True,
+        max=limits.MAX_DURATION_S,
+    )
+    min_stride_s: float = param(
+        0.8,
+        "Shortest stride period looked for in the knees' swing or the hip's sway, in seconds.",
+        min=0,
+        min_open=True,
+        max=limits.MAX_DURATION_S,
+    )
+    max_stride_s: float = param(
+        1.6,
+        "Longest stride period looked for in the knees' swing or the hip's sway, in seconds.",
+        min=0,
+        min_open=True,
+        max=limits.MAX_DURATION_S,
+    )
+    no_sway_window_s: float = param(
+        0.6,
+        "Heading-rate window where no stride shows (standing, turning in place), in seconds.",
+        min=0,
+        min_open=True,
+        max=limits.MAX_DURATION_S,
+    )
+    onset_deg: float = param(
+        6.0,
+        "Heading departure (degrees) from which, to four times it, boundaries are fitted.",
+        min=0,
+        min_open=True,
+        max=limits.MAX_ANGLE_DEG,
+    )
 
     def __post_init__(self) -> None:
-        positive = (
-            "min_turn_deg",
-            "smooth_s",
-            "start_speed_deg_s",
-            "stride_s",
-            "min_stride_s",
-            "max_stride_s",
-            "no_sway_window_s",
-            "onset_deg",
-        )
-        for name, value in asdict(self).items():
-            ok = value > 0 if name in positive else value >= 0
-            if not (np.isfinite(value) and ok):
-                kind = "positive" if name in positive else "non-negative"
-                raise TurnbenchError(f"{name} must be a finite {kind} number, got {value}")
+        check_params(self)
         if self.stop_speed_deg_s > self.start_speed_deg_s:
             raise TurnbenchError(
                 f"stop_speed_deg_s ({self.stop_speed_deg_s}) must not exceed "
@@ -1043,3 +1075,8 @@ def mine(sequences: Iterable[MocapSequence], **params: float) -> pd.DataFrame:
     """
     p = MinerParams(**params)
     return build_index(clips for _, clips in iter_clips(sequences, p))
+
+
+MinerParams.__doc__ = (
+    (MinerParams.__doc__ or "") + "\n" + indent(describe_params(MinerParams), "    ")
+)
