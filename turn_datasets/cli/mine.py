@@ -30,7 +30,13 @@ from turn_datasets.h36m.corpus import find_sources, mine_corpus, write_corpus
 from turn_datasets.h36m.manifest import manifest_path
 from turn_datasets.h36m.miner import MinerParams
 from turn_datasets.h36m.overrides import read_overrides
-from turn_datasets.h36m.stats import STATS_INDEX_COLUMNS, stats_csv, stats_dict, stats_markdown
+from turn_datasets.h36m.stats import (
+    STATS_INDEX_COLUMNS,
+    STATS_OPTIONAL_COLUMNS,
+    stats_csv,
+    stats_dict,
+    stats_markdown,
+)
 from turn_datasets.mocap.arrays import UNITS
 from turn_datasets.mocap.bvh import parse_joint_map
 from turn_datasets.mocap.readers import (
@@ -132,9 +138,10 @@ def mine_cmd(
     clip is a run of rotation in one direction whose heading (the hip yaw averaged over a
     stride, so the pelvis' rotation with each step cancels) changes by at least
     --min-turn-deg, from where the heading starts to change to where it stops (see the
-    miner's documentation for the rule); hip_rotation_deg keeps the paper's net hip rotation. By default any unreadable file, or unusable sequence in a
-    file of many, fails the run (exit 2, nothing written) after all are listed; --skip-bad
-    writes the index without them and lists them in the manifest.
+    miner's documentation for the rule); hip_rotation_deg keeps the paper's net hip
+    rotation. By default any unreadable file, or unusable sequence in a file of many, fails
+    the run (exit 2, nothing written) after all are listed; --skip-bad writes the index
+    without them and lists them in the manifest.
 
     \b
     Example:
@@ -194,16 +201,20 @@ def stats_cmd(index_csv: Path, as_csv: bool, fmt: str) -> None:
     """Summarise a clip index as the paper's Table 3, and per subject and action.
 
     Table 3: per 45° bin, the number of clips, the smallest, largest and mean angle and the
-    mean duration, with a Total row; then the same figures per subject and per action.
-    Markdown by default; --csv prints one CSV (table, group, clips, min_deg, max_deg,
-    mean_deg, mean_duration_s).
+    mean duration, with a Total row; then the same figures per subject and per action. An
+    index with hip_rotation_deg (the paper's hip rotation, beside the heading change
+    angle_deg) also gets Table 3 over that column and the median and quartiles of
+    hip_rotation_deg - angle_deg. Markdown by default; --csv prints one CSV (table, group,
+    clips, min_deg, max_deg, mean_deg, mean_duration_s).
 
     \b
     Example:
       turn-datasets h36m stats turn-h36m.csv
       turn-datasets h36m stats turn-h36m.csv --csv > table3.csv
     """
-    index: pd.DataFrame = read_clip_index(index_csv, STATS_INDEX_COLUMNS)
+    index: pd.DataFrame = read_clip_index(
+        index_csv, STATS_INDEX_COLUMNS, optional=STATS_OPTIONAL_COLUMNS
+    )
     fmt = "csv" if as_csv else fmt
     if fmt == "csv":
         emit(stats_csv(index))

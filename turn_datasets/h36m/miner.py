@@ -506,20 +506,23 @@ def _onset(departure: np.ndarray, onset_deg: float) -> float:
     a single threshold crossing does not.
     """
     n = departure.shape[0]
-    high = np.flatnonzero(departure >= 4.0 * onset_deg)
-    top = int(high[0]) if high.size else n
+    high = departure >= 4.0 * onset_deg
+    top = int(high.argmax()) if high.any() else n
     low = np.flatnonzero(departure[:top] < onset_deg)
     bottom = int(low[-1]) + 1 if low.size else 0
-    if top - bottom < 3:
+    m = top - bottom
+    if m < 3:
         return float(bottom)
-    u = np.arange(bottom, top, dtype=float)
     r = np.sqrt(np.maximum(departure[bottom:top], 0.0))
-    slope, intercept = np.polyfit(u, r, 1)
+    # least-squares line through (k, r[k]), k = 0..m-1, in closed form (cheaper than polyfit)
+    k = np.arange(m) - 0.5 * (m - 1)
+    slope = float(k @ r) * 12.0 / (m * (m * m - 1.0))
     if not slope > 0:
         return float(bottom)
+    root = bottom + 0.5 * (m - 1) - float(r.mean()) / slope
     # On an exact parabola the start lies 0.55 x (top - bottom) before the bottom; noise may
     # tilt the line, so the start is kept within one such span of the fitted frames.
-    return float(np.clip(-intercept / slope, bottom - (top - bottom), bottom))
+    return min(max(root, bottom - m), bottom)
 
 
 def _departure(mean_yaw: np.ndarray, frames: np.ndarray, ref_lo: int, ref_hi: int, stride: int):
@@ -536,7 +539,7 @@ def _departure(mean_yaw: np.ndarray, frames: np.ndarray, ref_lo: int, ref_hi: in
         ref = frames - stride * ((frames - ref_hi) // stride + 1)
     else:  # before it: step forward
         ref = frames + stride * ((ref_lo - frames - 1) // stride + 1)
-    return mean_yaw[frames] - mean_yaw[np.clip(ref, ref_lo, ref_hi - 1)]
+    return mean_yaw[frames] - mean_yaw[np.minimum(np.maximum(ref, ref_lo), ref_hi - 1)]
 
 
 def _refine(
@@ -609,8 +612,9 @@ def _piece_turns(
     # and the windows of the turns are then cut only at the neighbouring turns.
     net = _heading_changes(yaw, start, end, stride)
     keep = (np.abs(net) >= p.min_turn_deg) & (np.sign(net) == sign)
-    start, end, sign = start[keep], end[keep], sign[keep]
-    net = _heading_changes(yaw, start, end, stride)
+    if not keep.all():
+        start, end, sign = start[keep], end[keep], sign[keep]
+        net = _heading_changes(yaw, start, end, stride)
     hip = yaw[end - 1] - yaw[start]
     return start, end, sign, net, hip
 
@@ -686,18 +690,16 @@ def _zero_phase_lowpass(x: np.ndarray, cutoff_hz: float, fps_hz: float) -> np.nd
     return np.ascontiguousarray(y[:, ::-1][:, pad : ext.shape[1] - pad].T)
 
 
-def _knee_gait(p: np.ndarray, layout: Layout) -> np.ndarray | None:
+def _knee_gait(ground: np.ndarray) -> np.ndarray:
     """Fore-aft separation of the knees per frame, in hip widths (NaN where unknown).
 
-    Left knee minus right knee on the ground plane, along the direction the hips face
-    (the hip vector turned 90° clockwise seen from above). In walking it swings back and
-    forth once per stride by more than a hip width; standing, it stays near zero. None when
-    the layout has no knees.
+    ``ground`` holds the left and right hip and knee on the ground plane, ``(frames, 4, 2)``.
+    Left knee minus right knee, along the direction the hips face (the hip vector turned
+    90° clockwise seen from above). In walking it swings back and forth once per stride by
+    more than a hip width; standing, it stays near zero.
     """
-    if "left_knee" not in layout.joints or "right_knee" not in layout.joints:
-        return None
-    hip = p[:, layout.index("left_hip"), :2] - p[:, layout.index("right_hip"), :2]
-    knee = p[:, layout.index("left_knee"), :2] - p[:, layout.index("right_knee"), :2]
+    hip = ground[:, 0] - ground[:, 1]
+    knee = ground[:, 2] - ground[:, 3]
     with np.errstate(invalid="ignore", divide="ignore"):
         width2 = hip[:, 0] ** 2 + hip[:, 1] ** 2
         return (knee[:, 0] * hip[:, 1] - knee[:, 1] * hip[:, 0]) / width2
@@ -706,7 +708,10 @@ def _knee_gait(p: np.ndarray, layout: Layout) -> np.ndarray | None:
 def _prepared_pieces(
     positions: np.ndarray, layout: Layout, fps_hz: float, params: MinerParams
 ) -> Iterator[tuple[int, np.ndarray, np.ndarray | None]]:
-    """Steps 2 and 3 of the rule: ``(first frame, bridged and filtered hips, knee gait)``."""
+    """Steps 2 and 3 of the rule: ``(first frame, bridged and filtered hips, knee gait)``.
+
+    The knee gait (:func:`_knee_gait`) is None when the layout has no knees.
+    """
     if not (np.isfinite(fps_hz) and fps_hz > 0):
         raise TurnbenchError(f"fps must be positive, got {fps_hz}")
     p = np.asarray(positions)
@@ -715,14 +720,20 @@ def _prepared_pieces(
             f"positions must have shape (frames, {layout.n_joints}, 3) for layout "
             f"{layout.name!r}, got {p.shape}"
         )
+    names = ["left_hip", "right_hip"]
+    has_knees = "left_knee" in layout.joints and "right_knee" in layout.joints
+    if has_knees:
+        names += ["left_knee", "right_knee"]
+    # one gather of the few joints needed (a row of 32 joints is read once, not per joint)
+    ground = p[:, [layout.index(j) for j in names], :2].astype(float, copy=False)
     hips = np.zeros((p.shape[0], 2, 3))
-    hips[:, :, :2] = p[:, [layout.index("left_hip"), layout.index("right_hip")], :2]
+    hips[:, :, :2] = ground[:, :2]
     usable = usable_frames(hips, _HIPS)
     if int(usable.sum()) < 2:
         raise TurnbenchError(
             "fewer than two frames with a usable hip vector (hips missing or coinciding)"
         )
-    gait = _knee_gait(p, layout)
+    gait = _knee_gait(ground) if has_knees else None
     for a, b in _pieces(usable, _frames(params.max_gap_s, fps_hz)):
         piece = _prepare_piece(hips[a:b], usable[a:b], fps_hz, params.position_cutoff_hz)
         yield a, piece, None if gait is None else gait[a:b]
