@@ -487,92 +487,55 @@ def _average(groups: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
     return out
 
 
-def _bootstrap_intervals(
-    sums: Mapping[str, np.ndarray], *, n_resamples: int, seed: int, progress: Progress | None
-) -> dict[str, Any]:
-    """Each partition's percentile intervals from the cluster bootstrap of its unit sums."""
-    distributions = cluster_bootstrap(sums, n_resamples=n_resamples, seed=seed, progress=progress)
-    return {name: _intervals(d) for name, d in distributions.items()}
-
-
-def _matched_metrics(outcomes: Any, partitions: Sequence[Partition], tp: np.ndarray) -> list:
-    """The harness's angle metrics of the matched pairs, per group of every partition."""
-    if outcomes.n == 0:
-        return [{} for _ in partitions]
-    return grouped_metrics(outcomes, [Partition(p.name, p.labels, p.codes[tp]) for p in partitions])
-
-
-def _check_settings(iou: float, n_resamples: int, seed: int) -> None:
-    if not (0.0 < iou <= 1.0):
-        raise TurnbenchError(f"--iou must be in (0, 1], got {iou}")
-    if n_resamples < 0 or seed < 0:
-        raise TurnbenchError("--bootstrap and --seed must be 0 or more")
-
-
-def _add_ap(
-    overall: dict[str, Any],
-    det: pd.DataFrame,
-    det_unit: np.ndarray,
-    ref: pd.DataFrame,
-    ref_unit: np.ndarray,
-    overlaps: Any,
-) -> dict[str, dict[str, np.ndarray]] | None:
-    """With detection scores: AP into ``overall["ap"]``; returns the PR curves (else None)."""
-    if "score" not in det:
-        return None
-    ap = average_precision(det, det_unit, ref, ref_unit, ious=AP_IOUS, overlaps=overlaps)
-    overall["ap"] = {"by_iou": ap["by_iou"], "mean": ap["mean"]}
-    return ap["curves"]
-
-
-def _components(events: pd.DataFrame, tp: np.ndarray, outcomes: Any) -> np.ndarray:
-    """Per event: TP, FP, FN, bin right, angle error (the additive parts of every metric)."""
+def _event_components(events: pd.DataFrame, tp: np.ndarray, outcomes) -> np.ndarray:
+    """Each event's additive components (:data:`COMPONENTS`): TP, FP, FN, matched-right,
+    matched absolute angle error."""
     kind = events["kind"].to_numpy()
     correct = np.zeros(events.shape[0])
     error = np.zeros(events.shape[0])
     correct[tp] = outcomes.correct
     error[tp] = outcomes.abs_error_deg
-    components = np.stack([tp, kind == "FP", kind == "FN", correct, error], axis=1).astype(
-        np.float64
-    )
-    return components
+    return np.stack([tp, kind == "FP", kind == "FN", correct, error], axis=1).astype(np.float64)
 
 
-def _grouped_doc(
-    partitions: Sequence[Any],
-    entry: Callable[[int, int], dict[str, Any]],
-    distributions: Mapping[str, Any] | None,
-    *,
-    has_context: bool,
-) -> dict[str, Any]:
-    """``by.<column>``: each group's entry and the unweighted average over groups."""
-    by_doc: dict[str, Any] = {}
-    for part, p in enumerate(partitions[1:], start=1):
-        groups = {label: entry(part, g) for g, label in enumerate(p.labels)}
+class _Entries:
+    """The document's entries of each group of each partition (the first is ``overall``)."""
+
+    def __init__(self, partitions, sums, matched, pair_stats, distributions) -> None:
+        self.partitions = partitions
+        self.totals = [sums[p.name].sum(axis=0) for p in partitions]
+        self.matched = matched
+        self.pair_stats = pair_stats
+        self.distributions = distributions
+
+    def __call__(self, part: int, g: int) -> dict[str, Any]:
+        values = _detection_entry(self.totals[part][g])
+        values["matched"] = _matched_entry(self.matched[part], g, self.pair_stats[part][g])
+        if self.distributions is not None:
+            values["ci95"] = _ci(self.distributions[self.partitions[part].name][0], g)
+        return values
+
+    def grouping(self, part: int, *, fp_groups: str) -> dict[str, Any]:
+        """``by.<column>``: its groups, their unweighted average, and how FPs were grouped."""
+        p = self.partitions[part]
+        groups = {label: self(part, g) for g, label in enumerate(p.labels)}
         avg = _average(groups)
-        if distributions is not None:
-            avg["ci95"] = _ci(distributions[p.name][1], None)
-        by_doc[p.name] = {
-            "groups": groups,
-            "avg": avg,
-            "fp_groups": (
-                ("context at the midpoint" if has_context else UNKNOWN_GROUP)
-                if p.name in CONTEXT_GROUPS
-                else "the (session, subject)'s"
-            ),
-        }
-    return by_doc
+        if self.distributions is not None:
+            avg["ci95"] = _ci(self.distributions[p.name][1], None)
+        return {"groups": groups, "avg": avg, "fp_groups": fp_groups}
+
+
+def _fp_rule(column: str, has_context: bool) -> str:
+    """How false detections got their group of ``column`` (said in the JSON)."""
+    if column in CONTEXT_GROUPS:
+        return "context at the midpoint" if has_context else UNKNOWN_GROUP
+    return "the (session, subject)'s"
 
 
 def _settings(
-    *,
-    iou: float,
-    bin_width_deg: float,
-    n_resamples: int,
-    seed: int,
-    has_ap: bool,
-    has_context: bool,
+    iou: float, bin_width_deg: float, n_resamples: int, seed: int, *, ap: bool, context: bool
 ) -> dict[str, Any]:
+    """What a reader needs to reproduce a number (as sacrebleu's signature)."""
     return {
         "iou": iou,
         "matching": MATCHING_RULE.format(iou=iou),
@@ -581,8 +544,8 @@ def _settings(
         "seed": seed,
         "confidence": CONFIDENCE,
         "ci_method": "percentile, cluster bootstrap over (session, subject)",
-        "ap_ious": list(AP_IOUS) if has_ap else None,
-        "context": has_context,
+        "ap_ious": list(AP_IOUS) if ap else None,
+        "context": context,
         "version": __version__,
     }
 
@@ -635,7 +598,10 @@ def score_events(
         ``overall.turns_per_hour`` (with sessions), ``by.<column>.groups.<group>`` and
         ``by.<column>.avg``, ``settings``.
     """
-    _check_settings(iou, n_resamples, seed)
+    if not (0.0 < iou <= 1.0):
+        raise TurnbenchError(f"--iou must be in (0, 1], got {iou}")
+    if n_resamples < 0 or seed < 0:
+        raise TurnbenchError("--bootstrap and --seed must be 0 or more")
     det = _load(detections, read_detections, check_detections)
     ref = _load(reference, read_event_reference, check_event_reference)
     ctx = _load(context, read_context, check_context)
@@ -648,7 +614,7 @@ def score_events(
     events = categorize_events(det, det_unit, ref, ref_unit, iou=iou, overlaps=overlaps)
     grouped = _event_groups(events, ref, ref_unit, det, units, ctx, groupings)
     tp, outcomes, agree, dstart, dend = _matched_block(events, det, ref, bin_width_deg)
-    components = _components(events, tp, outcomes)
+    components = _event_components(events, tp, outcomes)
     unit = events["unit"].to_numpy(dtype=np.int64)
 
     partitions = [Partition.whole(events.shape[0])]
@@ -656,29 +622,32 @@ def score_events(
     sums = {
         p.name: unit_sums(unit, p.codes, components, len(units), len(p.labels)) for p in partitions
     }
-    distributions = (
-        _bootstrap_intervals(sums, n_resamples=n_resamples, seed=seed, progress=progress)
-        if n_resamples > 0 and len(units) > 0
-        else None
-    )
-    matched = _matched_metrics(outcomes, partitions, tp)
+    distributions = None
+    if n_resamples > 0 and len(units) > 0:
+        resampled = cluster_bootstrap(sums, n_resamples=n_resamples, seed=seed, progress=progress)
+        distributions = {name: _intervals(d) for name, d in resampled.items()}
+    # The harness's own metrics of the matched pairs of every group (as `score` computes).
+    matched: list[dict[str, np.ndarray]] = [{} for _ in partitions]
+    if outcomes.n > 0:
+        matched = grouped_metrics(
+            outcomes, [Partition(p.name, p.labels, p.codes[tp]) for p in partitions]
+        )
+
     pair_stats = [_pair_stats(p.codes[tp], len(p.labels), agree, dstart, dend) for p in partitions]
-    totals = [sums[p.name].sum(axis=0) for p in partitions]
-
-    def entry(part: int, g: int) -> dict[str, Any]:
-        p = partitions[part]
-        values = _detection_entry(totals[part][g])
-        values["matched"] = _matched_entry(matched[part], g, pair_stats[part][g])
-        if distributions is not None:
-            values["ci95"] = _ci(distributions[p.name][0], g)
-        return values
-
+    entry = _Entries(partitions, sums, matched, pair_stats, distributions)
     overall = entry(0, 0)
     rates = None
     if ses is not None:
         rates, overall["turns_per_hour"] = _rates(units, ref_unit, det_unit, ses)
-    curves = _add_ap(overall, det, det_unit, ref, ref_unit, overlaps)
-    by_doc = _grouped_doc(partitions, entry, distributions, has_context=ctx is not None)
+    curves: dict[str, dict[str, np.ndarray]] | None = None
+    if "score" in det:
+        ap = average_precision(det, det_unit, ref, ref_unit, ious=AP_IOUS, overlaps=overlaps)
+        overall["ap"] = {"by_iou": ap["by_iou"], "mean": ap["mean"]}
+        curves = ap["curves"]
+    by_doc = {
+        p.name: entry.grouping(part, fp_groups=_fp_rule(p.name, ctx is not None))
+        for part, p in enumerate(partitions[1:], start=1)
+    }
     doc = {
         "overall": overall,
         "by": by_doc,
@@ -689,12 +658,7 @@ def score_events(
             "dropped_unknown": n_dropped,
         },
         "settings": _settings(
-            iou=iou,
-            bin_width_deg=bin_width_deg,
-            n_resamples=n_resamples,
-            seed=seed,
-            has_ap=curves is not None,
-            has_context=ctx is not None,
+            iou, bin_width_deg, n_resamples, seed, ap=curves is not None, context=ctx is not None
         ),
     }
     return EventScores(
