@@ -581,7 +581,9 @@ def synthesize_stream(
             joint_noise_mm=artefacts.joint_noise_mm,
             depth_smooth_s=artefacts.depth_smooth_s,
             dropout_mean_s=artefacts.dropout_mean_s,
-            **SCENARIO_DEGRADE[row.scenario],
+            depth_sd_facing_mm=SCENARIO_DEGRADE[row.scenario]["depth_sd_facing_mm"],
+            depth_sd_away_mm=SCENARIO_DEGRADE[row.scenario]["depth_sd_away_mm"],
+            dropout_rate_per_s=SCENARIO_DEGRADE[row.scenario]["dropout_rate_per_s"],
         )
         out[a:b] = deg.positions
         facing[a:b] = deg.facing_to_camera_deg
@@ -592,29 +594,8 @@ def synthesize_stream(
     swaps = draw_swaps(rng, facing, fps_hz, artefacts)
     for a, b in swaps:
         swap_sides(out, a, b)
-    rows.append(
-        pd.DataFrame(
-            {
-                "kind": "swap",
-                "start_frame": [a for a, _ in swaps],
-                "end_frame": [b for _, b in swaps],
-                "heading_deg": 0.0,
-                "label_deg": np.nan,
-            }
-        )
-    )
-    lost = _runs_of(np.isnan(out).any(axis=(1, 2)))
-    rows.append(
-        pd.DataFrame(
-            {
-                "kind": "dropout",
-                "start_frame": [a for a, _ in lost],
-                "end_frame": [b for _, b in lost],
-                "heading_deg": 0.0,
-                "label_deg": np.nan,
-            }
-        )
-    )
+    rows.append(_spans("swap", swaps))
+    rows.append(_spans("dropout", _runs_of(np.isnan(out).any(axis=(1, 2)))))
     ev_all = pd.concat(rows, ignore_index=True).sort_values(["start_frame", "kind"], kind="stable")
     ev_all["start_s"] = ev_all["start_frame"] / fps_hz
     ev_all["end_s"] = ev_all["end_frame"] / fps_hz
@@ -647,6 +628,19 @@ def camera_frame_m(positions_mm: np.ndarray, camera_mm: tuple[float, float, floa
     x = d[..., 0] * f[1] - d[..., 1] * f[0]  # right = forward turned 90° clockwise
     z = d[..., 0] * f[0] + d[..., 1] * f[1]
     return (np.stack([x, -d[..., 2], z], axis=-1) / 1000.0).astype(np.float32)
+
+
+def _spans(kind: str, spans: list[tuple[int, int]]) -> pd.DataFrame:
+    """Event rows of one artefact kind (no heading, no label)."""
+    return pd.DataFrame(
+        {
+            "kind": kind,
+            "start_frame": [a for a, _ in spans],
+            "end_frame": [b for _, b in spans],
+            "heading_deg": 0.0,
+            "label_deg": np.nan,
+        }
+    )
 
 
 def _runs_of(mask: np.ndarray) -> list[tuple[int, int]]:
