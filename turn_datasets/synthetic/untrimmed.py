@@ -118,22 +118,26 @@ DECOY_KINDS: Mapping[str, float] = MappingProxyType(
         "bystander": 0.12,
     }
 )
-#: Degradation per scenario (home videos get more depth error and occlusion).
+#: Degradation per scenario (home videos get more depth error and occlusion), calibrated
+#: so that the miner's rule run raw on these streams scores about what issue 13 measured on
+#: its hidden sessions (precision 0.41, recall 0.90, F1 0.57, matched accuracy 81%): here
+#: 0.39, 0.88, 0.54 and 79% (seed 1; the notes of issue 13). The demo corpus's depth errors
+#: (20-110 mm) on top of these swaps gave 0.35 and 67%, harsher than the hidden sessions.
 SCENARIO_DEGRADE: Mapping[str, Mapping[str, float]] = MappingProxyType(
     {
         "scripted": {
-            "depth_sd_facing_mm": 15.0,
-            "depth_sd_away_mm": 60.0,
+            "depth_sd_facing_mm": 13.0,
+            "depth_sd_away_mm": 55.0,
             "dropout_rate_per_s": 0.05,
         },
         "clinical": {
-            "depth_sd_facing_mm": 18.0,
-            "depth_sd_away_mm": 70.0,
+            "depth_sd_facing_mm": 16.0,
+            "depth_sd_away_mm": 64.0,
             "dropout_rate_per_s": 0.1,
         },
         "free-living": {
-            "depth_sd_facing_mm": 22.0,
-            "depth_sd_away_mm": 85.0,
+            "depth_sd_facing_mm": 20.0,
+            "depth_sd_away_mm": 76.0,
             "dropout_rate_per_s": 0.3,
         },
     }
@@ -182,7 +186,7 @@ class ArtefactParams:
     :data:`SCENARIO_DEGRADE`.
     """
 
-    swaps_per_min: float = 2.0
+    swaps_per_min: float = 3.0
     swap_frames: tuple[int, int] = (2, 8)
     joint_noise_mm: float = 8.0
     depth_smooth_s: float = 0.3

@@ -60,11 +60,11 @@ from turn_eval.events.reading import (
     check_event_reference,
     check_sessions,
     drop_unknown,
-    known_units,
     read_context,
     read_detections,
     read_event_reference,
     read_sessions,
+    units_of,
 )
 from turn_eval.metrics import (
     CONFIDENCE,
@@ -228,10 +228,27 @@ def _unit_values(reference: pd.DataFrame, ref_unit: np.ndarray, col: str, units:
     return out
 
 
-def _labels(values: np.ndarray, empty: str = BLANK_GROUP) -> np.ndarray:
-    """Group labels of text values: ``empty`` for an empty one."""
-    values = np.asarray(values, dtype=object)
-    return np.where(values == "", empty, values).astype(object)
+def _named(values: np.ndarray, empty: str) -> tuple[np.ndarray, list[str]]:
+    """Codes and names of text values (a factorisation), ``empty`` naming the empty text."""
+    codes, uniq = pd.factorize(np.asarray(values, dtype=object))
+    return codes, [empty if u == "" else str(u) for u in uniq]
+
+
+def _partition(name: str, parts: Sequence[tuple[np.ndarray, list[str]]]) -> Partition:
+    """One grouping from codes and names of several sets of events (the names merged, in
+    natural order: S2 before S11)."""
+    index: dict[str, int] = {}
+    codes = []
+    for part_codes, names in parts:
+        mapping = np.array([index.setdefault(n, len(index)) for n in names], dtype=np.int64)
+        codes.append(mapping[part_codes] if mapping.size else part_codes.astype(np.int64))
+    # Only the names some event has: a group with no event is no group.
+    used, merged = np.unique(np.concatenate(codes), return_inverse=True)
+    names = [list(index)[i] for i in used]
+    order = sorted(range(len(names)), key=lambda i: natural_key(names[i]))
+    rank = np.empty(len(names), dtype=np.int64)
+    rank[order] = np.arange(len(names))
+    return Partition(name, tuple(names[i] for i in order), rank[merged.reshape(-1)])
 
 
 def _event_groups(
@@ -242,11 +259,19 @@ def _event_groups(
     units: Units,
     context: pd.DataFrame | None,
     groupings: Sequence[str],
-) -> dict[str, np.ndarray]:
-    """Each event's group label per grouping (module docstring)."""
+) -> list[Partition]:
+    """Each event's group per grouping, as partitions of the events (module docstring).
+
+    Works on codes, not labels: the reference column is factorised once and the false
+    detections' few values on their own.
+    """
     ref_row = events["ref_row"].to_numpy()
     det_row = events["det_row"].to_numpy()
     is_fp = ref_row < 0
+    # The events are split into those with a reference row and the FPs, then put back.
+    order = np.concatenate([np.flatnonzero(~is_fp), np.flatnonzero(is_fp)])
+    back = np.empty_like(order)
+    back[order] = np.arange(order.shape[0])
     fp_det = det_row[is_fp]
     ds = detections["start_s"].to_numpy(dtype=np.float64)[fp_det]
     de = detections["end_s"].to_numpy(dtype=np.float64)[fp_det]
@@ -254,30 +279,22 @@ def _event_groups(
     ctx = None
     if context is not None:
         ctx = _context_at(context, units.sessions[fp_unit], units.subjects[fp_unit], (ds + de) / 2)
-    out: dict[str, np.ndarray] = {}
+    out: list[Partition] = []
     for col in groupings:
-        labels = np.empty(events.shape[0], dtype=object)
-        ref_values = reference[col].to_numpy(dtype=object)
-        labels[~is_fp] = _labels(ref_values[ref_row[~is_fp]])
+        ref_codes, ref_names = _named(reference[col].to_numpy(dtype=object), BLANK_GROUP)
         if col in CONTEXT_GROUPS:
             fp_values = ctx[col] if ctx is not None else np.full(fp_det.shape[0], "", dtype=object)
-            labels[is_fp] = _labels(fp_values, UNKNOWN_GROUP)
+            fp_codes, fp_names = _named(fp_values, UNKNOWN_GROUP)
         else:
             per_unit = _unit_values(reference, ref_unit, col, units)
-            known = _labels(np.where(pd.isna(per_unit), "", per_unit))
-            known[pd.isna(per_unit)] = UNKNOWN_GROUP
-            labels[is_fp] = known[fp_unit]
-        out[col] = labels
+            unknown = pd.isna(per_unit)
+            unit_codes, unit_names = _named(np.where(unknown, "", per_unit), BLANK_GROUP)
+            # An unknown unit value is its own name, whatever an empty one is called.
+            unit_codes = np.where(unknown, len(unit_names), unit_codes)
+            fp_codes, fp_names = unit_codes[fp_unit], [*unit_names, UNKNOWN_GROUP]
+        p = _partition(col, [(ref_codes[ref_row[~is_fp]], ref_names), (fp_codes, fp_names)])
+        out.append(Partition(col, p.labels, p.codes[back]))
     return out
-
-
-def _partition(name: str, labels: np.ndarray) -> Partition:
-    codes, uniq = pd.factorize(labels)
-    names = [str(u) for u in uniq]
-    order = sorted(range(len(names)), key=lambda i: natural_key(names[i]))
-    rank = np.empty(len(names), dtype=np.int64)
-    rank[order] = np.arange(len(names))
-    return Partition(name, tuple(names[i] for i in order), rank[codes])
 
 
 def _float(value) -> float | None:
@@ -527,13 +544,12 @@ def score_events(
     ctx = _load(context, read_context, check_context)
     ses = _load(sessions, read_sessions, check_sessions)
     groupings = _groupings(ref, by)
-    units = known_units(ref, ses)
-    ref_unit = units.codes(ref)
+    units, ref_unit = units_of(ref, ses)
     det, det_unit, n_dropped = drop_unknown(det, units, ignore_unknown=ignore_unknown, warn=warn)
 
     overlaps = overlapping_pairs(det, det_unit, ref, ref_unit)
     events = categorize_events(det, det_unit, ref, ref_unit, iou=iou, overlaps=overlaps)
-    labels = _event_groups(events, ref, ref_unit, det, units, ctx, groupings)
+    grouped = _event_groups(events, ref, ref_unit, det, units, ctx, groupings)
     tp, outcomes, agree, dstart, dend = _matched_block(events, det, ref, bin_width_deg)
     kind = events["kind"].to_numpy()
     correct = np.zeros(events.shape[0])
@@ -546,7 +562,7 @@ def score_events(
     unit = events["unit"].to_numpy(dtype=np.int64)
 
     partitions = [Partition.whole(events.shape[0])]
-    partitions += [_partition(col, labels[col]) for col in groupings]
+    partitions += grouped
     sums = {
         p.name: unit_sums(unit, p.codes, components, len(units), len(p.labels)) for p in partitions
     }
@@ -631,7 +647,7 @@ def score_events(
         pr_curves=curves,
         detections=det,
         reference=ref,
-        _parts=(events, det, ref, units, labels),
+        _parts=(events, det, ref, units, grouped),
     )
 
 
@@ -640,7 +656,7 @@ def _events_table(
     det: pd.DataFrame,
     ref: pd.DataFrame,
     units: Units,
-    labels: Mapping[str, np.ndarray],
+    groups: Sequence[Partition],
 ) -> pd.DataFrame:
     """The categorised events with names, both sides' times and angles, and their groups."""
     out = events.copy()
@@ -655,6 +671,6 @@ def _events_table(
             column = np.full(rows.shape[0], np.nan)
             column[rows >= 0] = values[rows[rows >= 0]]
             out[f"{side}_{col}"] = column
-    for col, values in labels.items():
-        out[f"group_{col}"] = values
+    for p in groups:
+        out[f"group_{p.name}"] = np.asarray(p.labels, dtype=object)[p.codes]
     return out
