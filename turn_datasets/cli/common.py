@@ -36,6 +36,7 @@ __all__ = [
     "LazyGroup",
     "Number",
     "warn_below",
+    "counted",
     "params_options",
     "params_from",
 ]
@@ -134,6 +135,11 @@ def wrote(*paths: str | Path, what: str = "") -> None:
     """The one-line summary of what a command wrote, on stderr."""
     names = ", ".join(str(p) for p in paths)
     info(f"wrote {what + ' ' if what else ''}{names}")
+
+
+def counted(n: int, noun: str) -> str:
+    """``1 clip``, ``2 clips``: a count with its noun, in the singular for one."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"
 
 
 def progress(items: Iterable[T], *, label: str, length: int | None = None) -> Iterator[T]:
