@@ -16,6 +16,7 @@ from turn_datasets.cli.common import (
     KAPPA,
     SEED,
     counted,
+    file_option,
     format_option,
     info,
     progress,
@@ -59,10 +60,9 @@ REVIEW_DIR = "review"
 @click.argument(
     "inputs", nargs=-1, required=True, metavar="EAF_OR_DIR...", type=click.Path(path_type=Path)
 )
-@click.option(
+@file_option(
     "--schema",
     "schema_path",
-    type=click.Path(dir_okay=False, path_type=Path),
     help="Annotation schema TOML for files in another convention (default: the shipped one).",
 )
 @click.option(

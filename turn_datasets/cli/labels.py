@@ -12,9 +12,11 @@ import pandas as pd
 
 from turn_datasets.cli import CONTEXT_SETTINGS, remap
 from turn_datasets.cli.common import (
+    FILE,
     FRACTION,
     counted,
     emit,
+    file_option,
     format_option,
     info,
     progress,
@@ -128,11 +130,10 @@ def inspect_cmd(
 @click.argument(
     "inputs", nargs=-1, required=True, metavar="EAF_OR_DIR...", type=click.Path(path_type=Path)
 )
-@click.option(
+@file_option(
     "--participants",
     "participants_path",
     required=True,
-    type=click.Path(dir_okay=False, path_type=Path),
     help="CSV: subject, cohort (PD or HC), pair, sex, age, years_since_diagnosis.",
 )
 @_schema_option
@@ -145,10 +146,9 @@ def inspect_cmd(
     help="Who decides where two raters disagree: the consensus tier (else exit 2), or the "
     "rater whose tier comes first in the file.",
 )
-@click.option(
+@file_option(
     "--out",
     required=True,
-    type=click.Path(dir_okay=False, path_type=Path),
     help=f"Labels CSV to write; {ANNOTATIONS_NAME} (every rater's raw rows), {CONTEXT_NAME} "
     f"and {SESSIONS_NAME} (for score-events) go beside it.",
 )
@@ -234,11 +234,10 @@ def labels_cmd(
 
 
 @remap.command("stats", context_settings=CONTEXT_SETTINGS)
-@click.argument("labels_csv", type=click.Path(dir_okay=False, path_type=Path))
-@click.option(
+@click.argument("labels_csv", type=FILE)
+@file_option(
     "--participants",
     "participants_path",
-    type=click.Path(dir_okay=False, path_type=Path),
     default=None,
     help="Participants table, for mean ages and years since diagnosis.",
 )

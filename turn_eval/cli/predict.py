@@ -7,36 +7,37 @@ from pathlib import Path
 import click
 import pandas as pd
 
-from turn_datasets.cli.common import FPS_HZ, progress, wrote
+from turn_datasets.cli.common import (
+    FILE,
+    FPS_HZ,
+    file_option,
+    layout_option,
+    progress,
+    up_axis_option,
+    wrote,
+)
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, write_csv
 from turn_datasets.geometry import METHODS, parse_joints
-from turn_datasets.skeleton import LAYOUTS, UP_AXES, get_layout
+from turn_datasets.skeleton import get_layout
 from turn_eval.cli import CONTEXT_SETTINGS, cli
 from turn_eval.detect.streams import iter_layout_arrays
 from turn_eval.predict import predict_angles
 
 
 @cli.command("predict", context_settings=CONTEXT_SETTINGS)
-@click.argument(
-    "skeletons", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path)
-)
-@click.option(
+@click.argument("skeletons", nargs=-1, required=True, type=FILE)
+@file_option(
     "--out",
     required=True,
-    type=click.Path(dir_okay=False, path_type=Path),
     help="Predictions CSV to write: clip_id, angle_deg, direction[, speed_deg_s].",
 )
-@click.option(
-    "--layout",
-    "layout_name",
-    type=click.Choice(sorted(LAYOUTS)),
+@layout_option(
+    dest="layout_name",
     required=True,
     help="Joint layout of the skeletons (Human3.6M's 17- or 32-joint order).",
 )
-@click.option(
-    "--up-axis",
-    type=click.Choice(UP_AXES),
+@up_axis_option(
     default="z",
     show_default=True,
     help="The vertical axis: z (Human3.6M world), y (y up), -y (camera: y down).",
