@@ -16,7 +16,6 @@ from turn_datasets.cli.common import (
     KAPPA,
     SEED,
     counted,
-    file_option,
     format_option,
     info,
     progress,
@@ -25,7 +24,7 @@ from turn_datasets.cli.common import (
     warn_below,
     wrote,
 )
-from turn_datasets.cli.labels import min_overlap_option, no_turns_error
+from turn_datasets.cli.labels import min_overlap_option, no_turns_error, schema_option
 from turn_datasets.errors import GateFailed
 from turn_datasets.fileio import (
     check_not_input,
@@ -60,11 +59,7 @@ REVIEW_DIR = "review"
 @click.argument(
     "inputs", nargs=-1, required=True, metavar="EAF_OR_DIR...", type=click.Path(path_type=Path)
 )
-@file_option(
-    "--schema",
-    "schema_path",
-    help="Annotation schema TOML for files in another convention (default: the shipped one).",
-)
+@schema_option
 @click.option(
     "--raters",
     nargs=2,

@@ -42,6 +42,7 @@ __all__ = [
     "params_from",
     "FILE",
     "file_option",
+    "writing",
     "layout_option",
     "up_axis_option",
 ]
@@ -254,6 +255,18 @@ BIN_WIDTH_DEG = Number(float, min=0, min_open=True, max=limits.MAX_BIN_WIDTH_DEG
 FRACTION = Number(float, min=0, min_open=True, max=1)
 KAPPA = Number(float, min=-1, max=1)
 SEED = Number(int, min=0, max=limits.MAX_SEED)
+
+
+@contextlib.contextmanager
+def writing(what: str, path: str | Path) -> Iterator[None]:
+    """Turn an ``OSError`` while writing ``what`` into one line and exit 2, as any bad input:
+    a folder that cannot be made or written (a file in the way, no permission, a full disk).
+    """
+    try:
+        yield
+    except OSError as exc:
+        detail = f"{exc.filename}: {exc.strerror}" if exc.filename else str(exc)
+        raise TurnbenchError(f"cannot write {what}: {detail}", file=str(path)) from None
 
 
 #: A path the user names that must be a file, never a folder (an input or an --out).

@@ -54,7 +54,7 @@ SESSIONS_NAME = "sessions.csv"
 #: Every file ``labels`` writes beside ``--out``.
 BESIDE_NAMES = (ANNOTATIONS_NAME, CONTEXT_NAME, SESSIONS_NAME)
 
-_schema_option = click.option(
+schema_option = click.option(
     "--schema",
     "schema_path",
     type=click.Path(dir_okay=False, path_type=Path),
@@ -88,7 +88,7 @@ def no_turns_error(paths: list[Path], schema: Schema) -> TurnbenchError:
 @click.argument(
     "files", nargs=-1, required=True, metavar="FILE...", type=click.Path(path_type=Path)
 )
-@_schema_option
+@schema_option
 @format_option(default="md", choices=("md", "json"))
 @click.option(
     "--keep-media-paths",
@@ -136,7 +136,7 @@ def inspect_cmd(
     required=True,
     help="CSV: subject, cohort (PD or HC), pair, sex, age, years_since_diagnosis.",
 )
-@_schema_option
+@schema_option
 @min_overlap_option
 @click.option(
     "--resolve",

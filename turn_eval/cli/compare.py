@@ -14,6 +14,7 @@ from turn_datasets.cli.common import (
     format_option,
     resamples,
     warn,
+    writing,
     wrote,
 )
 from turn_datasets.errors import TurnbenchError
@@ -191,13 +192,7 @@ def compare_command(
         )
     if out is not None:
         # The file first: if it cannot be written, stdout stays empty and the exit is 2.
-        try:
+        with writing("the comparison", out):
             write_text(out, text)
-        except OSError as exc:
-            raise TurnbenchError(
-                "cannot write the comparison: "
-                + (f"{exc.filename}: {exc.strerror}" if exc.filename else str(exc)),
-                file=str(out),
-            ) from None
         wrote(out, what="comparison")
     emit(text)

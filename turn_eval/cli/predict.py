@@ -14,6 +14,7 @@ from turn_datasets.cli.common import (
     layout_option,
     progress,
     up_axis_option,
+    writing,
     wrote,
 )
 from turn_datasets.errors import TurnbenchError
@@ -117,14 +118,7 @@ def predict_command(
             first_file[clip_id] = path
         frames.append(table)
     result = pd.concat(frames, ignore_index=True)
-    try:
+    with writing("the predictions", out):
         write_csv(result, out)
-    except OSError as exc:
-        # A folder that cannot be made or written: one line like any bad input.
-        raise TurnbenchError(
-            "cannot write the predictions: "
-            + (f"{exc.filename}: {exc.strerror}" if exc.filename else str(exc)),
-            file=str(out),
-        ) from None
     n = len(result)
     wrote(out, what=f"predictions for {n} clip{'' if n == 1 else 's'} to")
