@@ -21,6 +21,7 @@ import click
 from turn_datasets import limits
 from turn_datasets.errors import GateFailed, TurnbenchError
 from turn_datasets.params import param_fields
+from turn_datasets.render.numbers import counted
 
 __all__ = [
     "EXIT_OK",
@@ -135,11 +136,6 @@ def wrote(*paths: str | Path, what: str = "") -> None:
     """The one-line summary of what a command wrote, on stderr."""
     names = ", ".join(str(p) for p in paths)
     info(f"wrote {what + ' ' if what else ''}{names}")
-
-
-def counted(n: int, noun: str) -> str:
-    """``1 clip``, ``2 clips``: a count with its noun, in the singular for one."""
-    return f"{n} {noun}{'' if n == 1 else 's'}"
 
 
 def progress(items: Iterable[T], *, label: str, length: int | None = None) -> Iterator[T]:
