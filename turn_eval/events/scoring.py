@@ -487,6 +487,69 @@ def _average(groups: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
     return out
 
 
+def _event_components(events: pd.DataFrame, tp: np.ndarray, outcomes) -> np.ndarray:
+    """Each event's additive components (:data:`COMPONENTS`): TP, FP, FN, matched-right,
+    matched absolute angle error."""
+    kind = events["kind"].to_numpy()
+    correct = np.zeros(events.shape[0])
+    error = np.zeros(events.shape[0])
+    correct[tp] = outcomes.correct
+    error[tp] = outcomes.abs_error_deg
+    return np.stack([tp, kind == "FP", kind == "FN", correct, error], axis=1).astype(np.float64)
+
+
+class _Entries:
+    """The document's entries of each group of each partition (the first is ``overall``)."""
+
+    def __init__(self, partitions, sums, matched, pair_stats, distributions) -> None:
+        self.partitions = partitions
+        self.totals = [sums[p.name].sum(axis=0) for p in partitions]
+        self.matched = matched
+        self.pair_stats = pair_stats
+        self.distributions = distributions
+
+    def __call__(self, part: int, g: int) -> dict[str, Any]:
+        values = _detection_entry(self.totals[part][g])
+        values["matched"] = _matched_entry(self.matched[part], g, self.pair_stats[part][g])
+        if self.distributions is not None:
+            values["ci95"] = _ci(self.distributions[self.partitions[part].name][0], g)
+        return values
+
+    def grouping(self, part: int, *, fp_groups: str) -> dict[str, Any]:
+        """``by.<column>``: its groups, their unweighted average, and how FPs were grouped."""
+        p = self.partitions[part]
+        groups = {label: self(part, g) for g, label in enumerate(p.labels)}
+        avg = _average(groups)
+        if self.distributions is not None:
+            avg["ci95"] = _ci(self.distributions[p.name][1], None)
+        return {"groups": groups, "avg": avg, "fp_groups": fp_groups}
+
+
+def _fp_rule(column: str, has_context: bool) -> str:
+    """How false detections got their group of ``column`` (said in the JSON)."""
+    if column in CONTEXT_GROUPS:
+        return "context at the midpoint" if has_context else UNKNOWN_GROUP
+    return "the (session, subject)'s"
+
+
+def _settings(
+    iou: float, bin_width_deg: float, n_resamples: int, seed: int, *, ap: bool, context: bool
+) -> dict[str, Any]:
+    """What a reader needs to reproduce a number (as sacrebleu's signature)."""
+    return {
+        "iou": iou,
+        "matching": MATCHING_RULE.format(iou=iou),
+        "bin_width_deg": int(bin_width_deg) if float(bin_width_deg).is_integer() else bin_width_deg,
+        "resamples": n_resamples,
+        "seed": seed,
+        "confidence": CONFIDENCE,
+        "ci_method": "percentile, cluster bootstrap over (session, subject)",
+        "ap_ious": list(AP_IOUS) if ap else None,
+        "context": context,
+        "version": __version__,
+    }
+
+
 def score_events(
     detections: Frame,
     reference: Frame,
@@ -551,14 +614,7 @@ def score_events(
     events = categorize_events(det, det_unit, ref, ref_unit, iou=iou, overlaps=overlaps)
     grouped = _event_groups(events, ref, ref_unit, det, units, ctx, groupings)
     tp, outcomes, agree, dstart, dend = _matched_block(events, det, ref, bin_width_deg)
-    kind = events["kind"].to_numpy()
-    correct = np.zeros(events.shape[0])
-    error = np.zeros(events.shape[0])
-    correct[tp] = outcomes.correct
-    error[tp] = outcomes.abs_error_deg
-    components = np.stack([tp, kind == "FP", kind == "FN", correct, error], axis=1).astype(
-        np.float64
-    )
+    components = _event_components(events, tp, outcomes)
     unit = events["unit"].to_numpy(dtype=np.int64)
 
     partitions = [Partition.whole(events.shape[0])]
@@ -566,33 +622,19 @@ def score_events(
     sums = {
         p.name: unit_sums(unit, p.codes, components, len(units), len(p.labels)) for p in partitions
     }
-    distributions = (
-        {
-            name: _intervals(d)
-            for name, d in cluster_bootstrap(
-                sums, n_resamples=n_resamples, seed=seed, progress=progress
-            ).items()
-        }
-        if n_resamples > 0 and len(units) > 0
-        else None
-    )
-    matched = (
-        grouped_metrics(outcomes, [Partition(p.name, p.labels, p.codes[tp]) for p in partitions])
-        if outcomes.n > 0
-        else [{} for _ in partitions]
-    )
+    distributions = None
+    if n_resamples > 0 and len(units) > 0:
+        resampled = cluster_bootstrap(sums, n_resamples=n_resamples, seed=seed, progress=progress)
+        distributions = {name: _intervals(d) for name, d in resampled.items()}
+    # The harness's own metrics of the matched pairs of every group (as `score` computes).
+    matched = [{} for _ in partitions]
+    if outcomes.n > 0:
+        matched = grouped_metrics(
+            outcomes, [Partition(p.name, p.labels, p.codes[tp]) for p in partitions]
+        )
 
     pair_stats = [_pair_stats(p.codes[tp], len(p.labels), agree, dstart, dend) for p in partitions]
-    totals = [sums[p.name].sum(axis=0) for p in partitions]
-
-    def entry(part: int, g: int) -> dict[str, Any]:
-        p = partitions[part]
-        values = _detection_entry(totals[part][g])
-        values["matched"] = _matched_entry(matched[part], g, pair_stats[part][g])
-        if distributions is not None:
-            values["ci95"] = _ci(distributions[p.name][0], g)
-        return values
-
+    entry = _Entries(partitions, sums, matched, pair_stats, distributions)
     overall = entry(0, 0)
     rates = None
     if ses is not None:
@@ -602,21 +644,10 @@ def score_events(
         ap = average_precision(det, det_unit, ref, ref_unit, ious=AP_IOUS, overlaps=overlaps)
         overall["ap"] = {"by_iou": ap["by_iou"], "mean": ap["mean"]}
         curves = ap["curves"]
-    by_doc: dict[str, Any] = {}
-    for part, p in enumerate(partitions[1:], start=1):
-        groups = {label: entry(part, g) for g, label in enumerate(p.labels)}
-        avg = _average(groups)
-        if distributions is not None:
-            avg["ci95"] = _ci(distributions[p.name][1], None)
-        by_doc[p.name] = {
-            "groups": groups,
-            "avg": avg,
-            "fp_groups": (
-                ("context at the midpoint" if ctx is not None else UNKNOWN_GROUP)
-                if p.name in CONTEXT_GROUPS
-                else "the (session, subject)'s"
-            ),
-        }
+    by_doc = {
+        p.name: entry.grouping(part, fp_groups=_fp_rule(p.name, ctx is not None))
+        for part, p in enumerate(partitions[1:], start=1)
+    }
     doc = {
         "overall": overall,
         "by": by_doc,
@@ -626,20 +657,9 @@ def score_events(
             "detections": int(det.shape[0]),
             "dropped_unknown": n_dropped,
         },
-        "settings": {
-            "iou": iou,
-            "matching": MATCHING_RULE.format(iou=iou),
-            "bin_width_deg": int(bin_width_deg)
-            if float(bin_width_deg).is_integer()
-            else bin_width_deg,
-            "resamples": n_resamples,
-            "seed": seed,
-            "confidence": CONFIDENCE,
-            "ci_method": "percentile, cluster bootstrap over (session, subject)",
-            "ap_ious": list(AP_IOUS) if curves is not None else None,
-            "context": ctx is not None,
-            "version": __version__,
-        },
+        "settings": _settings(
+            iou, bin_width_deg, n_resamples, seed, ap=curves is not None, context=ctx is not None
+        ),
     }
     return EventScores(
         doc=doc,
