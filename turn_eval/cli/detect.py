@@ -142,7 +142,9 @@ def detect_command(
       turn-eval score-events detections.csv --reference labels.csv --context context.csv
     """
     miner = params_from(MinerParams, values)
-    params = replace(params_from(DetectParams, values), joints=joints.split(","), miner=miner)
+    params = replace(
+        params_from(DetectParams, values), joints=tuple(joints.split(",")), miner=miner
+    )
     detector = _load_detector(detector_spec, params)
     layout = get_layout(layout_name)
     files = stream_files(skeletons)

@@ -191,20 +191,24 @@ class MinerRule:
         prm = self.params
         fixed, _ = repair_swaps(piece, layout, fps_hz=fps_hz, max_gap_s=prm.miner.max_gap_s)
         total = np.zeros((fixed.shape[0], 2))
+        widths = {}
         for joint in prm.joints:
             v = frontal_vectors(fixed, layout, joint)
             length = np.hypot(v[:, 0], v[:, 1])
+            widths[joint] = float(np.nanmedian(length)) if np.isfinite(length).any() else 0.0
             # weight = squared width: independent joint errors turn a pair by error / width
-            weight = float(np.nanmedian(length)) ** 2 if np.isfinite(length).any() else 0.0
             with np.errstate(invalid="ignore", divide="ignore"):
-                total += weight * v / length[:, None]
+                total += widths[joint] ** 2 * v / length[:, None]
         seen = usable_frames(fixed, layout, prm.joints) & np.isfinite(total).all(axis=1)
         if int(seen.sum()) < 2:
             return pd.DataFrame()
         # The combined unit vector at the hips' own width, and the knees as they are: the
         # miner reads the stride from the knees' fore-aft swing in hip widths.
-        hip = frontal_vectors(fixed, layout, "hip")
-        width = float(np.nanmedian(np.hypot(hip[:, 0], hip[:, 1])))
+        if "hip" in widths:
+            width = widths["hip"]
+        else:
+            hip = frontal_vectors(fixed, layout, "hip")
+            width = float(np.nanmedian(np.hypot(hip[:, 0], hip[:, 1])))
         half = 0.5 * width * total / np.hypot(total[:, 0], total[:, 1])[:, None]
         arr = np.full((fixed.shape[0], 4, 3), np.nan)
         arr[seen, 0, :2] = half[seen]
