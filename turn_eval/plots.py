@@ -138,7 +138,7 @@ def _abs_error(error_deg: np.ndarray, bin_width_deg: float, path: Path) -> Path:
     top = max(step, float(np.ceil(largest / step) * step))
     fig = Figure(figsize=(5.5, 3.8))
     ax = fig.add_subplot()
-    ax.hist(error_deg, bins=np.arange(0.0, top + step, step), color="#4c78a8")
+    ax.hist(error_deg, bins=np.arange(0.0, top + step, step).tolist(), color="#4c78a8")
     mae = float(error_deg.mean())
     ax.axvline(mae, color="black", linewidth=1.2, label=f"MAE {fixed(mae, 1)}°")
     ax.axvline(

@@ -27,7 +27,7 @@ decimal, as the paper does.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -77,7 +77,7 @@ SCORES_CSV_COLUMNS: Mapping[str, str] = {
 }
 
 #: Wraps the iterator of resample chunks (and their number) to show progress.
-Progress = Callable[[Iterator[np.ndarray], int], Iterable[np.ndarray]]
+Progress = Callable[[Iterable[np.ndarray], int], Iterable[np.ndarray]]
 
 
 def outcomes_of(joined: Joined) -> ClipOutcomes:
@@ -188,7 +188,7 @@ def build_scores(
     partitions = [Partition.whole(outcomes.n)]
     partitions += [_partition(joined, col) for col in groupings]
 
-    distributions: list[Mapping[str, np.ndarray]] = [{} for _ in partitions]
+    distributions: list[dict[str, np.ndarray]] = [{} for _ in partitions]
     if n_resamples > 0:
         chunks: Iterable[np.ndarray] = resample_indices(
             outcomes.n, n_resamples=n_resamples, seed=seed

@@ -863,10 +863,12 @@ def measure_clip(
     end_frame: int,
     lower_frame: int = 0,
     upper_frame: int | None = None,
-    **params: float,
+    params: MinerParams | None = None,
+    **overrides: float,
 ) -> ClipMeasure:
     """A clip's heading change and hip rotation over frames ``[start_frame, end_frame)``.
 
+    ``params`` (default :class:`MinerParams`), with any field given by keyword replaced.
     Used for a curator's ``adjust`` override: the hips are bridged and filtered exactly as in
     :func:`mine_sequence` (same ``max_gap_s`` and ``position_cutoff_hz``), the stride is
     estimated on the piece as the miner does, and the heading change is
@@ -881,7 +883,7 @@ def measure_clip(
         Frames outside the sequence, or not inside one piece (they cross a dropout longer
         than ``max_gap_s``, or reach frames without usable hips at either end).
     """
-    p = MinerParams(**params)
+    p = MinerParams(**overrides) if params is None else replace(params, **overrides)
     n = int(np.asarray(positions).shape[0])
     if not (0 <= start_frame and start_frame + 2 <= end_frame <= n):
         raise TurnbenchError(

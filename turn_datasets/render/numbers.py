@@ -77,15 +77,15 @@ def format_metric(key: str, value: Any) -> str:
         return MISSING
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         return str(value)
+    integral = isinstance(value, numbers.Integral)
+    x = float(value)
     if key == "n" or key.startswith("n_"):
-        if isinstance(value, numbers.Integral) or float(value).is_integer():
-            return f"{int(value)}"
-        return one_decimal(value)
+        return f"{int(x)}" if integral or x.is_integer() else one_decimal(x)
     label = METRIC_LABELS.get(key)
     if label is not None:
-        return one_decimal(100.0 * value) if label.kind == "percent" else one_decimal(value)
-    if isinstance(value, numbers.Integral):
+        return one_decimal(label.scale * x)
+    if integral:
         return str(value)
-    if abs(value) >= 1e6:
-        return f"{value:.4g}"
-    return fixed(value, 3).rstrip("0").rstrip(".")
+    if abs(x) >= 1e6:
+        return f"{x:.4g}"
+    return fixed(x, 3).rstrip("0").rstrip(".")

@@ -16,7 +16,7 @@ chunk; the metrics follow with array arithmetic (:func:`event_metrics`).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Mapping
 
 import numpy as np
 
@@ -58,10 +58,9 @@ def unit_sums(
     components (``(events, components)``).
     """
     k = values.shape[1]
-    out = np.zeros((n_units * n_groups, k))
-    cell = unit * n_groups + group
-    for j in range(k):
-        out[:, j] = np.bincount(cell, weights=values[:, j], minlength=n_units * n_groups)
+    # One bincount for every component: event e's component j goes to cell (unit, group, j).
+    cell = ((unit * n_groups + group) * k)[:, None] + np.arange(k)
+    out = np.bincount(cell.ravel(), weights=values.ravel(), minlength=n_units * n_groups * k)
     return out.reshape(n_units, n_groups, k)
 
 
@@ -71,7 +70,7 @@ def cluster_bootstrap(
     n_resamples: int = 1000,
     seed: int = 0,
     indices: Iterable[np.ndarray] | None = None,
-    progress: Callable[[Iterator[np.ndarray], int], Iterable[np.ndarray]] | None = None,
+    progress: Callable[[Iterable[np.ndarray], int], Iterable[np.ndarray]] | None = None,
 ) -> dict[str, dict[str, np.ndarray]]:
     """Every metric of every group on every cluster-bootstrap resample of the units.
 
