@@ -24,7 +24,13 @@ from turn_datasets.fileio import write_csv
 from turn_datasets.synthetic.untrimmed import write_streams_for_labels
 from turn_eval.report import Report
 
-__all__ = ["UNTRIMMED_DIR", "UntrimmedResults", "run_untrimmed_stage", "untrimmed_section"]
+__all__ = [
+    "UNTRIMMED_DIR",
+    "UntrimmedResults",
+    "load_untrimmed",
+    "run_untrimmed_stage",
+    "untrimmed_section",
+]
 
 #: The stage's folder inside the demo's output folder.
 UNTRIMMED_DIR = "untrimmed"
@@ -74,6 +80,7 @@ def run_untrimmed_stage(
     seed: int,
     run_eval: Callable[[Sequence[str]], str],
     max_sessions: int | None = None,
+    bootstrap: int = 1000,
 ) -> UntrimmedResults:
     """Write the streams, then ``turn-eval detect`` and ``turn-eval score-events --plots``.
 
@@ -92,6 +99,8 @@ def run_untrimmed_stage(
         Only the first sessions (``--quick``): the labels, context and sessions tables are
         cut to them and written into the stage's folder, so that scoring sees whole
         sessions only.
+    bootstrap
+        ``score-events --bootstrap`` (the demo's own setting).
     """
     folder = out / UNTRIMMED_DIR
     streams = folder / "streams"
@@ -129,9 +138,22 @@ def run_untrimmed_stage(
         args += ["--context", str(context)]
     if sessions is not None and sessions.exists():
         args += ["--sessions", str(sessions)]
-    run_eval([*args, "--by", "cohort,scenario", "--out-dir", str(events), "--plots"])
+    args += ["--by", "cohort,scenario", "--bootstrap", str(bootstrap)]
+    run_eval([*args, "--out-dir", str(events), "--plots"])
     scores = json.loads((events / "event_scores.json").read_text(encoding="utf-8"))
     return UntrimmedResults(folder, streams, detections, events, scores)
+
+
+def load_untrimmed(out: Path) -> UntrimmedResults | None:
+    """The stage's results read back from a finished demo folder (None if it did not run)."""
+    folder = out / UNTRIMMED_DIR
+    scores = folder / "events" / "event_scores.json"
+    if not scores.exists():
+        return None
+    doc = json.loads(scores.read_text(encoding="utf-8"))
+    return UntrimmedResults(
+        folder, folder / "streams", folder / "detections.csv", folder / "events", doc
+    )
 
 
 def untrimmed_section(report: Report, results: UntrimmedResults) -> None:
