@@ -17,6 +17,7 @@ from typing import Any
 from turn_datasets.render.labels import METRIC_LABELS
 
 __all__ = [
+    "counted",
     "MISSING",
     "fixed",
     "format_deg",
@@ -31,6 +32,11 @@ MISSING = "–"
 
 #: Enough digits for any finite float (the largest has 309 before the point).
 _DECIMALS = Context(prec=400, rounding=ROUND_HALF_UP)
+
+
+def counted(n: int, noun: str) -> str:
+    """``1 clip``, ``2 clips``: a count with its noun, in the singular for one."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"
 
 
 def is_missing(value: Any) -> bool:
