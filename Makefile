@@ -3,10 +3,18 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
+# A second environment with the optional `video` extra (mediapipe 0.10.21, which pins
+# numpy < 2): `make test` runs the whole suite there too, so the core is tested on numpy
+# 1.26 as well as 2.x, and the video tests, which skip in .venv, must run (and not skip).
+VENV_VIDEO := .venv-video
+VBIN := $(VENV_VIDEO)/bin
+VSTAMP := $(VENV_VIDEO)/.installed
 
-.PHONY: venv demo test bench lint clean
+.PHONY: venv venv-video demo test test-core test-video bench lint clean
 
 venv: $(STAMP)
+
+venv-video: $(VSTAMP)
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -14,11 +22,23 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[test,dev]'
 	touch $(STAMP)
 
+$(VSTAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV_VIDEO)
+	$(VBIN)/python -m pip install --quiet --upgrade pip
+	$(VBIN)/python -m pip install --quiet -e '.[test,video]'
+	touch $(VSTAMP)
+
 demo: $(STAMP)
 	$(BIN)/python -m turn_eval.demo --out-dir demo-output
 
-test: $(STAMP)
+test: test-core test-video
+
+test-core: $(STAMP)
 	$(BIN)/python -m pytest -q
+
+# TURNBENCH_REQUIRE_VIDEO turns a skipped video test into a failure (tests/conftest.py).
+test-video: $(VSTAMP)
+	TURNBENCH_REQUIRE_VIDEO=1 $(VBIN)/python -m pytest -q -p no:cacheprovider
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
@@ -27,4 +47,4 @@ lint: $(STAMP)
 	$(BIN)/ruff check turn_datasets turn_eval tests benchmarks
 
 clean:
-	rm -rf $(VENV) demo-output .pytest_cache
+	rm -rf $(VENV) $(VENV_VIDEO) demo-output .pytest_cache

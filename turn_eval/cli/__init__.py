@@ -23,6 +23,7 @@ CONTEXT_SETTINGS = {"help_option_names": ["-h", "--help"], "max_content_width": 
         "score": "turn_eval.cli.score",
         "compare": "turn_eval.cli.compare",
         "predict": "turn_eval.cli.predict",
+        "estimate": "turn_eval.cli.estimate",
     },
 )
 @click.version_option(__version__, prog_name="turn-eval")
@@ -34,6 +35,7 @@ def cli() -> None:
       turn-eval score predictions.csv --reference turn-h36m.csv --format md
       turn-eval compare a.csv b.csv --reference turn-h36m.csv
       turn-eval predict skeletons.npz --layout h36m17 --out predictions.csv
+      turn-eval estimate walk.mp4 --out walk.npz   (needs: pip install 'turnbench[video]')
     """
 
 
