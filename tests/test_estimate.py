@@ -215,7 +215,9 @@ def test_guard_allows_for_time_across_undetected_frames():
     lm[10:40] = np.nan  # one second unseen: 3 trunks walked, within 1.5 + 10 * 1.03
     assert identity_breaks(lm, t, width_px=1000, height_px=500) == []
     strict = IdentityGuardParams(max_speed_torso_per_s=1.0)
-    assert [b.frame for b in identity_breaks(lm, t, width_px=1000, height_px=500, params=strict)] == [40]
+    assert [
+        b.frame for b in identity_breaks(lm, t, width_px=1000, height_px=500, params=strict)
+    ] == [40]
 
 
 def test_tracks_split_at_breaks_and_span_detections():
@@ -304,13 +306,17 @@ def test_skeletons_from_landmarks_tracks_manifest_and_bytes(tmp_path):
     assert sorted(result.arrays) == ["clinic_01.t1", "clinic_01.t2"]
     first, second = result.arrays["clinic_01.t1"], result.arrays["clinic_01.t2"]
     assert first.shape == second.shape == (60, 17, 3) and first.dtype == np.float32
-    assert np.isnan(first[:2]).all() and np.isfinite(first[2:40]).all() and np.isnan(first[40:]).all()
+    assert (
+        np.isnan(first[:2]).all() and np.isfinite(first[2:40]).all() and np.isnan(first[40:]).all()
+    )
     assert np.isnan(second[:40]).all() and np.isfinite(second[40:]).all()
     m = result.manifest
     assert m["detection"] == {"n_detected": 58, "rate": round(58 / 60, 6)}
     assert [b["frame"] for b in m["identity_breaks"]] == [40]
     assert m["time"]["regular"] and m["axes"]["up_axis"] == "-y" and m["axes"]["units"] == "m"
-    one = skeletons_from_landmarks(world33[:40], image33[:40], pts[:40], session="s", width_px=1000, height_px=500)
+    one = skeletons_from_landmarks(
+        world33[:40], image33[:40], pts[:40], session="s", width_px=1000, height_px=500
+    )
     assert list(one.arrays) == ["s"]
     a = write_estimate(result, tmp_path / "a" / "clinic_01.npz")
     b = write_estimate(result, tmp_path / "b" / "clinic_01.npz")
@@ -327,7 +333,9 @@ def test_estimate_files_feed_predict_and_mine_with_the_documented_options(tmp_pa
     )  # fmt: skip
     npz, _ = write_estimate(result, tmp_path / "turn90.npz")
     out = tmp_path / "pred.csv"
-    code, _, err = run(cli, ["predict", npz, "--layout", "h36m17", "--up-axis", "-y", "--out", out], capsys)
+    code, _, err = run(
+        cli, ["predict", npz, "--layout", "h36m17", "--up-axis", "-y", "--out", out], capsys
+    )
     assert code == 0, err
     pred = pd.read_csv(out)
     assert pred["clip_id"].tolist() == ["turn90"]
@@ -369,7 +377,11 @@ def test_each_named_format_reads_its_own_layout(tmp_path, capsys):
     assert arrays[0][1].shape == (60, 17, 3) and arrays[0][1].dtype == np.float64
     assert read_estimator_output(motionbert, "motionbert")[1][0][0] == "walk_c"
     expected = {"walk_a": (90.0, "left"), "walk_b": (135.0, "right"), "walk_c": (180.0, "left")}
-    for path, fmt in ((strided, "strided-transformer"), (videopose, "videopose3d"), (motionbert, "motionbert")):
+    for path, fmt in (
+        (strided, "strided-transformer"),
+        (videopose, "videopose3d"),
+        (motionbert, "motionbert"),
+    ):
         out = tmp_path / f"{fmt}.csv"
         code, _, err = run(cli, ["predict", path, "--from", fmt, "--out", out], capsys)
         assert code == 0, err
@@ -388,7 +400,9 @@ def test_two_d_files_and_alphapose_are_refused_with_the_lifter_advice(tmp_path, 
     np.savez_compressed(detectron, boxes=np.zeros(3), keypoints=np.zeros(3))
     for path, fmt in ((alphapose, "alphapose"), (alphapose, "arrays"), (keypoints2d, "strided-transformer"),
                       (detectron, "videopose3d")):  # fmt: skip
-        code, out, err = run(cli, ["predict", path, "--from", fmt, "--out", tmp_path / "p.csv"], capsys)
+        code, out, err = run(
+            cli, ["predict", path, "--from", fmt, "--out", tmp_path / "p.csv"], capsys
+        )
         assert code == EXIT_BAD_INPUT and out == ""
         last = err.strip().splitlines()[-1]  # after the progress label: one error line
         assert last.startswith("turn-eval: error:") and "Traceback" not in err
@@ -396,7 +410,9 @@ def test_two_d_files_and_alphapose_are_refused_with_the_lifter_advice(tmp_path, 
     assert not (tmp_path / "p.csv").exists()
     wrong = tmp_path / "walk.npy"
     np.save(wrong, np.zeros((10, 32, 3)))
-    code, _, err = run(cli, ["predict", wrong, "--from", "motionbert", "--out", tmp_path / "p.csv"], capsys)
+    code, _, err = run(
+        cli, ["predict", wrong, "--from", "motionbert", "--out", tmp_path / "p.csv"], capsys
+    )
     assert code == EXIT_BAD_INPUT and "(frames, 17, 3)" in err
 
 

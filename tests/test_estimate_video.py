@@ -69,7 +69,9 @@ def test_detection_rate_and_regular_timestamps(sports2d):
     assert m["time"]["regular"] and not m["time"]["resampled"] and m["time"]["fps_hz"] == 30.0
     pts = np.array(m["time"]["decoded_pts_s"])
     assert np.allclose(np.diff(pts), 1 / 30, atol=1e-5)
-    assert m["video"]["sha256"] == "d9a66417185647b112304b57093f0c180f37a768e6a14daca75ca541f3b78039"
+    assert (
+        m["video"]["sha256"] == "d9a66417185647b112304b57093f0c180f37a768e6a14daca75ca541f3b78039"
+    )
     assert m["axes"]["up_axis"] == "-y" and m["axes"]["units"] == "m"
     assert m["packages"]["mediapipe"] == "0.10.21"
 
@@ -79,7 +81,10 @@ def test_bone_lengths_and_the_vertical_axis(sports2d):
     seen = np.isfinite(p).all(axis=(1, 2))
     j = H36M17.index
     thigh = np.concatenate(
-        [np.linalg.norm(p[seen, j(f"{s}_hip")] - p[seen, j(f"{s}_knee")], axis=1) for s in ("left", "right")]
+        [
+            np.linalg.norm(p[seen, j(f"{s}_hip")] - p[seen, j(f"{s}_knee")], axis=1)
+            for s in ("left", "right")
+        ]
     )
     assert 0.35 <= np.median(thigh) <= 0.40
     # y points down: the nose (H17 "neck") above the pelvis above both ankles
@@ -109,7 +114,11 @@ def test_identity_guard_fires_at_the_two_changes_of_person_only(sports2d):
     assert 5.5 <= times[0] <= 6.2 and 6.5 <= times[1] <= 7.2
     # the changes SOURCE.md describes: to someone at the far left, then to someone at the right
     assert breaks[0]["centre_after"][0] < 0.25 and breaks[1]["centre_after"][0] > 0.6
-    assert sorted(sports2d["arrays"]) == ["sports2d_demo.t1", "sports2d_demo.t2", "sports2d_demo.t3"]
+    assert sorted(sports2d["arrays"]) == [
+        "sports2d_demo.t1",
+        "sports2d_demo.t2",
+        "sports2d_demo.t3",
+    ]
     tracks = sports2d["manifest"]["tracks"]
     assert tracks[0]["start_s"] < 0.5 and tracks[0]["end_s"] > 5.5  # one person walking: no cut
 
@@ -123,7 +132,9 @@ def test_rerun_is_byte_identical_and_the_preview_is_a_video(sports2d, sports2d_v
     assert first == again
     import imageio_ffmpeg
 
-    n_frames, _ = imageio_ffmpeg.count_frames_and_secs(str(sports2d["dir"] / "qa" / "sports2d_demo.preview.mp4"))
+    n_frames, _ = imageio_ffmpeg.count_frames_and_secs(
+        str(sports2d["dir"] / "qa" / "sports2d_demo.preview.mp4")
+    )
     assert n_frames == 230
 
 

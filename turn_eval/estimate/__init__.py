@@ -16,7 +16,11 @@ Only ``blazepose`` needs the optional ``video`` extra (mediapipe), and only when
 
 from turn_eval.estimate.formats import ESTIMATOR_FORMATS, FORMAT_CHOICES, read_estimator_output
 from turn_eval.estimate.guard import IdentityBreak, IdentityGuardParams, identity_breaks, tracks
-from turn_eval.estimate.joints import BLAZEPOSE_LANDMARKS, H36M17_FROM_BLAZEPOSE, blazepose_to_h36m17
+from turn_eval.estimate.joints import (
+    BLAZEPOSE_LANDMARKS,
+    H36M17_FROM_BLAZEPOSE,
+    blazepose_to_h36m17,
+)
 from turn_eval.estimate.pipeline import (
     AXES,
     EstimateParams,
@@ -26,7 +30,7 @@ from turn_eval.estimate.pipeline import (
     skeletons_from_landmarks,
     write_estimate,
 )
-from turn_eval.estimate.tilt import LevelParams, Levelling, estimate_up, level
+from turn_eval.estimate.tilt import Levelling, LevelParams, estimate_up, level
 from turn_eval.estimate.timing import TimeGrid, nominal_rate_hz, regular_grid, resample
 
 __all__ = [

@@ -35,7 +35,9 @@ BUNDLED_MODELS = (
     "modules/pose_detection/pose_detection.tflite",
     "modules/pose_landmark/pose_landmark_full.tflite",
 )
-INSTALL_HINT = f"install the video extra: pip install 'turnbench[video]' (mediapipe=={MEDIAPIPE_VERSION})"
+INSTALL_HINT = (
+    f"install the video extra: pip install 'turnbench[video]' (mediapipe=={MEDIAPIPE_VERSION})"
+)
 
 
 @dataclass(frozen=True)

@@ -103,7 +103,10 @@ def _as_h36m17(array: np.ndarray, path: Path, key: str) -> np.ndarray:
         a = a[0]  # Strided Transformer's and VideoPose3D's batch axis of one clip
     if a.ndim == 3 and a.shape[-1] == 2:
         raise TurnbenchError(
-            f"array has shape {tuple(a.shape)}: 2D keypoints", file=path, item=key, hint=_LIFTER_HINT
+            f"array has shape {tuple(a.shape)}: 2D keypoints",
+            file=path,
+            item=key,
+            hint=_LIFTER_HINT,
         )
     if a.ndim != 3 or a.shape[1:] != (H36M17.n_joints, 3):
         raise TurnbenchError(
@@ -122,7 +125,9 @@ def _npz_arrays(path: Path) -> dict[str, np.ndarray]:
             return {k: archive[k] for k in sorted(archive.files)}
     except (OSError, ValueError, EOFError) as exc:
         # ValueError also covers a pickled array (an object array needs allow_pickle)
-        raise TurnbenchError(f"cannot read this .npz (pickled, truncated or corrupt?): {exc}", file=path) from None
+        raise TurnbenchError(
+            f"cannot read this .npz (pickled, truncated or corrupt?): {exc}", file=path
+        ) from None
 
 
 def _read(path: Path, fmt: EstimatorFormat) -> Iterator[tuple[str, np.ndarray]]:
@@ -143,7 +148,9 @@ def _read(path: Path, fmt: EstimatorFormat) -> Iterator[tuple[str, np.ndarray]]:
     for two_d in ("positions_2d", "keypoints"):
         if two_d in members or (two_d == "keypoints" and "boxes" in members):
             raise TurnbenchError(
-                f"this is a 2D keypoint file (it holds {sorted(members)})", file=path, hint=_LIFTER_HINT
+                f"this is a 2D keypoint file (it holds {sorted(members)})",
+                file=path,
+                hint=_LIFTER_HINT,
             )
     if fmt.name == "strided-transformer":
         if "reconstruction" not in members:

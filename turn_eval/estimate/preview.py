@@ -94,7 +94,12 @@ class PreviewWriter:
             centre, length = trunk(image_xy, *self.size)
             if self._last is not None and length > 0:
                 broken, _, _ = is_break(
-                    self._last[0], self._last[1], centre, float(length), time_s - self._last[2], self.guard
+                    self._last[0],
+                    self._last[1],
+                    centre,
+                    float(length),
+                    time_s - self._last[2],
+                    self.guard,
                 )
                 self._track += int(broken)
             self._last = (centre, float(length), time_s)

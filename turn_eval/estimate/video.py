@@ -27,7 +27,9 @@ from turn_datasets.errors import TurnbenchError
 
 __all__ = ["VideoStream", "open_video"]
 
-_SHOWINFO = re.compile(r"\bn:\s*(\d+)\s+pts:\s*(-?\d+)\s+pts_time:\s*(-?[\d.eE+-]+).*?\bs:(\d+)x(\d+)")
+_SHOWINFO = re.compile(
+    r"\bn:\s*(\d+)\s+pts:\s*(-?\d+)\s+pts_time:\s*(-?[\d.eE+-]+).*?\bs:(\d+)x(\d+)"
+)
 _STREAM = re.compile(r"Stream #\d+:\d+.*?: Video: (\w+)")
 _FPS = re.compile(r"([\d.]+)(k?) fps")
 _TBR = re.compile(r"([\d.]+)(k?) tbr")
@@ -64,9 +66,7 @@ class VideoStream:
             line = raw.decode("utf-8", "replace").rstrip()
             info = _SHOWINFO.search(line)
             if info is not None:
-                self._frames.put(
-                    (float(info.group(3)), int(info.group(4)), int(info.group(5)))
-                )
+                self._frames.put((float(info.group(3)), int(info.group(4)), int(info.group(5))))
                 continue
             self._log.append(line)
             stream = _STREAM.search(line)
@@ -130,7 +130,9 @@ def open_video(path: str | os.PathLike[str]) -> VideoStream:
         "rgb24",
         "-",
     ]
-    process = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    process = subprocess.Popen(
+        cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE
+    )
     stream = VideoStream(path=p, process=process)
     threading.Thread(target=stream._read_stderr, daemon=True).start()
     return stream
