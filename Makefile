@@ -40,8 +40,10 @@ test-core: $(STAMP)
 test-video: $(VSTAMP)
 	TURNBENCH_REQUIRE_VIDEO=1 $(VBIN)/python -m pytest -q -p no:cacheprovider
 
-bench: $(STAMP)
+# The estimate benchmark needs mediapipe: skipped in .venv, run in .venv-video.
+bench: $(STAMP) $(VSTAMP)
 	$(BIN)/python benchmarks/run.py
+	$(VBIN)/python benchmarks/run.py --only estimate
 
 lint: $(STAMP)
 	$(BIN)/ruff check turn_datasets turn_eval tests benchmarks
