@@ -213,8 +213,11 @@ def test_overrides_exclude_keep_adjust_and_unmatched(corpus, tmp_path, capsys) -
     new_id = f"S9_WalkDog_{planted.start_frame}-{planted.end_frame}"
     assert new_id in set(index.clip_id) and s9 not in set(index.clip_id)
     adjusted = index.set_index("clip_id").loc[new_id]
-    # noise-free hips: the re-measured angle is the planted hip rotation over those frames
-    assert adjusted.angle_deg == pytest.approx(abs(planted.angle_deg), abs=0.5)
+    # noise-free hips: the re-measured hip rotation is the planted one over those frames
+    # (issue 11: this was angle_deg, which is now the heading change), and the angle is the
+    # heading change planted, to the generator's postural wander (0.5° s.d.)
+    assert adjusted.hip_rotation_deg == pytest.approx(abs(planted.angle_deg), abs=0.5)
+    assert adjusted.angle_deg == pytest.approx(abs(planted.heading_deg), abs=1.5)
     assert adjusted.duration_s == pytest.approx(planted.duration_s)
     assert len(index) == 5
     manifest = json.loads((tmp_path / "curated.manifest.json").read_text())
@@ -574,7 +577,8 @@ def test_every_miner_parameter_is_an_option_with_its_default_unit_and_sentence(c
     code, stdout, _ = run(["h36m", "mine", "--help"], capsys)
     assert code == 0
     flat = " ".join(stdout.split())  # click wraps the help text
-    assert "--min-turn-deg FLOAT Smallest net hip rotation of a clip, in degrees" in flat
+    # (issue 11: a clip's angle is now its heading change)
+    assert "--min-turn-deg FLOAT Smallest heading change of a clip, in degrees" in flat
     assert "[default: 45.0]" in flat
 
 
@@ -607,10 +611,11 @@ def test_cmu_captures_mined_with_no_option_find_exactly_the_described_turns(cmu_
     assert [i["frame_offset"] for i in manifest["inputs"]] == [1] * 5
     # SOURCE.md: 69_25 has 464 frames in the file, so 463 were mined
     assert [i["frames"] for i in manifest["inputs"] if i["path"].endswith("69_25.bvh")] == [463]
-    # keeping the T-pose brings the false clip back: the default is what prevents it
+    # Keeping the T-pose made a false 50° clip before issue 11; the heading change, measured
+    # as a mean over a stride on each side, no longer turns one frame's jump into a turn
     kept = tmp_path / "kept.csv"
     with pytest.raises(SystemExit):
         main(["h36m", "mine", str(cmu_dir / "69_01.bvh"), "--keep-first-frame", "--out", str(kept)])
-    assert len(pd.read_csv(kept)) == 1
+    assert len(pd.read_csv(kept)) == 0
     manifest = json.loads((tmp_path / "kept.manifest.json").read_text())
     assert [i["frame_offset"] for i in manifest["inputs"]] == [0]

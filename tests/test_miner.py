@@ -16,7 +16,7 @@ from turn_datasets.geometry import turning_angle
 from turn_datasets.h36m.miner import (
     CLIP_INDEX_DTYPES,
     MinerParams,
-    _yaw_rate,
+    _moving_mean,
     _zero_phase_lowpass,
     clip_id_of,
     find_turns,
@@ -46,25 +46,44 @@ def test_constant_yaw_has_no_turn() -> None:
 
 
 def test_ramp_boundaries_worked_by_hand() -> None:
-    # Still for 2 s, 90°/s for 1 s (yaw frames 100..150), still for 2 s. The rate is the
-    # slope of a least-squares quadratic over 31 frames (0.6 s), i.e. of a line: at d frames
-    # before the kink at frame 100 it is 50 * 1.8 * sum_{k=d+1}^{15} k (k - d) / 2480 (°/s,
-    # sum k^2 over -15..15 = 2480): d = 9 gives 10.16 > 10, d = 10 gives 7.44 < 10, so the
-    # run starts at frame 91. Symmetrically the rate is 10.16 at frame 159 and 7.44 at 160:
-    # the run ends at 160 (exclusive).
+    # Still for 2 s, 90°/s for 1 s (yaw 1.8° a frame from frame 100 to 150), still for 2 s.
+    # (Definition changed in issue 11: boundaries are fitted where the heading departs, no
+    # longer where a 0.6 s Savitzky-Golay rate crosses 10°/s.) A bare yaw series shows no
+    # stride, so the heading-rate window is no_sway_window_s = 30 frames and the yaw's moving
+    # mean m spans 15 frames (u-7..u+7). Before the turn the departure is D(u) = m(u) -
+    # m(u-30) = m(u): in the smoothed kink (u = 93..107) m(u) = 1.8/15 * J(J+1)/2 with
+    # J = u - 93, then 1.8 (u - 100). D first reaches onset_deg = 6 at u = 103 (6.6; 5.4 at
+    # 102) and 4 x 6 = 24 at u = 114 (25.2; 23.4 at 113). The line through sqrt(D) over
+    # u = 103..113 meets zero at 91.6 (least squares on those eleven values), earlier than
+    # the start allowed by the fit's span (103 - 11 = 92): the start is frame 92. A ramp's
+    # sharp kink is not the smooth onset the fit assumes, hence the 8 frames before 100.
+    # The series is symmetric about frame 125 (yaw(250 - k) = 90 - yaw(k)), so the turn's
+    # last frame is 250 - 92 = 158 and the run ends at 159 (exclusive). The heading change:
+    # 90 - 0 (means over a window on each side of constant yaw).
     yaw = yaw_from_rates([(2.0, 0.0), (1.0, 90.0), (2.0, 0.0)])
     got = find_turns(yaw, fps_hz=FPS)
-    assert got.values.tolist() == [[91, 160, 1]]
+    assert got[["start_frame", "end_frame", "sign"]].values.tolist() == [[92, 159, 1]]
+    assert got.net_deg[0] == pytest.approx(90.0, abs=1e-9)
+    assert got.hip_net_deg[0] == pytest.approx(yaw[158] - yaw[92], abs=1e-9)
     right = find_turns(-yaw, fps_hz=FPS)
-    assert right.values.tolist() == [[91, 160, -1]]
+    assert right[["start_frame", "end_frame", "sign"]].values.tolist() == [[92, 159, -1]]
+    assert right.net_deg[0] == pytest.approx(-90.0, abs=1e-9)
 
 
 def test_brief_sway_against_the_turn_does_not_split_it() -> None:
     # A slow left turn (30°/s) with 0.2 s of rotation back (-20°/s) in its middle.
     yaw = yaw_from_rates([(2, 0), (2, 30), (0.2, -20), (2, 30), (2, 0)])
     assert len(find_turns(yaw, fps_hz=FPS)) == 1
-    # Without the merge the hesitation would cut it in two: the hysteresis is what keeps it.
-    assert len(find_turns(yaw, fps_hz=FPS, merge_gap_s=0.0)) == 2
+    # (Changed in issue 11.) The heading rate is now the change over a window (0.6 s without
+    # a stride), which averages the 0.2 s back-rotation away: the turn stays whole even
+    # without the merge of runs...
+    assert len(find_turns(yaw, fps_hz=FPS, merge_gap_s=0.0)) == 1
+    # ...while a real pause, standing still for 0.6 s, ends one turn and starts the next,
+    # each measured as its own heading change (60° and 60°).
+    paused = yaw_from_rates([(2, 0), (2, 30), (0.6, 0), (2, 30), (2, 0)])
+    got = find_turns(paused, fps_hz=FPS)
+    assert len(got) == 2
+    np.testing.assert_allclose(got.net_deg, [60.0, 60.0], atol=0.5)
 
 
 def test_back_to_back_opposite_turns_half_a_second_apart_stay_apart() -> None:
@@ -117,7 +136,9 @@ def _seq(segments, **kw):
     return sm.generate_sequence(seed=kw.pop("seed", 7), segments=segments, **kw)
 
 
-def test_clean_turn_angle_is_geometrys_net_rotation_between_the_boundaries() -> None:
+def test_clean_turn_angle_is_the_heading_change_and_hip_rotation_is_geometrys() -> None:
+    # (Definition changed in issue 11: angle_deg is the heading change; the old quantity,
+    # the net hip rotation between the boundaries, is hip_rotation_deg.)
     seq = _seq(
         [sm.Segment.walk(3, 1.2), sm.Segment.walking_turn(-135, 1.5, 1.2), sm.Segment.walk(3, 1.2)],
         noise_mm=0.0,
@@ -127,10 +148,11 @@ def test_clean_turn_angle_is_geometrys_net_rotation_between_the_boundaries() -> 
     c = clips.iloc[0]
     # DESIGN.md: the net rotation of the hip vector from start_frame to end_frame - 1.
     ref = turning_angle(seq.positions[c.start_frame : c.end_frame], H36M32, method="net")
-    assert c.angle_deg == pytest.approx(ref.angle_deg, abs=1e-9)
-    assert c.net_deg == pytest.approx(ref.net_deg, abs=1e-9) and c.direction == "right"
+    assert c.hip_rotation_deg == pytest.approx(ref.angle_deg, abs=1e-9)
+    assert c.direction == "right" and c.net_deg < 0
     planted = seq.planted.iloc[0]
-    assert c.angle_deg == pytest.approx(-planted.angle_deg, abs=3.0)
+    # the heading change asked for, to the wander's half a degree
+    assert c.angle_deg == pytest.approx(135.0, abs=1.0)
     assert abs(c.start_frame - planted.start_frame) <= 0.2 * FPS
     assert abs(c.end_frame - planted.end_frame) <= 0.2 * FPS
 
@@ -195,22 +217,27 @@ def test_sequences_without_usable_hips_are_refused() -> None:
 
 
 def test_every_clip_angle_is_turning_angle_on_its_frames() -> None:
-    # The miner reads all angles off the piece's unwrapped yaw at once; measure_clip runs
-    # geometry.turning_angle(method="net") on each clip's own frames, prepared the same way.
+    # (Issue 11: the hip rotation is the old angle; the heading change is measure_clip's with
+    # the windows cut at the neighbouring clips, as the miner cuts them.) The miner reads all
+    # angles off the pieces' unwrapped yaw at once; measure_clip runs geometry on each clip's
+    # own frames, prepared the same way.
     n = 0
     for seed in range(3):
         rng = np.random.default_rng(seed)
         segs = sm.random_segments(rng)
         seq = sm.generate_sequence(seed=seed, segments=segs, dropouts=sm.random_dropouts(rng, segs))
         clips = mine_sequence(seq.positions, layout=H36M32, fps_hz=FPS)
-        for c in clips.itertuples(index=False):
+        for i, c in enumerate(clips.itertuples(index=False)):
             ref = measure_clip(
                 seq.positions,
                 layout=H36M32,
                 fps_hz=FPS,
                 start_frame=c.start_frame,
                 end_frame=c.end_frame,
+                lower_frame=int(clips.end_frame[i - 1]) if i else 0,
+                upper_frame=int(clips.start_frame[i + 1]) if i + 1 < len(clips) else None,
             )
+            assert c.hip_rotation_deg == pytest.approx(ref.hip_rotation_deg, abs=1e-9)
             assert c.angle_deg == pytest.approx(ref.angle_deg, abs=1e-9)
             assert c.net_deg == pytest.approx(ref.net_deg, abs=1e-9)
             n += 1
@@ -237,9 +264,11 @@ def test_fast_filters_equal_scipys() -> None:
         want = signal.filtfilt(b, a, x, axis=0, padlen=min(9, n - 1))
         np.testing.assert_allclose(_zero_phase_lowpass(x, 6.0, FPS), want, atol=1e-12)
     y = np.cumsum(rng.normal(size=600))
-    for window in (3, 31, 61):
-        want = signal.savgol_filter(y, window, 2, deriv=1, delta=1 / FPS, mode="interp")
-        np.testing.assert_allclose(_yaw_rate(y, window, FPS), want, atol=1e-9)
+    # (Issue 11: the Savitzky-Golay rate is gone; the moving mean that replaced it is checked
+    # against a plain loop over its shrinking windows.)
+    for window in (1, 2, 15, 31):
+        want = [y[max(i - window // 2, 0) : i - window // 2 + window].mean() for i in range(600)]
+        np.testing.assert_allclose(_moving_mean(y, window), want, atol=1e-9)
 
 
 # --- measured on a synthetic corpus -----------------------------------------------------
@@ -455,9 +484,9 @@ def test_cmu_turns_are_found_with_their_direction(cmu_dir) -> None:
         assert clips.direction[0] == direction, name
         # a described 90° turn: the hips turn by more, as walking turns overshoot a bit
         assert 85.0 <= clips.angle_deg[0] <= 115.0, (name, clips.angle_deg[0])
-        # DESIGN.md's angle: geometry's net rotation of the raw (unfiltered) hips between the
-        # clip's boundaries; the miner's 6 Hz low-pass only removes marker noise (measured
-        # differences 0.03 to 0.23 deg)
+        # DESIGN.md's hip_rotation_deg (the angle before issue 11): geometry's net rotation of
+        # the raw (unfiltered) hips between the clip's boundaries; the miner's 6 Hz low-pass
+        # only removes marker noise
         s, e = clips.start_frame[0], clips.end_frame[0]
         raw = turning_angle(seq.positions[s:e], seq.layout, method="net")
-        assert clips.net_deg[0] == pytest.approx(raw.net_deg, abs=1.0), name
+        assert clips.hip_rotation_deg[0] == pytest.approx(raw.angle_deg, abs=1.0), name

@@ -41,12 +41,32 @@ def _umask() -> int:
     return mask
 
 
+def _user_path(exc: OSError, tmp: Path, target: Path) -> OSError:
+    """The error with the user's path in place of our hidden temporary one (which the user
+    never gave and cannot find afterwards)."""
+    name = exc.filename
+    if name is None:
+        return exc
+    p = Path(name)
+    if p == tmp or tmp in p.parents:
+        shown = target if p == tmp else target / p.relative_to(tmp)
+        return type(exc)(exc.errno, exc.strerror, str(shown))
+    return exc
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
-    """Yield a temporary path beside ``path``; rename it onto ``path`` if the block succeeds."""
+    """Yield a temporary path beside ``path``; rename it onto ``path`` if the block succeeds.
+
+    The temporary file is hidden in the destination's own folder (the only folder the user
+    asked us to write into), and an error names ``path``, not the temporary file.
+    """
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    except OSError as exc:
+        raise type(exc)(exc.errno, exc.strerror, str(target)) from None
     os.close(fd)
     tmp_path = Path(tmp)
     try:
@@ -54,24 +74,61 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
         # mkstemp makes owner-only files; an output should get the user's usual permissions
         os.chmod(tmp_path, 0o666 & ~_umask())
         os.replace(tmp_path, target)
+    except OSError as exc:
+        raise _user_path(exc, tmp_path, target) from None
     finally:
         if tmp_path.exists():
             tmp_path.unlink()
 
 
+def _stage_folder(target: Path) -> tuple[Path, bool]:
+    """A hidden temporary folder for ``target``'s files, and whether ``target`` was made.
+
+    Beside ``target`` when its parent is writable (so a new ``target`` appears whole), else
+    inside ``target`` itself: ``--out-dir ~/x`` or ``--out ~/labels.csv`` must work for a
+    user who may write into their home but not into ``/home``.
+    """
+    parent = target.parent
+    if parent.is_dir() and os.access(parent, os.W_OK | os.X_OK):
+        try:
+            return Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=parent)), False
+        except OSError:
+            pass  # a parent that says yes but refuses (a read-only mount): try inside
+    created = not target.exists()
+    target.mkdir(parents=True, exist_ok=True)
+    try:
+        return Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target)), created
+    except OSError as exc:
+        if created:
+            target.rmdir()
+        raise OSError(exc.errno, exc.strerror, str(target)) from None
+
+
 @contextlib.contextmanager
-def staged_dir(out_dir: str | os.PathLike[str]) -> Iterator[Path]:
+def staged_dir(
+    out_dir: str | os.PathLike[str],
+    *,
+    owns: Iterable[str] = (),
+    removed: list[Path] | None = None,
+) -> Iterator[Path]:
     """Yield a temporary folder; on success move everything in it into ``out_dir``.
 
-    Files already in ``out_dir`` that the block did not write are left alone; files it did
-    write replace their old versions. On failure nothing in ``out_dir`` changes.
+    Files the block wrote replace their old versions. ``owns`` names the files (glob
+    patterns relative to ``out_dir``) that the command writes in some runs but not in others
+    (figures, review copies): an old one that this run did not write is removed, so the
+    folder holds exactly one run; the removed paths are appended to ``removed``. Any other
+    file in ``out_dir`` is left alone. On failure nothing in ``out_dir`` changes, and errors
+    name ``out_dir``'s files, not the temporary folder.
     """
     target = Path(out_dir)
+    if target.exists() and not target.is_dir():
+        raise NotADirectoryError(20, "Not a directory", str(target))
     target.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
+    tmp, created = _stage_folder(target)
     try:
         yield tmp
         target.mkdir(parents=True, exist_ok=True)
+        written: set[Path] = set()
         for src in sorted(tmp.rglob("*")):
             if src.is_dir():
                 continue
@@ -79,6 +136,20 @@ def staged_dir(out_dir: str | os.PathLike[str]) -> Iterator[Path]:
             dst.parent.mkdir(parents=True, exist_ok=True)
             os.chmod(src, 0o666 & ~_umask())
             os.replace(src, dst)
+            written.add(dst)
+        for pattern in owns:
+            for stale in sorted(target.glob(pattern)):
+                if stale.is_file() and stale not in written:
+                    stale.unlink()
+                    if removed is not None:
+                        removed.append(stale)
+    except BaseException as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        if created and target.is_dir() and not any(target.iterdir()):
+            target.rmdir()
+        if isinstance(exc, OSError):
+            raise _user_path(exc, tmp, target) from None
+        raise
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
@@ -131,14 +202,20 @@ def write_json(path: str | os.PathLike[str], obj: Any) -> Path:
     return write_text(path, to_json_text(obj))
 
 
-def check_not_input(out: str | os.PathLike[str], inputs: Iterable[str | os.PathLike[str]]) -> None:
-    """Refuse to write over one of the command's own inputs."""
+def check_not_input(
+    out: str | os.PathLike[str],
+    inputs: Iterable[str | os.PathLike[str]],
+    *,
+    option: str = "--out",
+) -> None:
+    """Refuse to write over one of the command's own inputs (``option``: the command's
+    output option, named in the message)."""
     out_path = Path(out).resolve()
     for item in inputs:
         p = Path(item)
         if p.exists() and p.resolve() == out_path:
             raise TurnbenchError(
-                "the output would overwrite this input; choose another --out", file=str(item)
+                f"{out} would overwrite this input; choose another {option}", file=str(item)
             )
 
 

@@ -53,6 +53,8 @@ __all__ = [
     "usable_frames",
     "frame_yaw_deg",
     "yaw_rate_deg_s",
+    "window_means",
+    "heading_change_deg",
     "turning_angle",
     "angular_speed_deg_s",
     "direction_of",
@@ -157,6 +159,68 @@ def yaw_rate_deg_s(yaw_deg: np.ndarray, fps: float) -> np.ndarray:
     if yaw.shape[0] < 2:
         return np.full(yaw.shape, np.nan)
     return np.gradient(yaw) * fps
+
+
+def window_means(values: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """Mean of ``values[start[i]:end[i]]`` for every window at once (cumulative sums).
+
+    An empty window (``end <= start``) gives the value at ``start`` (clipped to the series),
+    so a turn at the very first frame of a series is measured from that frame.
+    """
+    v = np.asarray(values, dtype=float)
+    a = np.clip(np.asarray(start, dtype=np.int64), 0, v.shape[0] - 1)
+    b = np.clip(np.asarray(end, dtype=np.int64), 0, v.shape[0])
+    csum = np.concatenate([[0.0], np.cumsum(v)])
+    n = b - a
+    with np.errstate(divide="ignore", invalid="ignore"):
+        mean = (csum[np.maximum(b, a)] - csum[a]) / n
+    return np.where(n > 0, mean, v[a])
+
+
+def heading_change_deg(
+    yaw_deg: np.ndarray,
+    start: np.ndarray,
+    end: np.ndarray,
+    *,
+    before_frames: np.ndarray | int,
+    after_frames: np.ndarray | int,
+    lower: np.ndarray | int = 0,
+    upper: np.ndarray | int | None = None,
+) -> np.ndarray:
+    """Signed change of heading over turns ``[start, end)``, free of the step's pelvic rotation.
+
+    The heading before a turn is the mean unwrapped yaw over the ``before_frames`` frames
+    just before ``start`` (not before ``lower``); the heading after, the mean over the
+    ``after_frames`` frames from ``end`` on (not from ``upper`` on). Over exactly one stride
+    the pelvis' transverse rotation, periodic with the stride, averages out (its mean over a
+    period is zero; Perry & Burnfield 2010, *Gait Analysis*, ch. 7; Saunders, Inman &
+    Eberhart 1953), so the difference is the change of the walking direction, not of the
+    phase of the pelvis at the two frames. Where nothing precedes (follows) the turn, the
+    yaw at its first (last) frame is used: a turn from or to a standstill has no sway to
+    remove. Returned in degrees, positive = left (counter-clockwise from above).
+
+    Parameters
+    ----------
+    yaw_deg
+        Unwrapped yaw per frame, degrees, without NaN.
+    start, end
+        Frames of each turn, ``end`` exclusive.
+    before_frames, after_frames
+        Window lengths (frames), per turn or one for all: about one stride.
+    lower, upper
+        Windows are cut here (the neighbouring turns' end and start; the series' ends).
+    """
+    yaw = np.asarray(yaw_deg, dtype=float)
+    s = np.asarray(start, dtype=np.int64)
+    e = np.asarray(end, dtype=np.int64)
+    hi = yaw.shape[0] if upper is None else upper
+    a = np.maximum(s - before_frames, lower)
+    before = window_means(yaw, np.minimum(a, s), s)
+    before = np.where(a < s, before, yaw[np.clip(s, 0, yaw.shape[0] - 1)])
+    b = np.minimum(e + after_frames, hi)
+    after = window_means(yaw, e, np.maximum(b, e))
+    after = np.where(b > e, after, yaw[np.clip(e - 1, 0, yaw.shape[0] - 1)])
+    return after - before
 
 
 @dataclass(frozen=True)

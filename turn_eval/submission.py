@@ -37,6 +37,7 @@ import pandas as pd
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import typed_frame
 from turn_datasets.geometry import quantise_deg
+from turn_datasets.limits import MAX_ANGLE_DEG, MAX_SPEED_DEG_S
 
 __all__ = [
     "GROUP_COLUMNS",
@@ -68,6 +69,9 @@ _TWO_PI = 2 * math.pi
 
 #: Columns read as numbers wherever they appear.
 _NUMERIC = ("angle_deg", "duration_s", "speed_deg_s")
+#: The plausibility bound of each bounded column (turn_datasets.limits; the README's error
+#: section): above it a value is a typo or a unit mix-up, and 1.7e308 turned MAE into null.
+_PLAUSIBLE = {"angle_deg": MAX_ANGLE_DEG, "speed_deg_s": MAX_SPEED_DEG_S}
 _NAN_WORDS = ("nan", "+nan", "-nan", "na", "n/a", "null", "none")
 
 
@@ -87,6 +91,7 @@ class _Table:
     lines: np.ndarray
     delimiter: str
     header_line: int
+    ascii: bool = True
 
 
 def _sniff_delimiter(header_line: str) -> str:
@@ -108,6 +113,25 @@ def _read_text(name: str, *, what: str) -> str:
         raise TurnbenchError(f"{what} file is not UTF-8 text ({exc.reason})", file=name) from None
     except OSError as exc:
         raise TurnbenchError(f"cannot read the {what} file: {exc.strerror}", file=name) from None
+
+
+def _one_newline(text: str, name: str, *, what: str) -> str:
+    """The text with ``\n`` line ends, refusing text that is not UTF-8 in disguise.
+
+    UTF-16 without a byte-order mark decodes as "UTF-8" with a NUL after every ASCII
+    character, and then every row "has 1 field"; old Mac and Excel exports end lines with a
+    lone CR, which the csv module refuses, and files edited on two systems mix the three:
+    each line end counts as one line, as an editor shows it.
+    """
+    if "\x00" in text:
+        raise TurnbenchError(
+            f"{what} file is not UTF-8 text: it holds NUL bytes, as UTF-16 text does",
+            file=name,
+            hint="save it as UTF-8 (CSV UTF-8 in a spreadsheet)",
+        )
+    if "\r" in text:
+        text = text.replace("\r\n", "\n").replace("\r", "\n")
+    return text
 
 
 def _check_header(header: list[str], *, name: str, line: int) -> None:
@@ -290,7 +314,7 @@ def _read_plain(text: str, name: str, delimiter: str) -> _Table:
 
 def _read_table(path: str | os.PathLike[str], *, what: str) -> _Table:
     name = os.fspath(path)
-    text = _read_text(name, what=what)
+    text = _one_newline(_read_text(name, what=what), name, what=what)
     if not text.strip():
         raise TurnbenchError(f"empty {what} file: no header and no rows", file=name)
     # The first line with something on it, found without splitting the whole text.
@@ -298,8 +322,9 @@ def _read_table(path: str | os.PathLike[str], *, what: str) -> _Table:
     end = text.find("\n", start)
     first_line = text[text.rfind("\n", 0, start) + 1 : end if end >= 0 else len(text)]
     delimiter = _sniff_delimiter(first_line)
-    quoted = '"' in text or ("\r" in text and "\n" not in text)
+    quoted = '"' in text
     table = (_read_quoted if quoted else _read_plain)(text, name, delimiter)
+    table.ascii = text.isascii()
     if table.lines.size == 0:
         raise TurnbenchError(
             f"empty {what} file: a header on line {table.header_line} and no rows", file=name
@@ -372,6 +397,17 @@ def _numbers(
                 "inf": f"{column} is infinite ({raw[i]!r})",
             }[kind]
             raise TurnbenchError(message + _and_more(count), file=table.path, row=line)
+    bound = _PLAUSIBLE.get(column)
+    if bound is not None:
+        absurd = np.abs(values) > bound
+        if absurd.any():
+            i, line, count = _first_and_count(table, absurd)
+            raise TurnbenchError(
+                f"{column} {values[i]:g} is beyond the plausible {bound:g}{_and_more(count)}",
+                file=table.path,
+                row=line,
+                hint="see the bounds in the README's error section",
+            )
     if not allow_negative:
         negative = values < 0
         if negative.any():
@@ -387,6 +423,10 @@ def _numbers(
 
 def _clip_ids(table: _Table) -> np.ndarray:
     ids = table.columns["clip_id"]
+    if not table.ascii:
+        # "Café" typed on a Mac (NFD) and on Windows (NFC) are different strings but the
+        # same id; both sides are compared in NFC.
+        ids = pd.Series(ids, dtype=object).str.normalize("NFC").to_numpy(dtype=object)
     empty = ids == ""
     if empty.any():
         _, line, count = _first_and_count(table, empty)

@@ -12,8 +12,18 @@ import click
 
 from turn_datasets import __version__
 from turn_datasets.cli import CONTEXT_SETTINGS, remap
-from turn_datasets.cli.common import format_option, info, progress, warn, wrote
-from turn_datasets.cli.labels import min_overlap_option, no_turns_error, reject_nan
+from turn_datasets.cli.common import (
+    KAPPA,
+    SEED,
+    format_option,
+    info,
+    progress,
+    resamples,
+    warn,
+    warn_below,
+    wrote,
+)
+from turn_datasets.cli.labels import min_overlap_option, no_turns_error
 from turn_datasets.errors import GateFailed
 from turn_datasets.fileio import (
     check_not_input,
@@ -67,9 +77,9 @@ REVIEW_DIR = "review"
 @min_overlap_option
 @click.option(
     "--min-kappa",
-    type=click.FloatRange(-1.0, 1.0),
+    type=KAPPA,
     default=None,
-    callback=reject_nan,
+    callback=warn_below(0.0, "a gate below chance agreement passes almost any audit"),
     help="Gate: exit 3 after the report when Cohen's kappa is below this (or undefined).",
 )
 @format_option(default="md", choices=("md", "json"))
@@ -92,12 +102,12 @@ REVIEW_DIR = "review"
 )
 @click.option(
     "--bootstrap",
-    type=click.IntRange(min=0),
+    type=resamples(),
     default=1000,
     show_default=True,
     help="Bootstrap resamples of the matched pairs for the 95% CI (0: no CI).",
 )
-@click.option("--seed", type=int, default=0, show_default=True, help="Bootstrap seed.")
+@click.option("--seed", type=SEED, default=0, show_default=True, help="Bootstrap seed.")
 def agreement(
     inputs: tuple[Path, ...],
     schema_path: Path | None,
@@ -131,7 +141,9 @@ def agreement(
         raise click.UsageError("--review-eaf writes into --out-dir; give one")
     schema = load_schema(schema_path)
     paths = expand_eaf_paths(inputs)
-    annotations = read_annotations(list(progress(paths, label="reading ELAN files")), schema=schema)
+    annotations = read_annotations(
+        list(progress(paths, label="reading ELAN files")), schema=schema, warn=warn
+    )
     if annotations.empty:
         raise no_turns_error(paths, schema)
     audit = audit_agreement(
@@ -202,8 +214,10 @@ def _write_outputs(
     files = dict(zip(audit.items["session"], audit.items["file"], strict=True))
     review_targets = [out_dir / REVIEW_DIR / f"{s}.eaf" for s in sessions_to_review]
     for target in (*targets, *review_targets):
-        check_not_input(target, paths)
-    with staged_dir(out_dir) as stage:
+        check_not_input(target, paths, option="--out-dir")
+    removed: list[Path] = []
+    # The folder holds one run: review copies of sessions that agree now are removed.
+    with staged_dir(out_dir, owns=(f"{REVIEW_DIR}/*.eaf",), removed=removed) as stage:
         write_json(stage / "agreement.json", document)
         write_text(stage / "agreement.md", markdown)
         write_csv(audit.items, stage / "pairs.csv")
@@ -229,3 +243,5 @@ def _write_outputs(
     wrote(out_dir, what=what + ") to")
     if review_eaf and not review_targets:
         info("no disagreements: no review copies written")
+    if removed:
+        info(f"removed {len(removed)} file(s) of the previous run: " + ", ".join(map(str, removed)))

@@ -6,14 +6,19 @@ Exit codes: 0 ok, 2 bad input (a :class:`TurnbenchError` or a usage error), 3 fa
 
 from __future__ import annotations
 
+import contextlib
 import importlib
+import math
+import signal
 import sys
+import threading
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import TypeVar
 
 import click
 
+from turn_datasets import limits
 from turn_datasets.errors import GateFailed, TurnbenchError
 
 __all__ = [
@@ -28,6 +33,8 @@ __all__ = [
     "progress",
     "format_option",
     "LazyGroup",
+    "Number",
+    "warn_below",
 ]
 
 EXIT_OK = 0
@@ -37,10 +44,41 @@ EXIT_GATE = 3
 T = TypeVar("T")
 
 
+class Terminated(BaseException):
+    """SIGTERM arrived: unwinds like Ctrl-C, so every staging folder is removed on the way."""
+
+
+def _raise_terminated(signum, frame) -> None:
+    raise Terminated
+
+
+@contextlib.contextmanager
+def _sigterm_unwinds() -> Iterator[None]:
+    # `timeout`, systemd and CI stop a job with SIGTERM, whose default action kills at once
+    # and left hidden staging folders with full copies of the output behind. Raising instead
+    # runs the same `finally` blocks as SIGINT does. Signals can only be set in the main thread.
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def run_group(group: click.Group, prog_name: str, args: list[str] | None = None) -> int:
     """Run a click group, mapping turnbench errors to one line on stderr and an exit code."""
+    with _sigterm_unwinds():
+        return _run_group(group, prog_name, args)
+
+
+def _run_group(group: click.Group, prog_name: str, args: list[str] | None) -> int:
     try:
         rv = group.main(args=args, prog_name=prog_name, standalone_mode=False)
+    except Terminated:
+        click.echo(f"{prog_name}: terminated", err=True)
+        return 128 + signal.SIGTERM
     except TurnbenchError as exc:
         click.echo(f"{prog_name}: error: {exc}", err=True)
         return EXIT_BAD_INPUT
@@ -112,6 +150,105 @@ def format_option(default: str = "md", choices: tuple[str, ...] = ("md", "json",
         default=default,
         show_default=True,
         help="How to print the result on stdout.",
+    )
+
+
+class Number(click.ParamType):
+    """A numeric option: finite and within sensible bounds, checked here for every command.
+
+    click's ``float`` lets ``nan`` and ``inf`` through (every comparison with NaN is false,
+    so even a ``FloatRange`` passes it), and a bin width of NaN scored everything correct.
+    Every numeric option of ``turn-datasets`` and ``turn-eval`` uses this type, with bounds
+    from :mod:`turn_datasets.limits`, so a bad value is one line and exit 2 before any work.
+
+    Parameters
+    ----------
+    kind
+        ``float`` or ``int``.
+    min, max
+        The bounds (``None``: unbounded on that side; always finite).
+    min_open, max_open
+        Exclude the bound itself.
+    why
+        Appended to the message when a value is above ``max`` (say what the limit protects).
+    """
+
+    def __init__(
+        self,
+        kind: type = float,
+        *,
+        min: float | None = None,
+        max: float | None = None,
+        min_open: bool = False,
+        max_open: bool = False,
+        why: str = "",
+    ) -> None:
+        self.kind = kind
+        self.name = "integer" if kind is int else "float"
+        self.min, self.max = min, max
+        self.min_open, self.max_open = min_open, max_open
+        self.why = why
+
+    def _range(self) -> str:
+        lo = "" if self.min is None else f"{self.min:g}{' <' if self.min_open else ' <='} "
+        hi = "" if self.max is None else f" {'<' if self.max_open else '<='} {self.max:g}"
+        return f"{lo}x{hi}"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            x = value
+        else:
+            text = str(value).strip()
+            try:
+                x = int(text) if self.kind is int else float(text)
+            except ValueError:
+                what = "an integer" if self.kind is int else "a number"
+                self.fail(f"{value!r} is not {what}", param, ctx)
+        if self.kind is float:
+            x = float(x)
+            if math.isnan(x):
+                self.fail(f"must be a number, not {value}", param, ctx)
+            if not math.isfinite(x):
+                self.fail(f"must be a finite number, not {value}", param, ctx)
+        if self.min is not None and (x < self.min or (self.min_open and x == self.min)):
+            self.fail(f"{value} is not in the range {self._range()}", param, ctx)
+        if self.max is not None and (x > self.max or (self.max_open and x == self.max)):
+            why = f" ({self.why})" if self.why else ""
+            self.fail(f"{value} is not in the range {self._range()}{why}", param, ctx)
+        return x
+
+
+def warn_below(threshold: float, why: str):
+    """A click callback that warns on stderr when an option's value is below ``threshold``
+    (legal, but almost surely a mistake: ``--min-kappa -1`` passes every audit)."""
+
+    def callback(ctx: click.Context, param: click.Parameter, value: float | None):
+        if value is not None and value < threshold:
+            warn(f"{param.opts[0]} {value:g} is below {threshold:g}: {why}")
+        return value
+
+    return callback
+
+
+#: The numeric option types the commands share (one bound, one message, everywhere).
+FPS_HZ = Number(float, min=0, min_open=True, max=limits.MAX_FPS_HZ)
+DURATION_S = Number(float, min=0, max=limits.MAX_DURATION_S)
+POSITIVE_DURATION_S = Number(float, min=0, min_open=True, max=limits.MAX_DURATION_S)
+ANGLE_DEG = Number(float, min=0, min_open=True, max=limits.MAX_ANGLE_DEG)
+SPEED_DEG_S = Number(float, min=0, max=limits.MAX_SPEED_DEG_S)
+BIN_WIDTH_DEG = Number(float, min=0, min_open=True, max=limits.MAX_BIN_WIDTH_DEG)
+FRACTION = Number(float, min=0, min_open=True, max=1)
+KAPPA = Number(float, min=-1, max=1)
+SEED = Number(int, min=0, max=limits.MAX_SEED)
+
+
+def resamples(min_resamples: int = 0) -> Number:
+    """Bootstrap or permutation counts: bounded, so 10^8 is a message, not a MemoryError."""
+    return Number(
+        int,
+        min=min_resamples,
+        max=limits.MAX_RESAMPLES,
+        why="each resample recomputes every metric; 1000 to 10000 is usual",
     )
 
 

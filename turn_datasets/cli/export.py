@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from turn_datasets.cli import h36m
-from turn_datasets.cli.common import progress, warn, wrote
+from turn_datasets.cli.common import Number, progress, warn, wrote
 from turn_datasets.h36m import export
 
 
@@ -43,7 +43,7 @@ from turn_datasets.h36m import export
 )
 @click.option(
     "--crf",
-    type=click.IntRange(0, 51),
+    type=Number(int, min=0, max=51),
     default=export.DEFAULT_CRF,
     show_default=True,
     help="H.264 quality of the re-encoded cuts (0 lossless, 51 worst).",

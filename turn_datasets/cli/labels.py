@@ -5,14 +5,13 @@ Parses options, calls :mod:`turn_datasets.remap.eaf` and :mod:`turn_datasets.rem
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import click
 import pandas as pd
 
 from turn_datasets.cli import CONTEXT_SETTINGS, remap
-from turn_datasets.cli.common import emit, format_option, info, progress, wrote
+from turn_datasets.cli.common import FRACTION, emit, format_option, info, progress, warn, wrote
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, staged_dir, to_json_text, write_csv
 from turn_datasets.remap.eaf import (
@@ -47,20 +46,12 @@ _schema_option = click.option(
 )
 
 
-def reject_nan(ctx: click.Context, param: click.Parameter, value: float | None) -> float | None:
-    """Click callback: a NaN passes click's FloatRange (every comparison is false); refuse it."""
-    if value is not None and math.isnan(value):
-        raise click.BadParameter("must be a number, not nan", ctx=ctx, param=param)
-    return value
-
-
 #: ``--min-overlap`` of ``labels`` and ``agreement``: one matching rule for both.
 min_overlap_option = click.option(
     "--min-overlap",
-    type=click.FloatRange(0.0, 1.0, min_open=True),
+    type=FRACTION,
     default=0.6,
     show_default=True,
-    callback=reject_nan,
     help="Two raters' turns are one when overlap / longer duration is at least this (as "
     "ELAN's reliability check).",
 )
@@ -186,7 +177,10 @@ def labels_cmd(
 
     participants = read_participants(participants_path)
     annotations = read_annotations(
-        paths, schema=schema, iterate=lambda ps: progress(ps, label="reading ELAN files")
+        paths,
+        schema=schema,
+        iterate=lambda ps: progress(ps, label="reading ELAN files"),
+        warn=warn,
     )
     if annotations.empty:
         raise no_turns_error(paths, schema)

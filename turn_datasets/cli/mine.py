@@ -12,8 +12,21 @@ from typing import Any
 import click
 import pandas as pd
 
+from turn_datasets import limits
 from turn_datasets.cli import h36m
-from turn_datasets.cli.common import emit, format_option, info, progress, warn
+from turn_datasets.cli.common import (
+    ANGLE_DEG,
+    DURATION_S,
+    FPS_HZ,
+    POSITIVE_DURATION_S,
+    SPEED_DEG_S,
+    Number,
+    emit,
+    format_option,
+    info,
+    progress,
+    warn,
+)
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import atomic_path, check_not_input, sha256_file, to_json_text
 from turn_datasets.h36m.curation import (
@@ -102,7 +115,7 @@ def _sha256_or_none(path: Path) -> str | None:
     default=None,
     help="Joint layout of generic arrays (.npy/.npz/.h5 of shape frames x joints x 3).",
 )
-@click.option("--fps", type=float, default=None, help="Frame rate of generic arrays, in Hz.")
+@click.option("--fps", type=FPS_HZ, default=None, help="Frame rate of generic arrays, in Hz.")
 @click.option(
     "--up-axis",
     type=click.Choice(UP_AXES),
@@ -129,52 +142,87 @@ def _sha256_or_none(path: Path) -> str | None:
 )
 @click.option(
     "--min-turn-deg",
-    type=float,
+    type=ANGLE_DEG,
     default=_D.min_turn_deg,
     show_default=True,
-    help="Smallest net hip rotation of a clip, in degrees (the paper's 45).",
+    help="Smallest heading change of a clip, in degrees (the paper's 45).",
 )
 @click.option(
     "--max-gap-s",
-    type=float,
+    type=DURATION_S,
     default=_D.max_gap_s,
     show_default=True,
     help="Dropouts up to this long (seconds) are bridged; longer ones cut the sequence.",
 )
 @click.option(
     "--smooth-s",
-    type=float,
+    type=POSITIVE_DURATION_S,
     default=_D.smooth_s,
     show_default=True,
-    help="Savitzky-Golay window of the yaw rate, in seconds (about one step).",
+    help="Moving-mean window of the hip yaw against joint noise, in seconds.",
 )
 @click.option(
     "--start-speed-deg-s",
-    type=float,
+    type=Number(float, min=0, min_open=True, max=limits.MAX_SPEED_DEG_S),
     default=_D.start_speed_deg_s,
     show_default=True,
-    help="A turn must somewhere rotate faster than this, in degrees per second.",
+    help="A turn's heading must somewhere change faster than this, in degrees per second.",
 )
 @click.option(
     "--stop-speed-deg-s",
-    type=float,
+    type=SPEED_DEG_S,
     default=_D.stop_speed_deg_s,
     show_default=True,
-    help="A turn starts and stops where the rotation crosses this speed, in degrees per second.",
+    help="A turn lasts while its heading changes faster than this, in degrees per second.",
 )
 @click.option(
     "--merge-gap-s",
-    type=float,
+    type=DURATION_S,
     default=_D.merge_gap_s,
     show_default=True,
     help="Rotations in the same direction this close (seconds) are one turn.",
 )
 @click.option(
     "--position-cutoff-hz",
-    type=float,
+    type=Number(float, min=0, max=limits.MAX_FPS_HZ),
     default=_D.position_cutoff_hz,
     show_default=True,
     help="Zero-phase low-pass of the hip positions against joint noise, in Hz (0: off).",
+)
+@click.option(
+    "--stride-s",
+    type=float,
+    default=_D.stride_s,
+    show_default=True,
+    help="Typical stride period, in seconds: the first guess when looking for the sway's period.",
+)
+@click.option(
+    "--min-stride-s",
+    type=float,
+    default=_D.min_stride_s,
+    show_default=True,
+    help="Shortest stride period looked for in the knees' swing or the hip's sway, in seconds.",
+)
+@click.option(
+    "--max-stride-s",
+    type=float,
+    default=_D.max_stride_s,
+    show_default=True,
+    help="Longest stride period looked for in the knees' swing or the hip's sway, in seconds.",
+)
+@click.option(
+    "--no-sway-window-s",
+    type=float,
+    default=_D.no_sway_window_s,
+    show_default=True,
+    help="Heading-rate window where no stride shows (standing, turning in place), in seconds.",
+)
+@click.option(
+    "--onset-deg",
+    type=float,
+    default=_D.onset_deg,
+    show_default=True,
+    help="Heading departure (degrees) from which, to four times it, boundaries are fitted.",
 )
 @click.option(
     "--overrides",
@@ -206,6 +254,11 @@ def mine_cmd(
     stop_speed_deg_s: float,
     merge_gap_s: float,
     position_cutoff_hz: float,
+    stride_s: float,
+    min_stride_s: float,
+    max_stride_s: float,
+    no_sway_window_s: float,
+    onset_deg: float,
     overrides_path: Path | None,
     skip_bad: bool,
 ) -> None:
@@ -213,9 +266,10 @@ def mine_cmd(
 
     SOURCE is a dataset root (the layout is detected: S*/MyPoseFeatures/D3_Positions/*.cdf,
     S*/MyPoses/3D_positions/*.h5, data_3d_h36m.npz, *.bvh), a file, or several of them. A
-    clip is a maximal run of hip rotation in one direction, at least --min-turn-deg in net,
-    starting and stopping where the yaw rate crosses --stop-speed-deg-s (see the miner's
-    documentation for the rule). By default any unreadable file, or unusable sequence in a
+    clip is a run of rotation in one direction whose heading (the hip yaw averaged over a
+    stride, so the pelvis' rotation with each step cancels) changes by at least
+    --min-turn-deg, from where the heading starts to change to where it stops (see the
+    miner's documentation for the rule); hip_rotation_deg keeps the paper's net hip rotation. By default any unreadable file, or unusable sequence in a
     file of many, fails the run (exit 2, nothing written) after all are listed; --skip-bad
     writes the index without them and lists them in the manifest.
 
@@ -235,9 +289,12 @@ def mine_cmd(
         stop_speed_deg_s=stop_speed_deg_s,
         merge_gap_s=merge_gap_s,
         position_cutoff_hz=position_cutoff_hz,
+        stride_s=stride_s,
+        min_stride_s=min_stride_s,
+        max_stride_s=max_stride_s,
+        no_sway_window_s=no_sway_window_s,
+        onset_deg=onset_deg,
     )
-    if fps is not None and not fps > 0:
-        raise TurnbenchError(f"--fps must be positive, got {fps}")
     jmap = parse_joint_map(joint_map) if joint_map else None
     mpath = manifest_path(out)
     _check_out_folder(out)

@@ -51,6 +51,7 @@ from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import sha256_file, typed_frame
 from turn_datasets.geometry import quantise_deg
 from turn_datasets.h36m.miner import MinerParams, SequenceClips, clip_id_of, measure_clip
+from turn_datasets.limits import MAX_ANGLE_DEG
 from turn_datasets.mocap.readers import natural_key
 from turn_datasets.skeleton import MocapSequence
 
@@ -270,6 +271,7 @@ def apply_overrides(
     end = clips.end_frame.copy()
     angle = clips.angle_deg.copy()
     net = clips.net_deg.copy()
+    hip = clips.hip_rotation_deg.copy()
     keep = np.ones(len(clips), dtype=bool)
     applied: list[dict[str, Any]] = []
     for i, ov in hits:
@@ -295,6 +297,7 @@ def apply_overrides(
                 ) from None
             start[i], end[i] = int(ov.start_frame), int(ov.end_frame)
             angle[i], net[i] = turn.angle_deg, turn.net_deg
+            hip[i] = turn.hip_rotation_deg
             record["result_clip_id"] = clip_id_of(
                 clips.subject, clips.action, clips.subaction, start[i], end[i]
             )
@@ -309,7 +312,7 @@ def apply_overrides(
                 file=overrides.path,
                 row=ov.line,
             )
-    return clips.replace_clips(start[keep], end[keep], angle[keep], net[keep]), applied
+    return clips.replace_clips(start[keep], end[keep], angle[keep], net[keep], hip[keep]), applied
 
 
 def unmatched_overrides(
@@ -426,6 +429,11 @@ def read_clip_index(path: str | os.PathLike[str]) -> pd.DataFrame:
     # angle edited by hand, a column shifted) would put a clip in the wrong row unnoticed.
     checks = (
         (frame["angle_deg"] < 0, "angle_deg {} is negative (it is a magnitude)", "angle_deg"),
+        (
+            frame["angle_deg"] > MAX_ANGLE_DEG,
+            f"angle_deg {{}} is beyond the plausible {MAX_ANGLE_DEG:g} (see the README)",
+            "angle_deg",
+        ),
         (frame["duration_s"] <= 0, "duration_s {} is not positive", "duration_s"),
         (
             frame["bin_deg"] != quantise_deg(frame["angle_deg"].to_numpy()),

@@ -385,7 +385,7 @@ def export_clips(
             break
     inputs = [index_path, *sorted({job.video for job in plan.jobs})]
     for job in plan.jobs:
-        check_not_input(out / job.out_name, inputs)
+        check_not_input(out / job.out_name, inputs, option="--out-dir")
     exe = imageio_ffmpeg.get_ffmpeg_exe()
     try:
         # All cuts or none: they are made in a temporary folder beside out_dir and moved in

@@ -20,7 +20,7 @@ from __future__ import annotations
 import os
 import warnings
 from collections.abc import Callable, Iterable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from os import PathLike
 from pathlib import Path
 from typing import Any
@@ -31,7 +31,7 @@ import pandas as pd
 import pympi.Elan
 from defusedxml.common import DTDForbidden, EntitiesForbidden, ExternalReferenceForbidden
 
-from turn_datasets.errors import TurnbenchError
+from turn_datasets.errors import TurnbenchError, Where
 from turn_datasets.fileio import typed_frame
 from turn_datasets.remap.schema import Schema, Vocabulary, load_schema
 
@@ -71,12 +71,50 @@ KNOWN_VERSIONS = ("2.7", "2.8", "3.0")
 
 @dataclass
 class _Document:
-    """A loaded file: pympi's object plus what pympi drops (CVE_REF links, the version)."""
+    """A loaded file: pympi's object plus what pympi drops (CVE_REF links, the version), and
+    the values whose text disagrees with their linked vocabulary entry (read as the entry)."""
 
     path: Path
     eaf: pympi.Elan.Eaf
     cve_refs: dict[str, str]
     version: str
+    cve_disagreements: list[str] = field(default_factory=list)
+
+
+#: The attribute pympi-ling requires on the root (it deletes it unchecked); older tools and
+#: hand edits leave it out, and ELAN itself reads such files.
+_XSI_LOCATION = "{http://www.w3.org/2001/XMLSchema-instance}noNamespaceSchemaLocation"
+
+
+class _VettedTree:
+    """Stands in for ElementTree inside ``pympi.Elan.parse_eaf``, which only calls
+    ``etree.parse(path).getroot()``: pympi then reads the tree defusedxml already parsed and
+    vetted (not the file a second time, unchecked), with any repair made in memory only."""
+
+    ParseError = ParseError
+
+    def __init__(self, root: Element) -> None:
+        self._root = root
+
+    def parse(self, source: object) -> _VettedTree:
+        return self
+
+    def getroot(self) -> Element:
+        return self._root
+
+
+def _pympi_eaf(path: Path, root: Element) -> pympi.Elan.Eaf:
+    if _XSI_LOCATION not in root.attrib:
+        root.set(_XSI_LOCATION, "")  # in memory: the file is never modified
+    saved = pympi.Elan.etree
+    pympi.Elan.etree = _VettedTree(root)
+    try:
+        with warnings.catch_warnings():
+            # The version is reported by `inspect`; pympi's generic warning adds nothing.
+            warnings.simplefilter("ignore")
+            return pympi.Elan.Eaf(str(path), suppress_version_warning=True)
+    finally:
+        pympi.Elan.etree = saved
 
 
 def _safe_root(path: Path) -> Element:
@@ -124,17 +162,15 @@ def _load(path: str | PathLike[str]) -> _Document:
             ref = el.get("CVE_REF")
             if ref and el.get("ANNOTATION_ID"):
                 cve_refs[el.get("ANNOTATION_ID")] = ref
+    version = str(root.get("VERSION", ""))
     try:
-        with warnings.catch_warnings():
-            # The version is reported by `inspect`; pympi's generic warning adds nothing.
-            warnings.simplefilter("ignore")
-            eaf = pympi.Elan.Eaf(str(p), suppress_version_warning=True)
+        eaf = _pympi_eaf(p, root)
     except Exception as exc:  # pympi raises bare Exception/KeyError/IndexError on odd files
         raise TurnbenchError(
             f"pympi-ling could not read this ELAN file ({type(exc).__name__}: {exc})",
             file=str(p),
         ) from None
-    return _Document(path=p, eaf=eaf, cve_refs=cve_refs, version=str(root.get("VERSION", "")))
+    return _Document(path=p, eaf=eaf, cve_refs=cve_refs, version=version)
 
 
 def load_eaf(path: str | PathLike[str]) -> pympi.Elan.Eaf:
@@ -412,9 +448,17 @@ def _parse_value(doc: _Document, tier: str, a: _Timed, vocab: Vocabulary) -> str
         # may be another language's, or stale after the vocabulary was edited).
         candidates += _cve_texts(doc.eaf, _tier_cv(doc.eaf, tier), ref)
     candidates.append(a.value)
-    for text in candidates:
+    for i, text in enumerate(candidates):
         parsed = vocab.parse(text)
         if parsed is not None:
+            if i < len(candidates) - 1 and a.value.strip() and vocab.parse(a.value) != parsed:
+                # Read as the entry, but never without a word: the text is what the rater
+                # saw last, and "100°" read as 90 is a disagreement someone must look at.
+                where = Where(file=str(doc.path), tier=tier, time_s=a.start_ms / 1000)
+                doc.cve_disagreements.append(
+                    f"{where}: text {a.value!r} disagrees with its vocabulary entry "
+                    f"{text!r} (CVE_REF {ref}); read as the entry"
+                )
             return parsed
     raise TurnbenchError(
         f"value {a.value!r} is not in the {vocab.name} vocabulary ({vocab.describe()})",
@@ -537,6 +581,7 @@ def read_annotations(
     *,
     schema: Schema | None = None,
     iterate: Callable[[list[Path]], Iterable[Path]] | None = None,
+    warn: Callable[[str], None] | None = None,
 ) -> pd.DataFrame:
     """Every turn annotation of every rater in ELAN files, one row each.
 
@@ -550,6 +595,9 @@ def read_annotations(
         :func:`turn_datasets.remap.schema.load_schema`).
     iterate
         Wraps the list of files while they are read (the command line passes a progress bar).
+    warn
+        Called with one line (file, tier, time) per value whose text disagrees with the
+        vocabulary entry it links to (``CVE_REF``): it is read as the entry.
 
     Returns
     -------
@@ -583,7 +631,11 @@ def read_annotations(
                 hint="one .eaf per session: the file stem is the session id",
             )
         sessions[path.stem] = path
-        rows.extend(_file_rows(_load(path), schema))
+        doc = _load(path)
+        rows.extend(_file_rows(doc, schema))
+        if warn is not None:
+            for message in doc.cve_disagreements:
+                warn(message)
     frame = pd.DataFrame(rows, columns=list(ANNOTATION_COLUMNS))
     return typed_frame(frame, ANNOTATION_COLUMNS)
 
@@ -711,6 +763,12 @@ def inspect_eaf(
             }
         )
 
+    n_disagree = _count_cve_disagreements(doc, roles, times, schema)
+    if n_disagree:
+        notes.append(
+            f"{n_disagree} value(s) whose text disagrees with the vocabulary entry it links "
+            "to (CVE_REF); labels and agreement read them as the entry and warn"
+        )
     turn_tiers = [
         {"tier": r.tier, "annotator": r.annotator or None, "participant": r.participant or None}
         for r in roles.values()
@@ -744,11 +802,32 @@ def inspect_eaf(
         "vocabularies": _vocabularies(eaf, keep_media_paths=keep_media_paths),
         "turn_tiers": turn_tiers,
         "context_tiers": context,
+        "cve_text_disagreements": n_disagree,
         "notes": notes,
     }
     if keep_media_paths:
         result["header"] = _header(eaf)
     return result
+
+
+def _count_cve_disagreements(
+    doc: _Document,
+    roles: dict[str, _TierRole],
+    times: dict[str, tuple[int | None, int | None]],
+    schema: Schema,
+) -> int:
+    """How many values of the schema's tiers :func:`read_annotations` would read as their
+    vocabulary entry although their text says otherwise (inspect never fails on a value)."""
+    for tier_id, role in roles.items():
+        vocab = schema.turn_angle if role.role == "turn" else schema.vocabulary(role.role)
+        for a in _tier_annotations(doc.eaf, tier_id, times):
+            if a.aid not in doc.cve_refs or a.start_ms is None:
+                continue
+            try:
+                _parse_value(doc, tier_id, _Timed(a.aid, a.start_ms, a.end_ms or 0, a.value), vocab)
+            except TurnbenchError:
+                pass  # a value outside the vocabulary: labels refuses it, inspect lists tiers
+    return len(doc.cve_disagreements)
 
 
 def iter_inspect(

@@ -33,6 +33,7 @@ import pandas as pd
 
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import typed_frame
+from turn_datasets.limits import MAX_ANGLE_DEG
 from turn_datasets.remap.agreement import match_annotations
 from turn_datasets.remap.schema import load_schema, normalise_value
 
@@ -530,6 +531,15 @@ def read_labels(path: str | PathLike[str]) -> pd.DataFrame:
         i = int(np.flatnonzero(bad.to_numpy())[0])
         raise TurnbenchError(
             f"angle_deg {df['angle_deg'].iloc[i]!r} is not a number", file=file, row=i + 2
+        )
+    absurd = angle.abs() > MAX_ANGLE_DEG
+    if absurd.any():
+        i = int(np.flatnonzero(absurd.to_numpy())[0])
+        raise TurnbenchError(
+            f"angle_deg {angle.iloc[i]:g} is beyond the plausible {MAX_ANGLE_DEG:g} "
+            "(see the README)",
+            file=file,
+            row=i + 2,
         )
     df["angle_deg"] = angle.astype("float64")
     cohort = df["cohort"].str.strip().str.upper()

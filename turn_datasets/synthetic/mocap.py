@@ -515,6 +515,7 @@ def random_segments(
     speed_range_m_s: tuple[float, float] = (1.0, 1.5),
     back_to_back_fraction: float = 0.25,
     stand_fraction: float = 0.2,
+    turn_speed_range_deg_s: tuple[float, float] | None = None,
 ) -> list[Segment]:
     """Draw a realistic mix of walking, standing and planted turns.
 
@@ -538,6 +539,9 @@ def random_segments(
         Range of walking speeds.
     back_to_back_fraction, stand_fraction
         Probabilities, see above.
+    turn_speed_range_deg_s
+        If given, every turn's mean speed (heading change over duration, °/s) is drawn
+        uniformly from this range instead of the slow/fast mix.
     """
     lo, hi = speed_range_m_s
     segs: list[Segment] = [Segment.stand(float(rng.uniform(0.8, 1.5)))]
@@ -547,6 +551,8 @@ def random_segments(
         s = sign if sign is not None else (1.0 if rng.random() < 0.5 else -1.0)
         fast = rng.random() < 0.5
         mean_speed = float(rng.uniform(120.0, 240.0) if fast else rng.uniform(40.0, 90.0))
+        if turn_speed_range_deg_s is not None:
+            mean_speed = float(rng.uniform(*turn_speed_range_deg_s))
         duration = max(mag / mean_speed, 0.6)
         if rng.random() < 0.5:
             return Segment.pivot_turn(s * mag, duration)

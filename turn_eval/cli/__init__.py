@@ -24,6 +24,7 @@ CONTEXT_SETTINGS = {"help_option_names": ["-h", "--help"], "max_content_width": 
         "compare": "turn_eval.cli.compare",
         "predict": "turn_eval.cli.predict",
         "estimate": "turn_eval.cli.estimate",
+        "score-events": "turn_eval.cli.score_events",
     },
 )
 @click.version_option(__version__, prog_name="turn-eval")
@@ -36,6 +37,7 @@ def cli() -> None:
       turn-eval compare a.csv b.csv --reference turn-h36m.csv
       turn-eval predict skeletons.npz --layout h36m17 --out predictions.csv
       turn-eval estimate walk.mp4 --out walk.npz   (needs: pip install 'turnbench[video]')
+      turn-eval score-events detections.csv --reference labels.csv
     """
 
 

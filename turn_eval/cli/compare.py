@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from turn_datasets.cli.common import emit, format_option, warn, wrote
+from turn_datasets.cli.common import SEED, emit, format_option, resamples, warn, wrote
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, to_json_text, write_text
 from turn_eval.cli import CONTEXT_SETTINGS, cli
@@ -94,14 +94,14 @@ def _markdown(result: Comparison, *, a: str, b: str, reference: str, n_missing: 
 @click.option(
     "--bootstrap",
     "n_resamples",
-    type=click.IntRange(min=1),
+    type=resamples(1),
     default=1000,
     show_default=True,
     help="Paired bootstrap resamples of the clips.",
 )
 @click.option(
     "--seed",
-    type=click.IntRange(min=0),
+    type=SEED,
     default=0,
     show_default=True,
     help="Seed of the resampling (printed in the signature).",

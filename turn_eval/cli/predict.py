@@ -9,7 +9,7 @@ import click
 import numpy as np
 import pandas as pd
 
-from turn_datasets.cli.common import progress, wrote
+from turn_datasets.cli.common import FPS_HZ, progress, wrote
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, write_csv
 from turn_datasets.geometry import METHODS, parse_joints
@@ -83,7 +83,7 @@ def _arrays_of(path: Path, n_joints: int, layout_name: str) -> Iterator[tuple[st
 @click.option(
     "--fps",
     "fps_hz",
-    type=click.FloatRange(min=0, min_open=True),
+    type=FPS_HZ,
     default=None,
     help="Frame rate in Hz; adds speed_deg_s = angle / (frames / fps) (equation 4).",
 )

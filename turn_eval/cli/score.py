@@ -11,7 +11,17 @@ from pathlib import Path
 
 import click
 
-from turn_datasets.cli.common import emit, format_option, progress, warn, wrote
+from turn_datasets.cli.common import (
+    BIN_WIDTH_DEG,
+    SEED,
+    emit,
+    format_option,
+    info,
+    progress,
+    resamples,
+    warn,
+    wrote,
+)
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import (
     check_not_input,
@@ -67,21 +77,21 @@ def _bootstrap_progress(chunks, n_chunks: int):
 @click.option(
     "--bootstrap",
     "n_resamples",
-    type=click.IntRange(min=0),
+    type=resamples(),
     default=1000,
     show_default=True,
     help="Bootstrap resamples for the 95% intervals (0: none).",
 )
 @click.option(
     "--seed",
-    type=click.IntRange(min=0),
+    type=SEED,
     default=0,
     show_default=True,
     help="Seed of the bootstrap.",
 )
 @click.option(
     "--bin-width-deg",
-    type=click.FloatRange(min=0, min_open=True),
+    type=BIN_WIDTH_DEG,
     default=45.0,
     show_default=True,
     help="Width of the angle bins (the paper's 45°).",
@@ -125,7 +135,7 @@ def score(
     inputs = [predictions, reference]
     if out_dir is not None:
         for name in (*SCORE_FILES, *(PLOT_FILES if plots else ())):
-            check_not_input(out_dir / name, inputs)
+            check_not_input(out_dir / name, inputs, option="--out-dir")
         if out_dir.exists() and not out_dir.is_dir():
             raise TurnbenchError("--out-dir is a file, not a folder", file=str(out_dir))
     ref = read_reference(reference, bin_width_deg=bin_width_deg)
@@ -141,8 +151,10 @@ def score(
     }
     frame = scores_frame(scores)
     if out_dir is not None:
+        removed: list[Path] = []
         try:
-            with staged_dir(out_dir) as tmp:
+            # The folder holds one run: figures of an earlier --plots run go when this has none.
+            with staged_dir(out_dir, owns=PLOT_FILES, removed=removed) as tmp:
                 write_json(tmp / "scores.json", scores)
                 write_text(tmp / "scores.md", texts["md"])
                 write_csv(frame, tmp / "scores.csv")
@@ -166,6 +178,11 @@ def score(
             ) from None
         names = [*SCORE_FILES, *(PLOT_FILES if plots else ())]
         wrote(*(out_dir / name for name in names), what="scores")
+        if removed:
+            info(
+                f"removed {len(removed)} file(s) of the previous run: "
+                + ", ".join(map(str, removed))
+            )
     if fmt == "csv":
         emit(frame.to_csv(index=False, lineterminator="\n"))
     else:

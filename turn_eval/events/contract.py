@@ -30,3 +30,37 @@ DETECTION_OPTIONAL = MappingProxyType(
 )
 #: The full contract, as ``turn-eval detect`` writes it.
 DETECTION_DTYPES = MappingProxyType({**DETECTION_REQUIRED, **DETECTION_OPTIONAL})
+
+#: The reference columns scoring needs (a ``remap labels`` CSV). A Turn-H3.6M clip index has
+#: no ``session``: its sequence within a subject, ``action`` and ``subaction``, is the session
+#: (:data:`CLIP_INDEX_SESSION`).
+REFERENCE_REQUIRED = ("session", "subject", "start_s", "end_s", "angle_deg")
+#: The columns of a clip index that name a session: ``"{action} {subaction}"`` (or the action
+#: alone when the subaction is empty), the miner's own name of a sequence within a subject.
+CLIP_INDEX_SESSION = ("action", "subaction")
+
+#: ``context.csv`` beside the labels (DESIGN.md): the context tiers' intervals. ``subject`` is
+#: empty for a tier shared by every participant of the session; a file without the column is
+#: read as shared throughout.
+CONTEXT_COLUMNS = MappingProxyType(
+    {
+        "session": "str",
+        "subject": "str",
+        "start_s": "float64",
+        "end_s": "float64",
+        "scenario": "str",
+        "location": "str",
+    }
+)
+#: The context columns a false detection takes from the context at its midpoint.
+CONTEXT_GROUPS = ("scenario", "location")
+
+#: ``sessions.csv`` beside the labels: how long each participant's session was annotated.
+SESSIONS_COLUMNS = MappingProxyType({"session": "str", "subject": "str", "duration_s": "float64"})
+
+#: Largest plausible turning angle of one turn and angular speed: a value above is a unit or
+#: export error (radians times 180/pi twice, milliseconds for seconds), not a turn.
+MAX_ANGLE_DEG = 3600.0
+MAX_SPEED_DEG_S = 10000.0
+#: The two directions (DESIGN.md: ``left`` = counter-clockwise seen from above).
+DIRECTIONS = ("left", "right")

@@ -1,0 +1,452 @@
+"""Read and validate the files of ``score-events``: detections, reference, context, sessions.
+
+Every file is read by the harness's own CSV reader (:mod:`turn_eval.submission`: header names
+matched ignoring case and spaces, comma, semicolon or tab delimiter, a UTF-8 BOM dropped, each
+row's own line number kept), so a detections file is as forgiving to write as a predictions
+file and every error names the file and its line (line 1 is the header).
+
+The checks, each one :class:`TurnbenchError` naming file and line: a missing column; an empty
+session or subject; a time that is not a number, NaN, infinite or negative; an end not after its
+start; a duplicate row (same session, subject, start and end); two intervals of one
+(session, subject) that overlap, naming both lines (detections, reference turns, context
+intervals); an angle outside ``[0, MAX_ANGLE_DEG]``, a speed outside ``[0, MAX_SPEED_DEG_S]``,
+a direction other than ``left``/``right``; a detection of a (session, subject) the reference
+does not annotate (or, with ``ignore_unknown``, such rows dropped and counted).
+
+A frame passed from Python (not read from a file) gets the same checks; its rows are named by
+the line they would have in a CSV with a header (row 0 is line 2).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from turn_datasets.errors import TurnbenchError
+from turn_eval.events.contract import (
+    CLIP_INDEX_SESSION,
+    CONTEXT_COLUMNS,
+    DETECTION_OPTIONAL,
+    DETECTION_REQUIRED,
+    DIRECTIONS,
+    MAX_ANGLE_DEG,
+    MAX_SPEED_DEG_S,
+    REFERENCE_REQUIRED,
+    SESSIONS_COLUMNS,
+)
+from turn_eval.submission import _numbers, _read_table, _require, _Table
+
+__all__ = [
+    "read_detections",
+    "read_event_reference",
+    "read_context",
+    "read_sessions",
+    "check_detections",
+    "check_event_reference",
+    "check_context",
+    "check_sessions",
+    "Units",
+    "known_units",
+]
+
+_UNIT = ("session", "subject")
+
+
+def _lines_of(frame: pd.DataFrame) -> np.ndarray:
+    lines = frame.attrs.get("lines")
+    if lines is None or len(lines) != frame.shape[0]:
+        return np.arange(2, 2 + frame.shape[0], dtype=np.int64)
+    return np.asarray(lines, dtype=np.int64)
+
+
+def _path_of(frame: pd.DataFrame, what: str) -> str:
+    return str(frame.attrs.get("path", what))
+
+
+def _fail(message: str, frame: pd.DataFrame, what: str, i: int, count: int = 1) -> TurnbenchError:
+    more = f" ({count - 1} more row{'s' if count > 2 else ''} like it)" if count > 1 else ""
+    return TurnbenchError(message + more, file=_path_of(frame, what), row=int(_lines_of(frame)[i]))
+
+
+def _first(bad: np.ndarray) -> tuple[int, int]:
+    where = np.flatnonzero(bad)
+    return int(where[0]), int(where.size)
+
+
+def _check_text(frame: pd.DataFrame, what: str, columns: Sequence[str]) -> None:
+    for col in columns:
+        values = frame[col].to_numpy(dtype=object)
+        bad = (values == "") | pd.isna(values)
+        if bad.any():
+            i, count = _first(bad)
+            raise _fail(f"{col} is empty", frame, what, i, count)
+
+
+def _check_number(
+    frame: pd.DataFrame,
+    what: str,
+    col: str,
+    *,
+    high: float = np.inf,
+    allow_nan: bool = False,
+    allow_negative: bool = False,
+    hint: str = "",
+) -> None:
+    values = frame[col].to_numpy(dtype=np.float64)
+    nan = np.isnan(values)
+    if not allow_nan and nan.any():
+        i, count = _first(nan)
+        raise _fail(f"{col} is NaN or empty", frame, what, i, count)
+    inf = np.isinf(values)
+    if inf.any():
+        i, count = _first(inf)
+        raise _fail(f"{col} is infinite ({values[i]:g})", frame, what, i, count)
+    low = -np.inf if allow_negative else 0.0
+    out = ~nan & ((values < low) | (values > high))
+    if out.any():
+        i, count = _first(out)
+        bound = f"[{low:g}, {high:g}]" if np.isfinite(low) else f"at most {high:g}"
+        raise _fail(
+            f"{col} {values[i]:g} is outside the plausible range {bound}{hint}",
+            frame,
+            what,
+            i,
+            count,
+        )
+
+
+def _check_intervals(frame: pd.DataFrame, what: str, unit: Sequence[str], noun: str) -> None:
+    """End after start, no duplicate rows, no two intervals of one unit overlapping."""
+    start = frame["start_s"].to_numpy(dtype=np.float64)
+    end = frame["end_s"].to_numpy(dtype=np.float64)
+    backwards = end <= start
+    if backwards.any():
+        i, count = _first(backwards)
+        raise _fail(f"end_s {end[i]:g} is not after start_s {start[i]:g}", frame, what, i, count)
+    if frame.shape[0] < 2:
+        return
+    keys = [frame[c].to_numpy(dtype=object) for c in unit]
+    codes = pd.MultiIndex.from_arrays(keys).codes if len(keys) > 1 else None
+    unit_code = (
+        np.ravel_multi_index(
+            [np.asarray(c, dtype=np.int64) for c in codes],
+            [int(np.max(c)) + 1 for c in codes],
+        )
+        if codes is not None
+        else pd.factorize(keys[0])[0]
+    )
+    order = np.lexsort((np.arange(start.shape[0]), end, start, unit_code))
+    u, s, e = unit_code[order], start[order], end[order]
+    same = u[1:] == u[:-1]
+    duplicate = same & (s[1:] == s[:-1]) & (e[1:] == e[:-1])
+    lines = _lines_of(frame)
+    if duplicate.any():
+        k = int(np.flatnonzero(duplicate)[0])
+        i, j = int(order[k]), int(order[k + 1])
+        raise TurnbenchError(
+            f"duplicate {noun}: same {', '.join(unit)}, start_s and end_s as line {lines[i]}",
+            file=_path_of(frame, what),
+            row=int(lines[j]),
+        )
+    # In start order, any two overlapping intervals imply an overlapping adjacent pair.
+    overlap = same & (s[1:] < e[:-1])
+    if overlap.any():
+        k = int(np.flatnonzero(overlap)[0])
+        i, j = sorted((int(order[k]), int(order[k + 1])), key=lambda r: lines[r])
+        names = ", ".join(f"{c} {frame[c].iat[i]!r}" for c in unit)
+        raise TurnbenchError(
+            f"{noun}s on lines {lines[i]} and {lines[j]} overlap ({names}: "
+            f"{start[i]:g}-{end[i]:g} s and {start[j]:g}-{end[j]:g} s); "
+            f"{noun}s of one person must not overlap",
+            file=_path_of(frame, what),
+            row=int(lines[j]),
+        )
+
+
+def _check_direction(frame: pd.DataFrame, what: str) -> None:
+    values = frame["direction"].fillna("").astype(str).str.strip().str.lower()
+    bad = ~values.isin(("", *DIRECTIONS)).to_numpy()
+    if bad.any():
+        i, count = _first(bad)
+        raise _fail(
+            f"direction {frame['direction'].iat[i]!r} is not one of {', '.join(DIRECTIONS)} "
+            "(or empty)",
+            frame,
+            what,
+            i,
+            count,
+        )
+    frame["direction"] = values.to_numpy(dtype=object)
+
+
+def _missing(frame: pd.DataFrame, required: Sequence[str], what: str) -> None:
+    missing = [c for c in required if c not in frame.columns]
+    if missing:
+        raise TurnbenchError(
+            f"{what} lacks column{'s' if len(missing) > 1 else ''} "
+            f"{', '.join(repr(c) for c in missing)}; it has "
+            f"{', '.join(repr(str(c)) for c in frame.columns)}",
+            file=_path_of(frame, what),
+            row=1,
+        )
+
+
+def check_detections(frame: pd.DataFrame, *, what: str = "detections") -> pd.DataFrame:
+    """Validate a detections frame (the contract of :mod:`turn_eval.events.contract`).
+
+    Returns the frame with exactly the contract's columns it has, typed, optional ones after
+    the required ones, ``direction`` lower-cased (empty where not given), and ``attrs``
+    ``path`` and ``lines`` kept. Raises :class:`TurnbenchError` as the module docstring says.
+    """
+    _missing(frame, list(DETECTION_REQUIRED), what)
+    cols = [*DETECTION_REQUIRED, *(c for c in DETECTION_OPTIONAL if c in frame.columns)]
+    out = frame.loc[:, cols].copy()
+    out.attrs = dict(frame.attrs)
+    for col in _UNIT:
+        out[col] = out[col].fillna("").astype(str).str.strip()
+    _check_text(out, what, _UNIT)
+    for col in (
+        "start_s",
+        "end_s",
+        "angle_deg",
+        *(c for c in ("speed_deg_s", "score") if c in out),
+    ):
+        out[col] = pd.to_numeric(out[col], errors="coerce").astype(np.float64)
+    _check_number(out, what, "start_s")
+    _check_number(out, what, "end_s")
+    hint = "; angles are magnitudes in degrees, with the sense in direction"
+    _check_number(out, what, "angle_deg", high=MAX_ANGLE_DEG, hint=hint)
+    if "speed_deg_s" in out:
+        _check_number(out, what, "speed_deg_s", high=MAX_SPEED_DEG_S, allow_nan=True)
+    if "score" in out:
+        _check_number(out, what, "score", allow_negative=True)
+    if "direction" in out:
+        _check_direction(out, what)
+    _check_intervals(out, what, _UNIT, "detection")
+    return out.reset_index(drop=True).pipe(_keep_attrs, frame)
+
+
+def _keep_attrs(out: pd.DataFrame, source: pd.DataFrame) -> pd.DataFrame:
+    out.attrs = dict(source.attrs)
+    return out
+
+
+def _frame_of(
+    table: _Table, numeric: Sequence[str], allow_empty: Sequence[str] = ()
+) -> pd.DataFrame:
+    """A file's columns as a frame: ``numeric`` ones parsed strictly, the rest as text."""
+    data: dict[str, object] = {}
+    for col in table.header:
+        if not col:
+            continue
+        if col in numeric:
+            data[col] = _numbers(
+                table, col, allow_empty=col in allow_empty, allow_negative=True, negative_hint=None
+            )
+        else:
+            data[col] = table.columns[col]
+    frame = pd.DataFrame(data)
+    frame.attrs["path"] = table.path
+    frame.attrs["lines"] = table.lines
+    return frame
+
+
+def read_detections(path: str | os.PathLike[str]) -> pd.DataFrame:
+    """Read and validate a detections CSV (:func:`check_detections`); other columns ignored."""
+    table = _read_table(path, what="detections")
+    _require(table, list(DETECTION_REQUIRED), what="the detections")
+    numeric = ("start_s", "end_s", "angle_deg", "speed_deg_s", "score")
+    frame = _frame_of(table, numeric, allow_empty=("speed_deg_s",))
+    return check_detections(frame, what=table.path)
+
+
+def check_event_reference(frame: pd.DataFrame, *, what: str = "reference") -> pd.DataFrame:
+    """Validate a reference frame: labels, or a clip index (``session`` made from
+    :data:`CLIP_INDEX_SESSION`).
+
+    Returns ``session, subject, start_s, end_s, angle_deg`` (typed), ``direction`` when the
+    reference has it, then every other text column (stripped strings) as possible groupings.
+    """
+    frame = frame.copy() if "session" in frame.columns else _clip_index_sessions(frame, what)
+    _missing(frame, REFERENCE_REQUIRED, what)
+    out = frame.copy()
+    for col in _UNIT:
+        out[col] = out[col].fillna("").astype(str).str.strip()
+    _check_text(out, what, _UNIT)
+    for col in ("start_s", "end_s", "angle_deg"):
+        out[col] = pd.to_numeric(out[col], errors="coerce").astype(np.float64)
+        high = MAX_ANGLE_DEG if col == "angle_deg" else np.inf
+        _check_number(out, what, col, high=high)
+    if "direction" in out:
+        _check_direction(out, what)
+    _check_intervals(out, what, _UNIT, "reference turn")
+    numeric = {"start_s", "end_s", "angle_deg"}
+    rest = [
+        c
+        for c in out.columns
+        if c not in (*REFERENCE_REQUIRED, "direction")
+        and c not in numeric
+        and (out[c].dtype == object or pd.api.types.is_string_dtype(out[c]))
+    ]
+    for c in rest:
+        out[c] = out[c].fillna("").astype(str).str.strip()
+    cols = [*REFERENCE_REQUIRED, *(["direction"] if "direction" in out else []), *rest]
+    return out.loc[:, cols].reset_index(drop=True).pipe(_keep_attrs, frame)
+
+
+def _clip_index_sessions(frame: pd.DataFrame, what: str) -> pd.DataFrame:
+    if not all(c in frame.columns for c in CLIP_INDEX_SESSION):
+        _missing(frame, REFERENCE_REQUIRED, what)
+    out = frame.copy()
+    action = out["action"].fillna("").astype(str).str.strip()
+    sub = out["subaction"].fillna("").astype(str).str.strip()
+    out.insert(0, "session", np.where(sub == "", action, action + " " + sub))
+    out.attrs = dict(frame.attrs)
+    return out
+
+
+def read_event_reference(path: str | os.PathLike[str]) -> pd.DataFrame:
+    """Read and validate a reference CSV (:func:`check_event_reference`)."""
+    table = _read_table(path, what="reference")
+    frame = _frame_of(table, ("start_s", "end_s", "angle_deg"))
+    return check_event_reference(frame, what=table.path)
+
+
+def check_context(frame: pd.DataFrame, *, what: str = "context") -> pd.DataFrame:
+    """Validate a context frame (:data:`CONTEXT_COLUMNS`; ``subject`` optional, empty = shared).
+
+    Intervals of one (session, subject) must not overlap; ``scenario`` and ``location`` may
+    be empty (not annotated there).
+    """
+    required = [c for c in CONTEXT_COLUMNS if c != "subject"]
+    _missing(frame, required, what)
+    out = frame.copy()
+    if "subject" not in out:
+        out["subject"] = ""
+    for col in ("session", "subject", "scenario", "location"):
+        out[col] = out[col].fillna("").astype(str).str.strip()
+    _check_text(out, what, ("session",))
+    for col in ("start_s", "end_s"):
+        out[col] = pd.to_numeric(out[col], errors="coerce").astype(np.float64)
+        _check_number(out, what, col)
+    _check_intervals(out, what, _UNIT, "context interval")
+    return out.loc[:, list(CONTEXT_COLUMNS)].reset_index(drop=True).pipe(_keep_attrs, frame)
+
+
+def read_context(path: str | os.PathLike[str]) -> pd.DataFrame:
+    """Read and validate a ``context.csv`` (:func:`check_context`)."""
+    table = _read_table(path, what="context")
+    return check_context(_frame_of(table, ("start_s", "end_s")), what=table.path)
+
+
+def check_sessions(frame: pd.DataFrame, *, what: str = "sessions") -> pd.DataFrame:
+    """Validate a sessions frame (:data:`SESSIONS_COLUMNS`): positive finite durations, one row
+    per (session, subject)."""
+    _missing(frame, list(SESSIONS_COLUMNS), what)
+    out = frame.copy()
+    for col in _UNIT:
+        out[col] = out[col].fillna("").astype(str).str.strip()
+    _check_text(out, what, _UNIT)
+    out["duration_s"] = pd.to_numeric(out["duration_s"], errors="coerce").astype(np.float64)
+    _check_number(out, what, "duration_s")
+    zero = out["duration_s"].to_numpy() <= 0
+    if zero.any():
+        i, count = _first(zero)
+        raise _fail("duration_s is not positive", out, what, i, count)
+    dup = out.duplicated(subset=list(_UNIT), keep="first").to_numpy()
+    if dup.any():
+        i, count = _first(dup)
+        raise _fail(
+            f"duplicate session {out['session'].iat[i]!r} and subject {out['subject'].iat[i]!r}",
+            out,
+            what,
+            i,
+            count,
+        )
+    return out.loc[:, list(SESSIONS_COLUMNS)].reset_index(drop=True).pipe(_keep_attrs, frame)
+
+
+def read_sessions(path: str | os.PathLike[str]) -> pd.DataFrame:
+    """Read and validate a ``sessions.csv`` (:func:`check_sessions`)."""
+    table = _read_table(path, what="sessions")
+    return check_sessions(_frame_of(table, ("duration_s",)), what=table.path)
+
+
+@dataclass(frozen=True)
+class Units:
+    """The annotated (session, subject) units, numbered in sorted order.
+
+    ``sessions`` and ``subjects`` hold each unit's names; :meth:`codes` numbers rows.
+    """
+
+    sessions: np.ndarray
+    subjects: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.sessions.shape[0])
+
+    def codes(self, frame: pd.DataFrame) -> np.ndarray:
+        """Each row's unit number, -1 where the unit is not annotated."""
+        index = pd.MultiIndex.from_arrays([self.sessions, self.subjects])
+        return index.get_indexer(
+            pd.MultiIndex.from_arrays(
+                [frame["session"].to_numpy(dtype=object), frame["subject"].to_numpy(dtype=object)]
+            )
+        ).astype(np.int64)
+
+
+def known_units(reference: pd.DataFrame, sessions: pd.DataFrame | None = None) -> Units:
+    """Every (session, subject) the reference annotates: its rows' and ``sessions``'s units
+    (a participant annotated without a turn is in ``sessions.csv`` only)."""
+    parts = [reference.loc[:, list(_UNIT)]]
+    if sessions is not None:
+        parts.append(sessions.loc[:, list(_UNIT)])
+    both = pd.concat(parts, ignore_index=True).drop_duplicates()
+    both = both.sort_values(list(_UNIT), kind="mergesort")
+    return Units(
+        sessions=both["session"].to_numpy(dtype=object),
+        subjects=both["subject"].to_numpy(dtype=object),
+    )
+
+
+def drop_unknown(
+    detections: pd.DataFrame,
+    units: Units,
+    *,
+    ignore_unknown: bool,
+    warn: Callable[[str], None] | None = None,
+) -> tuple[pd.DataFrame, np.ndarray, int]:
+    """The detections of annotated units, their unit numbers, and how many were dropped.
+
+    A detection of a unit the reference lacks is an error naming its line, unless
+    ``ignore_unknown``: then such rows are dropped and counted (and ``warn`` told).
+    """
+    codes = units.codes(detections)
+    unknown = codes < 0
+    if not unknown.any():
+        return detections, codes, 0
+    i, count = _first(unknown)
+    what = "detections"
+    message = (
+        f"session {detections['session'].iat[i]!r}, subject {detections['subject'].iat[i]!r} "
+        "is not annotated in the reference"
+    )
+    if not ignore_unknown:
+        err = _fail(message, detections, what, i, count)
+        err.hint = "pass --ignore-unknown to drop such detections"
+        raise TurnbenchError(err.message, file=err.where.file, row=err.where.row, hint=err.hint)
+    if warn is not None:
+        warn(
+            f"{_path_of(detections, what)}: dropped {count} detection{'s' if count > 1 else ''} "
+            f"of (session, subject) units the reference does not annotate (first: line "
+            f"{_lines_of(detections)[i]}, {message})"
+        )
+    keep = ~unknown
+    out = detections.loc[keep].reset_index(drop=True)
+    out.attrs = dict(detections.attrs)
+    out.attrs["lines"] = _lines_of(detections)[keep]
+    return out, codes[keep], count

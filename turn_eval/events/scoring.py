@@ -1,0 +1,573 @@
+"""``score_events``: detected turns in untrimmed sessions scored against time-stamped labels.
+
+What is reported (issue 12), on top of the matching of :mod:`turn_eval.events.matching`:
+
+Detection
+    TP, FP, FN, precision TP/(TP+FP), recall TP/(TP+FN) and F1 2TP/(2TP+FP+FN), overall and
+    per group. A TP and an FN take the group of their reference turn; an FP, which has none,
+    takes the group of its (session, subject) for columns constant within it (subject,
+    cohort, a clip index's action), and for ``scenario`` and ``location`` the context in force
+    at its midpoint (``context.csv``: the participant's own context intervals first, then the
+    session's shared ones). Without a context file, or where no context interval covers the
+    midpoint, an FP is in the group :data:`UNKNOWN_GROUP`.
+Matched turns
+    On the TP pairs, the harness's own angle metrics, with the same code as ``turn-eval
+    score`` (:func:`turn_eval.metrics.clip_outcomes`, :func:`turn_eval.metrics.metrics_of`,
+    :func:`turn_eval.metrics.grouped_metrics`): accuracy of the 45° bin, MAE, WPrec, and
+    the MAE of angular speed when the detections give ``speed_deg_s`` (against the reference
+    angle over the reference duration, equation 4; pairs whose detection has no speed are
+    left out of it). Direction agreement when both sides have ``direction``; the medians of
+    ``|Δstart|`` and ``|Δend|`` in seconds.
+Turns per hour
+    With ``sessions``: per (session, subject), reference and detected turns over the
+    annotated duration, and the mean absolute difference over the units.
+Average precision
+    When the detections carry ``score``: :mod:`turn_eval.events.ap`.
+Intervals
+    Cluster bootstrap over (session, subject) units (:mod:`turn_eval.events.bootstrap`) for
+    precision, recall, F1, matched accuracy and MAE, overall, per group and for the groups'
+    unweighted average (the paper's "Avg.").
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from turn_datasets import __version__
+from turn_datasets.errors import TurnbenchError
+from turn_eval.events.ap import AP_IOUS, average_precision
+from turn_eval.events.bootstrap import (
+    CI_METRICS,
+    COMPONENTS,
+    cluster_bootstrap,
+    event_metrics,
+    unit_sums,
+)
+from turn_eval.events.contract import CONTEXT_GROUPS
+from turn_eval.events.matching import categorize_events
+from turn_eval.events.reading import (
+    Units,
+    check_context,
+    check_detections,
+    check_event_reference,
+    check_sessions,
+    drop_unknown,
+    known_units,
+    read_context,
+    read_detections,
+    read_event_reference,
+    read_sessions,
+)
+from turn_eval.metrics import (
+    CONFIDENCE,
+    Partition,
+    clip_outcomes,
+    grouped_metrics,
+    percentile_interval,
+)
+from turn_eval.scores import BLANK_GROUP, _natural_key
+
+__all__ = ["DEFAULT_BY", "UNKNOWN_GROUP", "MATCHING_RULE", "EventScores", "score_events"]
+
+#: Groupings reported when ``by`` is not given, those the reference has (issue 12's default
+#: and a clip index's action).
+DEFAULT_BY = ("cohort", "scenario", "location", "subject", "action")
+#: The group of a false detection whose group is not known (no context at its midpoint).
+UNKNOWN_GROUP = "unknown"
+#: The matching rule, printed beside every table (as sed_eval and ActivityNet state theirs).
+MATCHING_RULE = (
+    "per (session, subject), one-to-one; eligible pairs at temporal IoU >= {iou:g}; the "
+    "matching with the most pairs, then the largest total IoU"
+)
+#: The matched-pair metrics, in the order of the tables.
+MATCHED_METRICS = (
+    "accuracy",
+    "mae_deg",
+    "wprec",
+    "mae_speed_deg_s",
+    "direction_agreement",
+    "median_abs_dstart_s",
+    "median_abs_dend_s",
+)
+
+Progress = Callable[[Iterator[np.ndarray], int], Iterable[np.ndarray]]
+Frame = pd.DataFrame | str | os.PathLike[str]
+
+
+@dataclass(frozen=True)
+class EventScores:
+    """The result of :func:`score_events`.
+
+    Attributes
+    ----------
+    doc
+        The JSON-able scores document (``overall``, ``by``, ``settings``, counts).
+    events
+        One row per TP pair, FP and FN (:data:`turn_eval.events.matching.EVENT_COLUMNS` plus
+        ``session, subject``, both sides' times and angles, and each grouping's group).
+    rates
+        Turns per hour per (session, subject), or None without ``sessions``.
+    pr_curves
+        Per AP threshold, ``precision`` and ``recall`` after each ranked detection, or None.
+    """
+
+    doc: dict[str, Any]
+    events: pd.DataFrame = field(repr=False)
+    rates: pd.DataFrame | None = field(repr=False, default=None)
+    pr_curves: dict[str, dict[str, np.ndarray]] | None = field(repr=False, default=None)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The scores document (the ``--format json`` output)."""
+        return self.doc
+
+
+def _load(value: Frame | None, reader, checker):
+    if value is None:
+        return None
+    if isinstance(value, pd.DataFrame):
+        return checker(value)
+    return reader(value)
+
+
+def _groupings(reference: pd.DataFrame, by: Sequence[str] | None) -> list[str]:
+    text_cols = [
+        c
+        for c in reference.columns
+        if c not in ("session", "start_s", "end_s", "angle_deg", "direction")
+    ]
+    if not by:
+        return [c for c in DEFAULT_BY if c in text_cols and (reference[c] != "").any()]
+    out: list[str] = []
+    for name in by:
+        col = name.strip().lower()
+        if col not in text_cols:
+            raise TurnbenchError(
+                f"--by {name!r}: the reference has no such group column; it has "
+                f"{', '.join(text_cols)}",
+                file=reference.attrs.get("path"),
+            )
+        if col not in out:
+            out.append(col)
+    return out
+
+
+def _context_at(
+    context: pd.DataFrame, session: np.ndarray, subject: np.ndarray, time_s: np.ndarray
+) -> dict[str, np.ndarray]:
+    """Each column of :data:`CONTEXT_GROUPS` at the given times ("" where none covers it):
+    the participant's own intervals first, then the session's shared ones."""
+    out = {c: np.full(time_s.shape[0], "", dtype=object) for c in CONTEXT_GROUPS}
+    if context.shape[0] == 0 or time_s.shape[0] == 0:
+        return out
+    keys = pd.MultiIndex.from_arrays(
+        [context["session"].to_numpy(dtype=object), context["subject"].to_numpy(dtype=object)]
+    )
+    uniq = keys.unique()
+    ctx_key = uniq.get_indexer(keys).astype(np.float64)
+    start = context["start_s"].to_numpy(dtype=np.float64)
+    end = context["end_s"].to_numpy(dtype=np.float64)
+    order = np.lexsort((start, ctx_key))
+    sorted_keys = ctx_key[order] + 1j * start[order]
+    for who in (subject, np.full(subject.shape[0], "", dtype=object)):
+        key = uniq.get_indexer(pd.MultiIndex.from_arrays([session, who])).astype(np.float64)
+        todo = (out[CONTEXT_GROUPS[0]] == "") & (out[CONTEXT_GROUPS[1]] == "") & (key >= 0)
+        pos = np.searchsorted(sorted_keys, key + 1j * time_s, side="right") - 1
+        row = order[np.maximum(pos, 0)]
+        hit = todo & (pos >= 0) & (ctx_key[row] == key) & (end[row] > time_s)
+        for c in CONTEXT_GROUPS:
+            out[c][hit] = context[c].to_numpy(dtype=object)[row[hit]]
+    return out
+
+
+def _unit_values(reference: pd.DataFrame, ref_unit: np.ndarray, col: str, units: Units):
+    """Each unit's value of ``col`` where it is constant over the unit's turns (else by the
+    subject, where constant over the subject's turns), else None."""
+    values = reference[col].to_numpy(dtype=object)
+    out = np.full(len(units), None, dtype=object)
+    frame = pd.DataFrame({"u": ref_unit, "v": values, "s": reference["subject"].to_numpy()})
+    per_unit = frame.groupby("u")["v"].agg(["nunique", "first"])
+    constant = per_unit[per_unit["nunique"] == 1]
+    out[constant.index.to_numpy()] = constant["first"].to_numpy()
+    per_subject = frame.groupby("s")["v"].agg(["nunique", "first"])
+    by_subject = per_subject[per_subject["nunique"] == 1]["first"].to_dict()
+    for u in np.flatnonzero(pd.isna(out)):
+        out[u] = by_subject.get(units.subjects[u])
+    return out
+
+
+def _label(value: object) -> str:
+    return BLANK_GROUP if value == "" else str(value)
+
+
+def _event_groups(
+    events: pd.DataFrame,
+    reference: pd.DataFrame,
+    ref_unit: np.ndarray,
+    detections: pd.DataFrame,
+    units: Units,
+    context: pd.DataFrame | None,
+    groupings: Sequence[str],
+) -> dict[str, np.ndarray]:
+    """Each event's group label per grouping (module docstring)."""
+    ref_row = events["ref_row"].to_numpy()
+    det_row = events["det_row"].to_numpy()
+    is_fp = ref_row < 0
+    fp_det = det_row[is_fp]
+    ds = detections["start_s"].to_numpy(dtype=np.float64)[fp_det]
+    de = detections["end_s"].to_numpy(dtype=np.float64)[fp_det]
+    fp_unit = events["unit"].to_numpy()[is_fp]
+    ctx = None
+    if context is not None:
+        ctx = _context_at(context, units.sessions[fp_unit], units.subjects[fp_unit], (ds + de) / 2)
+    out: dict[str, np.ndarray] = {}
+    for col in groupings:
+        labels = np.empty(events.shape[0], dtype=object)
+        ref_values = reference[col].to_numpy(dtype=object)
+        labels[~is_fp] = [_label(v) for v in ref_values[ref_row[~is_fp]]]
+        if col in CONTEXT_GROUPS:
+            fp_values = ctx[col] if ctx is not None else np.full(fp_det.shape[0], "", dtype=object)
+            fp_labels = [UNKNOWN_GROUP if v == "" else str(v) for v in fp_values]
+        else:
+            per_unit = _unit_values(reference, ref_unit, col, units)[fp_unit]
+            fp_labels = [UNKNOWN_GROUP if v is None else _label(v) for v in per_unit]
+        labels[is_fp] = fp_labels
+        out[col] = labels
+    return out
+
+
+def _partition(name: str, labels: np.ndarray) -> Partition:
+    codes, uniq = pd.factorize(labels)
+    names = [str(u) for u in uniq]
+    order = sorted(range(len(names)), key=lambda i: _natural_key(names[i]))
+    rank = np.empty(len(names), dtype=np.int64)
+    rank[order] = np.arange(len(names))
+    return Partition(name, tuple(names[i] for i in order), rank[codes])
+
+
+def _float(value) -> float | None:
+    return float(value) if value is not None and np.isfinite(value) else None
+
+
+def _matched_block(
+    events: pd.DataFrame,
+    detections: pd.DataFrame,
+    reference: pd.DataFrame,
+    bin_width_deg: float,
+):
+    """The TP pairs' outcomes (harness code) and the extra per-pair quantities."""
+    tp = events["kind"].to_numpy() == "TP"
+    d = events["det_row"].to_numpy()[tp]
+    r = events["ref_row"].to_numpy()[tp]
+    ref_start = reference["start_s"].to_numpy(dtype=np.float64)[r]
+    ref_end = reference["end_s"].to_numpy(dtype=np.float64)[r]
+    speed = None
+    duration = None
+    if "speed_deg_s" in detections:
+        speed = detections["speed_deg_s"].to_numpy(dtype=np.float64)[d]
+        # Only pairs whose detection gives a speed: NaN duration leaves the pair out.
+        duration = np.where(np.isfinite(speed), ref_end - ref_start, np.nan)
+    outcomes = clip_outcomes(
+        detections["angle_deg"].to_numpy(dtype=np.float64)[d],
+        reference["angle_deg"].to_numpy(dtype=np.float64)[r],
+        ref_duration_s=duration,
+        pred_speed_deg_s=speed,
+        bin_width_deg=bin_width_deg,
+    )
+    agree = None
+    if "direction" in detections and "direction" in reference:
+        dd = detections["direction"].to_numpy(dtype=object)[d]
+        rd = reference["direction"].to_numpy(dtype=object)[r]
+        both = (dd != "") & (rd != "")
+        agree = np.where(both, (dd == rd).astype(np.float64), np.nan)
+    dstart = np.abs(detections["start_s"].to_numpy(dtype=np.float64)[d] - ref_start)
+    dend = np.abs(detections["end_s"].to_numpy(dtype=np.float64)[d] - ref_end)
+    return tp, outcomes, agree, dstart, dend
+
+
+def _matched_entry(values: Mapping[str, np.ndarray], g: int, extra: Mapping[str, Any]) -> dict:
+    n = int(values["n"][g]) if "n" in values else 0
+    entry: dict[str, Any] = {"n": n}
+    for m in ("accuracy", "mae_deg", "wprec", "mae_speed_deg_s"):
+        v = values.get(m)
+        entry[m] = None if v is None or n == 0 else _float(v[g])
+    entry.update(extra)
+    return entry
+
+
+def _pair_stats(mask: np.ndarray, agree, dstart, dend) -> dict[str, float | None]:
+    def median(x):
+        return float(np.median(x[mask])) if mask.any() else None
+
+    direction = None
+    if agree is not None:
+        a = agree[mask]
+        a = a[np.isfinite(a)]
+        direction = float(a.mean()) if a.size else None
+    return {
+        "direction_agreement": direction,
+        "median_abs_dstart_s": median(dstart),
+        "median_abs_dend_s": median(dend),
+    }
+
+
+def _rates(
+    units: Units,
+    ref_unit: np.ndarray,
+    det_unit: np.ndarray,
+    sessions: pd.DataFrame,
+) -> tuple[pd.DataFrame, dict[str, Any]]:
+    """Turns per hour per (session, subject), reference and detected, and their summary."""
+    duration = np.full(len(units), np.nan)
+    codes = units.codes(sessions)
+    known = codes >= 0
+    duration[codes[known]] = sessions["duration_s"].to_numpy(dtype=np.float64)[known]
+    lacking = np.flatnonzero(np.isnan(duration))
+    if lacking.size:
+        u = int(lacking[0])
+        raise TurnbenchError(
+            f"no annotated duration for session {units.sessions[u]!r}, subject "
+            f"{units.subjects[u]!r}, which the reference annotates"
+            + (f" ({lacking.size - 1} more like it)" if lacking.size > 1 else ""),
+            file=sessions.attrs.get("path", "sessions"),
+        )
+    n_ref = np.bincount(ref_unit, minlength=len(units))
+    n_det = np.bincount(det_unit, minlength=len(units))
+    hours = duration / 3600.0
+    table = pd.DataFrame(
+        {
+            "session": units.sessions,
+            "subject": units.subjects,
+            "duration_s": duration,
+            "reference_turns": n_ref,
+            "detected_turns": n_det,
+            "reference_per_hour": n_ref / hours,
+            "detected_per_hour": n_det / hours,
+        }
+    )
+    diff = np.abs(table["detected_per_hour"] - table["reference_per_hour"])
+    summary = {
+        "n_units": len(units),
+        "reference_per_hour_mean": float(table["reference_per_hour"].mean()),
+        "detected_per_hour_mean": float(table["detected_per_hour"].mean()),
+        "mean_abs_difference_per_hour": float(diff.mean()),
+    }
+    return table, summary
+
+
+def _ci(distribution: Mapping[str, np.ndarray], column: int | None) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for m in CI_METRICS:
+        values = distribution[m]
+        v = values[:, column] if column is not None else values.mean(axis=1)
+        bounds = percentile_interval(v)
+        out[m] = None if bounds is None else [bounds[0], bounds[1]]
+    return out
+
+
+def _detection_entry(sums: np.ndarray) -> dict[str, Any]:
+    metrics = event_metrics(sums)
+    entry: dict[str, Any] = {c: int(round(sums[k])) for k, c in enumerate(COMPONENTS[:3])}
+    entry.update({m: _float(metrics[m]) for m in ("precision", "recall", "f1")})
+    return entry
+
+
+def _average(groups: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
+    """The paper's "Avg.": unweighted means over the groups (of the defined values)."""
+
+    def mean(values):
+        values = [v for v in values if v is not None]
+        return float(np.mean(values)) if values else None
+
+    out: dict[str, Any] = {c: mean([g[c] for g in groups.values()]) for c in ("tp", "fp", "fn")}
+    for m in ("precision", "recall", "f1"):
+        out[m] = mean([g[m] for g in groups.values()])
+    out["matched"] = {
+        m: mean([g["matched"].get(m) for g in groups.values()]) for m in ("n", *MATCHED_METRICS)
+    }
+    return out
+
+
+def score_events(
+    detections: Frame,
+    reference: Frame,
+    *,
+    iou: float = 0.5,
+    context: Frame | None = None,
+    sessions: Frame | None = None,
+    by: Sequence[str] | None = None,
+    n_resamples: int = 1000,
+    seed: int = 0,
+    ignore_unknown: bool = False,
+    bin_width_deg: float = 45.0,
+    warn: Callable[[str], None] | None = None,
+    progress: Progress | None = None,
+) -> EventScores:
+    """Score detected turns against reference turns (module docstring; issue 12).
+
+    Parameters
+    ----------
+    detections
+        The detections contract (:mod:`turn_eval.events.contract`), a frame or a CSV path.
+    reference
+        ``remap labels`` output or a Turn-H3.6M clip index, a frame or a CSV path.
+    iou
+        IoU threshold of an eligible pair, in (0, 1].
+    context, sessions
+        ``context.csv`` and ``sessions.csv`` (frames or paths), or None.
+    by
+        Reference columns to group by; None for :data:`DEFAULT_BY` where present.
+    n_resamples, seed
+        Cluster bootstrap resamples (0: no intervals) and seed.
+    ignore_unknown
+        Drop (and count) detections of units the reference does not annotate instead of
+        refusing them.
+    bin_width_deg
+        Bin width of the matched accuracy (the paper's 45°).
+    warn, progress
+        Callbacks for a one-line warning and for the bootstrap's progress.
+
+    Returns
+    -------
+    EventScores
+        ``doc`` is the JSON document: ``overall.{tp,fp,fn,precision,recall,f1,ci95}``,
+        ``overall.matched.{n,accuracy,mae_deg,wprec,mae_speed_deg_s,direction_agreement,
+        median_abs_dstart_s,median_abs_dend_s}``, ``overall.ap`` (with scores),
+        ``overall.turns_per_hour`` (with sessions), ``by.<column>.groups.<group>`` and
+        ``by.<column>.avg``, ``settings``.
+    """
+    if not (0.0 < iou <= 1.0):
+        raise TurnbenchError(f"--iou must be in (0, 1], got {iou}")
+    if n_resamples < 0 or seed < 0:
+        raise TurnbenchError("--bootstrap and --seed must be 0 or more")
+    det = _load(detections, read_detections, check_detections)
+    ref = _load(reference, read_event_reference, check_event_reference)
+    ctx = _load(context, read_context, check_context)
+    ses = _load(sessions, read_sessions, check_sessions)
+    groupings = _groupings(ref, by)
+    units = known_units(ref, ses)
+    ref_unit = units.codes(ref)
+    det, det_unit, n_dropped = drop_unknown(det, units, ignore_unknown=ignore_unknown, warn=warn)
+
+    events = categorize_events(det, det_unit, ref, ref_unit, iou=iou)
+    labels = _event_groups(events, ref, ref_unit, det, units, ctx, groupings)
+    tp, outcomes, agree, dstart, dend = _matched_block(events, det, ref, bin_width_deg)
+    kind = events["kind"].to_numpy()
+    correct = np.zeros(events.shape[0])
+    error = np.zeros(events.shape[0])
+    correct[tp] = outcomes.correct
+    error[tp] = outcomes.abs_error_deg
+    components = np.stack([tp, kind == "FP", kind == "FN", correct, error], axis=1).astype(
+        np.float64
+    )
+    unit = events["unit"].to_numpy(dtype=np.int64)
+
+    partitions = [Partition.whole(events.shape[0])]
+    partitions += [_partition(col, labels[col]) for col in groupings]
+    sums = {
+        p.name: unit_sums(unit, p.codes, components, len(units), len(p.labels)) for p in partitions
+    }
+    distributions = (
+        cluster_bootstrap(sums, n_resamples=n_resamples, seed=seed, progress=progress)
+        if n_resamples > 0 and len(units) > 0
+        else None
+    )
+    matched = (
+        grouped_metrics(outcomes, [Partition(p.name, p.labels, p.codes[tp]) for p in partitions])
+        if outcomes.n > 0
+        else [{} for _ in partitions]
+    )
+
+    def entry(part: int, g: int) -> dict[str, Any]:
+        p = partitions[part]
+        values = _detection_entry(sums[p.name][:, g, :].sum(axis=0))
+        mask = p.codes[tp] == g
+        values["matched"] = _matched_entry(matched[part], g, _pair_stats(mask, agree, dstart, dend))
+        if distributions is not None:
+            values["ci95"] = _ci(distributions[p.name], g)
+        return values
+
+    overall = entry(0, 0)
+    rates = None
+    if ses is not None:
+        rates, overall["turns_per_hour"] = _rates(units, ref_unit, det_unit, ses)
+    curves = None
+    if "score" in det:
+        ap = average_precision(det, det_unit, ref, ref_unit, ious=AP_IOUS)
+        overall["ap"] = {"by_iou": ap["by_iou"], "mean": ap["mean"]}
+        curves = ap["curves"]
+    by_doc: dict[str, Any] = {}
+    for part, p in enumerate(partitions[1:], start=1):
+        groups = {label: entry(part, g) for g, label in enumerate(p.labels)}
+        avg = _average(groups)
+        if distributions is not None:
+            avg["ci95"] = _ci(distributions[p.name], None)
+        by_doc[p.name] = {
+            "groups": groups,
+            "avg": avg,
+            "fp_groups": (
+                ("context at the midpoint" if ctx is not None else UNKNOWN_GROUP)
+                if p.name in CONTEXT_GROUPS
+                else "the (session, subject)'s"
+            ),
+        }
+    doc = {
+        "overall": overall,
+        "by": by_doc,
+        "counts": {
+            "units": len(units),
+            "reference_turns": int(ref.shape[0]),
+            "detections": int(det.shape[0]),
+            "dropped_unknown": n_dropped,
+        },
+        "settings": {
+            "iou": iou,
+            "matching": MATCHING_RULE.format(iou=iou),
+            "bin_width_deg": int(bin_width_deg)
+            if float(bin_width_deg).is_integer()
+            else bin_width_deg,
+            "resamples": n_resamples,
+            "seed": seed,
+            "confidence": CONFIDENCE,
+            "ci_method": "percentile, cluster bootstrap over (session, subject)",
+            "ap_ious": list(AP_IOUS) if curves is not None else None,
+            "context": ctx is not None,
+            "version": __version__,
+        },
+    }
+    return EventScores(
+        doc=doc,
+        events=_events_table(events, det, ref, units, labels),
+        rates=rates,
+        pr_curves=curves,
+    )
+
+
+def _events_table(
+    events: pd.DataFrame,
+    det: pd.DataFrame,
+    ref: pd.DataFrame,
+    units: Units,
+    labels: Mapping[str, np.ndarray],
+) -> pd.DataFrame:
+    """The categorised events with names, both sides' times and angles, and their groups."""
+    out = events.copy()
+    u = out["unit"].to_numpy()
+    out.insert(1, "session", units.sessions[u])
+    out.insert(2, "subject", units.subjects[u])
+    d = out["det_row"].to_numpy()
+    r = out["ref_row"].to_numpy()
+    for side, rows, frame in (("det", d, det), ("ref", r, ref)):
+        for col in ("start_s", "end_s", "angle_deg"):
+            values = frame[col].to_numpy(dtype=np.float64)
+            column = np.full(rows.shape[0], np.nan)
+            column[rows >= 0] = values[rows[rows >= 0]]
+            out[f"{side}_{col}"] = column
+    for col, values in labels.items():
+        out[f"group_{col}"] = values
+    return out
