@@ -280,6 +280,8 @@ def mine_cmd(
       turn-datasets h36m mine cmu/*.bvh --out cmu-turns.csv
       turn-datasets h36m mine poses.npy --layout h36m17 --fps 30 --up-axis y --units m \\
           --out turns.csv
+      turn-datasets h36m mine visit1.npz --layout h36m17 --up-axis -y --fps 30 --units m \\
+          --out turns.csv   (`turn-eval estimate`'s skeletons: see its manifest's fps_hz)
     """
     params = MinerParams(
         min_turn_deg=min_turn_deg,

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-from turn_datasets.cli.common import info, wrote
+from turn_datasets.cli.common import FPS_HZ, info, wrote
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, staged_dir
 from turn_eval.cli import CONTEXT_SETTINGS, cli
@@ -87,7 +87,7 @@ class _FrameBar:
 @click.option(
     "--fps",
     "fps_hz",
-    type=click.FloatRange(min=0, min_open=True),
+    type=FPS_HZ,
     default=None,
     help="Frame rate of the output grid (default: the video's own; see --help).",
 )
