@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
@@ -14,6 +15,9 @@ from turn_datasets.fileio import check_not_input, staged_dir
 from turn_eval.cli import CONTEXT_SETTINGS, cli
 from turn_eval.estimate.blazepose import load_mediapipe
 from turn_eval.estimate.pipeline import EstimateParams, estimate_video, write_estimate
+
+if TYPE_CHECKING:
+    from click._termui_impl import ProgressBar
 
 
 def _targets(videos: tuple[Path, ...], out: Path | None, out_dir: Path | None) -> list[str]:
@@ -45,7 +49,7 @@ class _FrameBar:
     def __init__(self, label: str) -> None:
         self.label = label
         self._stack = contextlib.ExitStack()
-        self._bar = None
+        self._bar: ProgressBar[int] | None = None
 
     def __enter__(self) -> _FrameBar:
         return self
