@@ -274,3 +274,23 @@ def test_ignore_unknown_drops_and_counts():
     assert doc["counts"]["dropped_unknown"] == 1
     assert doc["overall"]["fp"] == 0
     assert "dropped 1 detection" in said[0] and "line 4" in said[0]
+
+
+def test_vectorised_percentiles_equal_the_harness_interval():
+    from turn_eval.events.scoring import _percentiles
+    from turn_eval.metrics import percentile_interval
+
+    rng = np.random.default_rng(5)
+    values = rng.normal(size=(1000, 7))
+    values[rng.random(values.shape) < 0.2] = np.nan
+    values[:, 3] = np.nan
+    values[:999, 4] = np.nan
+    alpha = (1 - 0.95) / 2
+    low, high = _percentiles(values, 100 * alpha), _percentiles(values, 100 * (1 - alpha))
+    for column in range(values.shape[1]):
+        expected = percentile_interval(values[:, column])
+        got = (low[column], high[column])
+        if expected is None:
+            assert np.isnan(got).all()
+        else:
+            assert got == expected

@@ -247,9 +247,12 @@ def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.nd
     )
 
 
-def _read_plain(text: str, name: str, delimiter: str) -> _Table:
+def _read_plain(
+    text: str, name: str, delimiter: str, numeric_columns: Sequence[str] = _NUMERIC
+) -> _Table:
     """The fast reader, for files without quotes: one record per line, so every row's line
-    number is known before pandas' C parser splits the fields."""
+    number is known before pandas' C parser splits the fields (``numeric_columns`` as
+    numbers where they all parse)."""
     header_text, header_line, lines, widths, joined = _plain_lines(text, delimiter)
     header = [cell.strip().lower() for cell in header_text.split(delimiter)]
     _check_header(header, name=name, line=header_line)
@@ -278,7 +281,7 @@ def _read_plain(text: str, name: str, delimiter: str) -> _Table:
         "skip_blank_lines": False,
         "engine": "c",
     }
-    numeric = {i for i, col in enumerate(header) if col in _NUMERIC}
+    numeric = {i for i, col in enumerate(header) if col in numeric_columns}
     frame = None
     if numeric:
         # Numbers straight from the C parser (the clean, common case); anything it refuses
@@ -312,7 +315,11 @@ def _read_plain(text: str, name: str, delimiter: str) -> _Table:
     return table
 
 
-def _read_table(path: str | os.PathLike[str], *, what: str) -> _Table:
+def _read_table(
+    path: str | os.PathLike[str], *, what: str, numeric_columns: Sequence[str] = _NUMERIC
+) -> _Table:
+    """Read a CSV as :class:`_Table`; ``numeric_columns`` are parsed as numbers by the C
+    parser when every cell of them is a finite number (else :func:`_numbers` parses them)."""
     name = os.fspath(path)
     text = _one_newline(_read_text(name, what=what), name, what=what)
     if not text.strip():
@@ -323,7 +330,11 @@ def _read_table(path: str | os.PathLike[str], *, what: str) -> _Table:
     first_line = text[text.rfind("\n", 0, start) + 1 : end if end >= 0 else len(text)]
     delimiter = _sniff_delimiter(first_line)
     quoted = '"' in text
-    table = (_read_quoted if quoted else _read_plain)(text, name, delimiter)
+    table = (
+        _read_quoted(text, name, delimiter)
+        if quoted
+        else _read_plain(text, name, delimiter, numeric_columns)
+    )
     table.ascii = text.isascii()
     if table.lines.size == 0:
         raise TurnbenchError(

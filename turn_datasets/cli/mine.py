@@ -191,35 +191,35 @@ def _sha256_or_none(path: Path) -> str | None:
 )
 @click.option(
     "--stride-s",
-    type=float,
+    type=POSITIVE_DURATION_S,
     default=_D.stride_s,
     show_default=True,
     help="Typical stride period, in seconds: the first guess when looking for the sway's period.",
 )
 @click.option(
     "--min-stride-s",
-    type=float,
+    type=POSITIVE_DURATION_S,
     default=_D.min_stride_s,
     show_default=True,
     help="Shortest stride period looked for in the knees' swing or the hip's sway, in seconds.",
 )
 @click.option(
     "--max-stride-s",
-    type=float,
+    type=POSITIVE_DURATION_S,
     default=_D.max_stride_s,
     show_default=True,
     help="Longest stride period looked for in the knees' swing or the hip's sway, in seconds.",
 )
 @click.option(
     "--no-sway-window-s",
-    type=float,
+    type=POSITIVE_DURATION_S,
     default=_D.no_sway_window_s,
     show_default=True,
     help="Heading-rate window where no stride shows (standing, turning in place), in seconds.",
 )
 @click.option(
     "--onset-deg",
-    type=float,
+    type=ANGLE_DEG,
     default=_D.onset_deg,
     show_default=True,
     help="Heading departure (degrees) from which, to four times it, boundaries are fitted.",

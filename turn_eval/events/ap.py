@@ -28,7 +28,7 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
-from turn_eval.events.matching import eligible_pairs
+from turn_eval.events.matching import eligible_pairs, overlapping_pairs
 
 __all__ = ["AP_IOUS", "interpolated_ap", "greedy_true_positives", "average_precision"]
 
@@ -100,8 +100,11 @@ def average_precision(
     ref_unit: np.ndarray,
     *,
     ious: Sequence[float] = AP_IOUS,
+    overlaps: pd.DataFrame | None = None,
 ) -> dict[str, object]:
     """AP at each IoU threshold, their mean, and the PR curve at each threshold.
+
+    ``overlaps`` (:func:`turn_eval.events.matching.overlapping_pairs`) saves the sweep.
 
     Returns
     -------
@@ -115,10 +118,14 @@ def average_precision(
     ranking = np.argsort(-score, kind="stable")
     rank = np.empty(n_det, dtype=np.int64)
     rank[ranking] = np.arange(n_det)
+    if overlaps is None:
+        overlaps = overlapping_pairs(detections, det_unit, reference, ref_unit)
     by_iou: dict[str, float | None] = {}
     curves: dict[str, dict[str, np.ndarray]] = {}
     for threshold in ious:
-        pairs = eligible_pairs(detections, det_unit, reference, ref_unit, iou=threshold)
+        pairs = eligible_pairs(
+            detections, det_unit, reference, ref_unit, iou=threshold, overlaps=overlaps
+        )
         tp = greedy_true_positives(pairs, rank, n_det)[ranking]
         cum_tp = np.cumsum(tp)
         precision = cum_tp / np.arange(1, n_det + 1)

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from types import MappingProxyType
 
+from turn_datasets import limits
+
 #: Columns every detections file has, in this order, with these dtypes.
 DETECTION_REQUIRED = MappingProxyType(
     {
@@ -58,9 +60,8 @@ CONTEXT_GROUPS = ("scenario", "location")
 #: ``sessions.csv`` beside the labels: how long each participant's session was annotated.
 SESSIONS_COLUMNS = MappingProxyType({"session": "str", "subject": "str", "duration_s": "float64"})
 
-#: Largest plausible turning angle of one turn and angular speed: a value above is a unit or
-#: export error (radians times 180/pi twice, milliseconds for seconds), not a turn.
-MAX_ANGLE_DEG = 3600.0
-MAX_SPEED_DEG_S = 10000.0
+#: The plausible bounds of an angle and a speed are the harness's (one place for all readers).
+MAX_ANGLE_DEG = limits.MAX_ANGLE_DEG
+MAX_SPEED_DEG_S = limits.MAX_SPEED_DEG_S
 #: The two directions (DESIGN.md: ``left`` = counter-clockwise seen from above).
 DIRECTIONS = ("left", "right")

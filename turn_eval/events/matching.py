@@ -41,6 +41,7 @@ from scipy.sparse.csgraph import connected_components
 __all__ = [
     "EVENT_COLUMNS",
     "temporal_iou",
+    "overlapping_pairs",
     "eligible_pairs",
     "match_pairs",
     "categorize_events",
@@ -93,23 +94,19 @@ def _overlapping(
     return det, ref
 
 
-def eligible_pairs(
+def overlapping_pairs(
     detections: pd.DataFrame,
     det_unit: np.ndarray,
     reference: pd.DataFrame,
     ref_unit: np.ndarray,
-    *,
-    iou: float = 0.5,
 ) -> pd.DataFrame:
-    """Every (detection, reference turn) pair of one unit with temporal IoU at least ``iou``.
+    """Every (detection, reference turn) pair of one unit that overlaps, with its IoU.
 
     Returns
     -------
     DataFrame
         ``det_row, ref_row, unit, iou`` (rows of the two frames), in detection order.
     """
-    if not 0.0 < iou <= 1.0:
-        raise ValueError(f"iou must be in (0, 1], got {iou}")
     ds = detections["start_s"].to_numpy(dtype=np.float64)
     de = detections["end_s"].to_numpy(dtype=np.float64)
     rs = reference["start_s"].to_numpy(dtype=np.float64)
@@ -118,10 +115,37 @@ def eligible_pairs(
     ru = np.asarray(ref_unit, dtype=np.int64)
     det, ref = _overlapping(du, ds, de, ru, rs, re_)
     values = temporal_iou(ds[det], de[det], rs[ref], re_[ref])
-    keep = values >= iou
+    keep = values > 0
     return pd.DataFrame(
         {"det_row": det[keep], "ref_row": ref[keep], "unit": du[det[keep]], "iou": values[keep]}
     )
+
+
+def eligible_pairs(
+    detections: pd.DataFrame,
+    det_unit: np.ndarray,
+    reference: pd.DataFrame,
+    ref_unit: np.ndarray,
+    *,
+    iou: float = 0.5,
+    overlaps: pd.DataFrame | None = None,
+) -> pd.DataFrame:
+    """Every (detection, reference turn) pair of one unit with temporal IoU at least ``iou``.
+
+    ``overlaps`` (:func:`overlapping_pairs` of the same frames) saves the sweep when several
+    thresholds are tried.
+
+    Returns
+    -------
+    DataFrame
+        ``det_row, ref_row, unit, iou`` (rows of the two frames), in detection order.
+    """
+    if not 0.0 < iou <= 1.0:
+        raise ValueError(f"iou must be in (0, 1], got {iou}")
+    if overlaps is None:
+        overlaps = overlapping_pairs(detections, det_unit, reference, ref_unit)
+    keep = overlaps["iou"].to_numpy() >= iou
+    return overlaps.loc[keep].reset_index(drop=True)
 
 
 def _components(det: np.ndarray, ref: np.ndarray) -> np.ndarray:
@@ -192,6 +216,7 @@ def categorize_events(
     ref_unit: np.ndarray,
     *,
     iou: float = 0.5,
+    overlaps: pd.DataFrame | None = None,
 ) -> pd.DataFrame:
     """Every detection and reference turn as TP, FP or FN under the matching rule.
 
@@ -203,6 +228,8 @@ def categorize_events(
         Each row's (session, subject) unit number.
     iou
         The IoU threshold of an eligible pair.
+    overlaps
+        :func:`overlapping_pairs` of the same frames, if already computed.
 
     Returns
     -------
@@ -211,7 +238,9 @@ def categorize_events(
         unmatched detection, an FN row per unmatched turn (``iou`` NaN for both), ordered by
         unit, then by the start of the reference turn or else of the detection.
     """
-    pairs = match_pairs(eligible_pairs(detections, det_unit, reference, ref_unit, iou=iou))
+    pairs = match_pairs(
+        eligible_pairs(detections, det_unit, reference, ref_unit, iou=iou, overlaps=overlaps)
+    )
     n_det, n_ref = detections.shape[0], reference.shape[0]
     det_used = np.zeros(n_det, dtype=bool)
     ref_used = np.zeros(n_ref, dtype=bool)

@@ -51,9 +51,26 @@ __all__ = [
     "check_sessions",
     "Units",
     "known_units",
+    "pair_codes",
 ]
 
 _UNIT = ("session", "subject")
+
+
+def _texts(frame: pd.DataFrame, col: str) -> np.ndarray:
+    """A text column as stripped ``str`` objects, empty where missing (as the file reader
+    leaves them: a frame it made, marked ``attrs["stripped"]``, is taken as it is)."""
+    values = frame[col].to_numpy(dtype=object)
+    if frame.attrs.get("stripped"):
+        return values
+    values = np.where(pd.isna(values), "", values).astype(str)
+    return np.strings.strip(np.asarray(values, dtype=np.dtypes.StringDType())).astype(object)
+
+
+def _text_series(values: np.ndarray, frame: pd.DataFrame) -> pd.Series:
+    """Text as an object column: pandas' string dtype would convert every cell on the way in
+    and again on every ``to_numpy(dtype=object)``."""
+    return pd.Series(np.asarray(values, dtype=object), index=frame.index, dtype=object)
 
 
 def _lines_of(frame: pd.DataFrame) -> np.ndarray:
@@ -61,6 +78,20 @@ def _lines_of(frame: pd.DataFrame) -> np.ndarray:
     if lines is None or len(lines) != frame.shape[0]:
         return np.arange(2, 2 + frame.shape[0], dtype=np.int64)
     return np.asarray(lines, dtype=np.int64)
+
+
+def pair_codes(*columns: np.ndarray, split: Sequence[int] = ()) -> list[np.ndarray]:
+    """One int64 code per distinct (first, second) pair of two text columns.
+
+    Columns may be concatenations of several tables' rows; ``split`` cuts the codes back into
+    those tables (positions as ``numpy.split``). Equal pairs get equal codes in every part.
+    Two factorisations and an integer combination: far cheaper than a MultiIndex.
+    """
+    first, second = columns
+    a, uniq_a = pd.factorize(np.asarray(first, dtype=object))
+    b, uniq_b = pd.factorize(np.asarray(second, dtype=object))
+    code = a.astype(np.int64) * max(len(uniq_b), 1) + b
+    return np.split(code, list(split))
 
 
 def _path_of(frame: pd.DataFrame, what: str) -> str:
@@ -129,31 +160,30 @@ def _check_intervals(frame: pd.DataFrame, what: str, unit: Sequence[str], noun: 
         raise _fail(f"end_s {end[i]:g} is not after start_s {start[i]:g}", frame, what, i, count)
     if frame.shape[0] < 2:
         return
-    keys = [frame[c].to_numpy(dtype=object) for c in unit]
-    codes = pd.MultiIndex.from_arrays(keys).codes if len(keys) > 1 else None
-    unit_code = (
-        np.ravel_multi_index(
-            [np.asarray(c, dtype=np.int64) for c in codes],
-            [int(np.max(c)) + 1 for c in codes],
-        )
-        if codes is not None
-        else pd.factorize(keys[0])[0]
-    )
-    order = np.lexsort((np.arange(start.shape[0]), end, start, unit_code))
+    (unit_code,) = pair_codes(*(frame[c].to_numpy(dtype=object) for c in unit))
+    # Codes number the units in order of appearance, so a file written unit by unit in time
+    # order (what a detector or the labels write) is already sorted: no sort needed.
+    step = np.diff(unit_code)
+    in_order = bool(((step > 0) | ((step == 0) & (np.diff(start) >= 0))).all())
+    order = np.arange(start.shape[0]) if in_order else np.lexsort((start, unit_code))
     u, s, e = unit_code[order], start[order], end[order]
     same = u[1:] == u[:-1]
-    duplicate = same & (s[1:] == s[:-1]) & (e[1:] == e[:-1])
+    # In start order, any two overlapping intervals imply an overlapping adjacent pair.
+    overlap = same & (s[1:] < e[:-1])
+    if not overlap.any():
+        return
     lines = _lines_of(frame)
+    duplicate = overlap & (s[1:] == s[:-1]) & (e[1:] == e[:-1])
     if duplicate.any():
+        # Equal rows need not be adjacent among rows of the same start: look them all up.
         k = int(np.flatnonzero(duplicate)[0])
-        i, j = int(order[k]), int(order[k + 1])
+        rows = order[(u == u[k]) & (s == s[k]) & (e == e[k])]
+        i, j = (int(r) for r in sorted(rows, key=lambda r: lines[r])[:2])
         raise TurnbenchError(
             f"duplicate {noun}: same {', '.join(unit)}, start_s and end_s as line {lines[i]}",
             file=_path_of(frame, what),
             row=int(lines[j]),
         )
-    # In start order, any two overlapping intervals imply an overlapping adjacent pair.
-    overlap = same & (s[1:] < e[:-1])
     if overlap.any():
         k = int(np.flatnonzero(overlap)[0])
         i, j = sorted((int(order[k]), int(order[k + 1])), key=lambda r: lines[r])
@@ -168,8 +198,10 @@ def _check_intervals(frame: pd.DataFrame, what: str, unit: Sequence[str], noun: 
 
 
 def _check_direction(frame: pd.DataFrame, what: str) -> None:
-    values = frame["direction"].fillna("").astype(str).str.strip().str.lower()
-    bad = ~values.isin(("", *DIRECTIONS)).to_numpy()
+    # Lower-cased through the few distinct values, not per row.
+    codes, uniq = pd.factorize(_texts(frame, "direction"))
+    values = np.array([str(u).lower() for u in uniq], dtype=object)[codes]
+    bad = ~np.isin(values, ["", *DIRECTIONS])
     if bad.any():
         i, count = _first(bad)
         raise _fail(
@@ -180,7 +212,7 @@ def _check_direction(frame: pd.DataFrame, what: str) -> None:
             i,
             count,
         )
-    frame["direction"] = values.to_numpy(dtype=object)
+    frame["direction"] = _text_series(values, frame)
 
 
 def _missing(frame: pd.DataFrame, required: Sequence[str], what: str) -> None:
@@ -207,7 +239,7 @@ def check_detections(frame: pd.DataFrame, *, what: str = "detections") -> pd.Dat
     out = frame.loc[:, cols].copy()
     out.attrs = dict(frame.attrs)
     for col in _UNIT:
-        out[col] = out[col].fillna("").astype(str).str.strip()
+        out[col] = _text_series(_texts(out, col), out)
     _check_text(out, what, _UNIT)
     for col in (
         "start_s",
@@ -248,18 +280,20 @@ def _frame_of(
                 table, col, allow_empty=col in allow_empty, allow_negative=True, negative_hint=None
             )
         else:
-            data[col] = table.columns[col]
+            data[col] = pd.Series(table.columns[col], dtype=object)
     frame = pd.DataFrame(data)
     frame.attrs["path"] = table.path
     frame.attrs["lines"] = table.lines
+    # The reader strips every cell and has no missing text (an empty cell is "").
+    frame.attrs["stripped"] = True
     return frame
 
 
 def read_detections(path: str | os.PathLike[str]) -> pd.DataFrame:
     """Read and validate a detections CSV (:func:`check_detections`); other columns ignored."""
-    table = _read_table(path, what="detections")
-    _require(table, list(DETECTION_REQUIRED), what="the detections")
     numeric = ("start_s", "end_s", "angle_deg", "speed_deg_s", "score")
+    table = _read_table(path, what="detections", numeric_columns=numeric)
+    _require(table, list(DETECTION_REQUIRED), what="the detections")
     frame = _frame_of(table, numeric, allow_empty=("speed_deg_s",))
     return check_detections(frame, what=table.path)
 
@@ -275,7 +309,7 @@ def check_event_reference(frame: pd.DataFrame, *, what: str = "reference") -> pd
     _missing(frame, REFERENCE_REQUIRED, what)
     out = frame.copy()
     for col in _UNIT:
-        out[col] = out[col].fillna("").astype(str).str.strip()
+        out[col] = _text_series(_texts(out, col), out)
     _check_text(out, what, _UNIT)
     for col in ("start_s", "end_s", "angle_deg"):
         out[col] = pd.to_numeric(out[col], errors="coerce").astype(np.float64)
@@ -293,7 +327,7 @@ def check_event_reference(frame: pd.DataFrame, *, what: str = "reference") -> pd
         and (out[c].dtype == object or pd.api.types.is_string_dtype(out[c]))
     ]
     for c in rest:
-        out[c] = out[c].fillna("").astype(str).str.strip()
+        out[c] = _text_series(_texts(out, c), out)
     cols = [*REFERENCE_REQUIRED, *(["direction"] if "direction" in out else []), *rest]
     return out.loc[:, cols].reset_index(drop=True).pipe(_keep_attrs, frame)
 
@@ -302,17 +336,18 @@ def _clip_index_sessions(frame: pd.DataFrame, what: str) -> pd.DataFrame:
     if not all(c in frame.columns for c in CLIP_INDEX_SESSION):
         _missing(frame, REFERENCE_REQUIRED, what)
     out = frame.copy()
-    action = out["action"].fillna("").astype(str).str.strip()
-    sub = out["subaction"].fillna("").astype(str).str.strip()
-    out.insert(0, "session", np.where(sub == "", action, action + " " + sub))
+    action = _texts(out, "action")
+    sub = _texts(out, "subaction")
+    out.insert(0, "session", _text_series(np.where(sub == "", action, action + " " + sub), out))
     out.attrs = dict(frame.attrs)
     return out
 
 
 def read_event_reference(path: str | os.PathLike[str]) -> pd.DataFrame:
     """Read and validate a reference CSV (:func:`check_event_reference`)."""
-    table = _read_table(path, what="reference")
-    frame = _frame_of(table, ("start_s", "end_s", "angle_deg"))
+    numeric = ("start_s", "end_s", "angle_deg")
+    table = _read_table(path, what="reference", numeric_columns=numeric)
+    frame = _frame_of(table, numeric)
     return check_event_reference(frame, what=table.path)
 
 
@@ -328,7 +363,7 @@ def check_context(frame: pd.DataFrame, *, what: str = "context") -> pd.DataFrame
     if "subject" not in out:
         out["subject"] = ""
     for col in ("session", "subject", "scenario", "location"):
-        out[col] = out[col].fillna("").astype(str).str.strip()
+        out[col] = _text_series(_texts(out, col), out)
     _check_text(out, what, ("session",))
     for col in ("start_s", "end_s"):
         out[col] = pd.to_numeric(out[col], errors="coerce").astype(np.float64)
@@ -339,7 +374,7 @@ def check_context(frame: pd.DataFrame, *, what: str = "context") -> pd.DataFrame
 
 def read_context(path: str | os.PathLike[str]) -> pd.DataFrame:
     """Read and validate a ``context.csv`` (:func:`check_context`)."""
-    table = _read_table(path, what="context")
+    table = _read_table(path, what="context", numeric_columns=("start_s", "end_s"))
     return check_context(_frame_of(table, ("start_s", "end_s")), what=table.path)
 
 
@@ -349,7 +384,7 @@ def check_sessions(frame: pd.DataFrame, *, what: str = "sessions") -> pd.DataFra
     _missing(frame, list(SESSIONS_COLUMNS), what)
     out = frame.copy()
     for col in _UNIT:
-        out[col] = out[col].fillna("").astype(str).str.strip()
+        out[col] = _text_series(_texts(out, col), out)
     _check_text(out, what, _UNIT)
     out["duration_s"] = pd.to_numeric(out["duration_s"], errors="coerce").astype(np.float64)
     _check_number(out, what, "duration_s")
@@ -372,7 +407,7 @@ def check_sessions(frame: pd.DataFrame, *, what: str = "sessions") -> pd.DataFra
 
 def read_sessions(path: str | os.PathLike[str]) -> pd.DataFrame:
     """Read and validate a ``sessions.csv`` (:func:`check_sessions`)."""
-    table = _read_table(path, what="sessions")
+    table = _read_table(path, what="sessions", numeric_columns=("duration_s",))
     return check_sessions(_frame_of(table, ("duration_s",)), what=table.path)
 
 
@@ -391,12 +426,23 @@ class Units:
 
     def codes(self, frame: pd.DataFrame) -> np.ndarray:
         """Each row's unit number, -1 where the unit is not annotated."""
-        index = pd.MultiIndex.from_arrays([self.sessions, self.subjects])
-        return index.get_indexer(
-            pd.MultiIndex.from_arrays(
-                [frame["session"].to_numpy(dtype=object), frame["subject"].to_numpy(dtype=object)]
-            )
-        ).astype(np.int64)
+        return self.lookup(
+            frame["session"].to_numpy(dtype=object), frame["subject"].to_numpy(dtype=object)
+        )
+
+    def lookup(self, sessions: np.ndarray, subjects: np.ndarray) -> np.ndarray:
+        """The unit number of each (session, subject), -1 where not annotated."""
+        n = len(self)
+        mine, theirs = pair_codes(
+            np.concatenate([self.sessions, np.asarray(sessions, dtype=object)]),
+            np.concatenate([self.subjects, np.asarray(subjects, dtype=object)]),
+            split=[n],
+        )
+        # The units are numbered in sorted order and unique, so their codes are unique too.
+        order = np.argsort(mine, kind="stable")
+        pos = np.minimum(np.searchsorted(mine[order], theirs), max(n - 1, 0))
+        found = (mine[order][pos] == theirs) if n else np.zeros(theirs.shape[0], dtype=bool)
+        return np.where(found, order[pos] if n else -1, -1).astype(np.int64)
 
 
 def known_units(reference: pd.DataFrame, sessions: pd.DataFrame | None = None) -> Units:
@@ -405,11 +451,14 @@ def known_units(reference: pd.DataFrame, sessions: pd.DataFrame | None = None) -
     parts = [reference.loc[:, list(_UNIT)]]
     if sessions is not None:
         parts.append(sessions.loc[:, list(_UNIT)])
-    both = pd.concat(parts, ignore_index=True).drop_duplicates()
-    both = both.sort_values(list(_UNIT), kind="mergesort")
+    sessions_all = np.concatenate([p["session"].to_numpy(dtype=object) for p in parts])
+    subjects_all = np.concatenate([p["subject"].to_numpy(dtype=object) for p in parts])
+    (code,) = pair_codes(sessions_all, subjects_all)
+    _, first = np.unique(code, return_index=True)
+    pairs = sorted(zip(sessions_all[first], subjects_all[first], strict=True))
     return Units(
-        sessions=both["session"].to_numpy(dtype=object),
-        subjects=both["subject"].to_numpy(dtype=object),
+        sessions=np.array([p[0] for p in pairs], dtype=object),
+        subjects=np.array([p[1] for p in pairs], dtype=object),
     )
 
 

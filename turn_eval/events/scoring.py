@@ -34,6 +34,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -50,7 +51,7 @@ from turn_eval.events.bootstrap import (
     unit_sums,
 )
 from turn_eval.events.contract import CONTEXT_GROUPS
-from turn_eval.events.matching import categorize_events
+from turn_eval.events.matching import categorize_events, overlapping_pairs
 from turn_eval.events.reading import (
     Units,
     check_context,
@@ -69,7 +70,6 @@ from turn_eval.metrics import (
     Partition,
     clip_outcomes,
     grouped_metrics,
-    percentile_interval,
 )
 from turn_eval.scores import BLANK_GROUP, _natural_key
 
@@ -107,24 +107,33 @@ class EventScores:
     Attributes
     ----------
     doc
-        The JSON-able scores document (``overall``, ``by``, ``settings``, counts).
-    events
-        One row per TP pair, FP and FN (:data:`turn_eval.events.matching.EVENT_COLUMNS` plus
-        ``session, subject``, both sides' times and angles, and each grouping's group).
+        The JSON-able scores document (``overall``, ``by``, ``counts``, ``settings``).
     rates
         Turns per hour per (session, subject), or None without ``sessions``.
     pr_curves
         Per AP threshold, ``precision`` and ``recall`` after each ranked detection, or None.
+    detections, reference
+        The validated inputs (detections of unannotated units dropped), rows as numbered in
+        :attr:`events`.
     """
 
     doc: dict[str, Any]
-    events: pd.DataFrame = field(repr=False)
     rates: pd.DataFrame | None = field(repr=False, default=None)
     pr_curves: dict[str, dict[str, np.ndarray]] | None = field(repr=False, default=None)
+    detections: pd.DataFrame | None = field(repr=False, default=None)
+    reference: pd.DataFrame | None = field(repr=False, default=None)
+    _parts: tuple = field(repr=False, default=())
 
     def to_dict(self) -> dict[str, Any]:
         """The scores document (the ``--format json`` output)."""
         return self.doc
+
+    @cached_property
+    def events(self) -> pd.DataFrame:
+        """One row per TP pair, FP and FN (:data:`turn_eval.events.matching.EVENT_COLUMNS`
+        plus ``session, subject``, both sides' times and angles, and each grouping's group as
+        ``group_<column>``); built when first asked for."""
+        return _events_table(*self._parts)
 
 
 def _load(value: Frame | None, reader, checker):
@@ -135,6 +144,12 @@ def _load(value: Frame | None, reader, checker):
     return reader(value)
 
 
+def _has_text(column: pd.Series) -> bool:
+    """Whether a text column has a non-empty cell (through its distinct values: an
+    element-wise comparison of object cells costs far more)."""
+    return any(v != "" for v in pd.unique(column.to_numpy(dtype=object)))
+
+
 def _groupings(reference: pd.DataFrame, by: Sequence[str] | None) -> list[str]:
     text_cols = [
         c
@@ -142,7 +157,7 @@ def _groupings(reference: pd.DataFrame, by: Sequence[str] | None) -> list[str]:
         if c not in ("session", "start_s", "end_s", "angle_deg", "direction")
     ]
     if not by:
-        return [c for c in DEFAULT_BY if c in text_cols and (reference[c] != "").any()]
+        return [c for c in DEFAULT_BY if c in text_cols and _has_text(reference[c])]
     out: list[str] = []
     for name in by:
         col = name.strip().lower()
@@ -185,24 +200,37 @@ def _context_at(
     return out
 
 
+def _constant_per(key: np.ndarray, codes: np.ndarray, n_keys: int) -> np.ndarray:
+    """Per key, the one code of ``codes`` its rows share, -1 where they differ or are none."""
+    low = np.full(n_keys, np.iinfo(np.int64).max)
+    high = np.full(n_keys, -1)
+    np.minimum.at(low, key, codes)
+    np.maximum.at(high, key, codes)
+    return np.where(low == high, high, -1)
+
+
 def _unit_values(reference: pd.DataFrame, ref_unit: np.ndarray, col: str, units: Units):
     """Each unit's value of ``col`` where it is constant over the unit's turns (else by the
     subject, where constant over the subject's turns), else None."""
-    values = reference[col].to_numpy(dtype=object)
+    codes, uniq = pd.factorize(reference[col].to_numpy(dtype=object))
+    codes = codes.astype(np.int64)
+    per_unit = _constant_per(np.asarray(ref_unit, dtype=np.int64), codes, len(units))
+    subject, subjects = pd.factorize(reference["subject"].to_numpy(dtype=object))
+    per_subject = _constant_per(subject.astype(np.int64), codes, len(subjects))
+    # A unit without turns (in sessions.csv only) takes its subject's value.
+    unit_subject = pd.Index(subjects).get_indexer(units.subjects)
+    from_subject = np.where(unit_subject >= 0, per_subject[np.maximum(unit_subject, 0)], -1)
+    chosen = np.where(per_unit >= 0, per_unit, from_subject)
+    values = np.asarray(uniq, dtype=object)
     out = np.full(len(units), None, dtype=object)
-    frame = pd.DataFrame({"u": ref_unit, "v": values, "s": reference["subject"].to_numpy()})
-    per_unit = frame.groupby("u")["v"].agg(["nunique", "first"])
-    constant = per_unit[per_unit["nunique"] == 1]
-    out[constant.index.to_numpy()] = constant["first"].to_numpy()
-    per_subject = frame.groupby("s")["v"].agg(["nunique", "first"])
-    by_subject = per_subject[per_subject["nunique"] == 1]["first"].to_dict()
-    for u in np.flatnonzero(pd.isna(out)):
-        out[u] = by_subject.get(units.subjects[u])
+    out[chosen >= 0] = values[chosen[chosen >= 0]]
     return out
 
 
-def _label(value: object) -> str:
-    return BLANK_GROUP if value == "" else str(value)
+def _labels(values: np.ndarray, empty: str = BLANK_GROUP) -> np.ndarray:
+    """Group labels of text values: ``empty`` for an empty one."""
+    values = np.asarray(values, dtype=object)
+    return np.where(values == "", empty, values).astype(object)
 
 
 def _event_groups(
@@ -229,14 +257,15 @@ def _event_groups(
     for col in groupings:
         labels = np.empty(events.shape[0], dtype=object)
         ref_values = reference[col].to_numpy(dtype=object)
-        labels[~is_fp] = [_label(v) for v in ref_values[ref_row[~is_fp]]]
+        labels[~is_fp] = _labels(ref_values[ref_row[~is_fp]])
         if col in CONTEXT_GROUPS:
             fp_values = ctx[col] if ctx is not None else np.full(fp_det.shape[0], "", dtype=object)
-            fp_labels = [UNKNOWN_GROUP if v == "" else str(v) for v in fp_values]
+            labels[is_fp] = _labels(fp_values, UNKNOWN_GROUP)
         else:
-            per_unit = _unit_values(reference, ref_unit, col, units)[fp_unit]
-            fp_labels = [UNKNOWN_GROUP if v is None else _label(v) for v in per_unit]
-        labels[is_fp] = fp_labels
+            per_unit = _unit_values(reference, ref_unit, col, units)
+            known = _labels(np.where(pd.isna(per_unit), "", per_unit))
+            known[pd.isna(per_unit)] = UNKNOWN_GROUP
+            labels[is_fp] = known[fp_unit]
         out[col] = labels
     return out
 
@@ -300,20 +329,26 @@ def _matched_entry(values: Mapping[str, np.ndarray], g: int, extra: Mapping[str,
     return entry
 
 
-def _pair_stats(mask: np.ndarray, agree, dstart, dend) -> dict[str, float | None]:
-    def median(x):
-        return float(np.median(x[mask])) if mask.any() else None
-
-    direction = None
-    if agree is not None:
-        a = agree[mask]
-        a = a[np.isfinite(a)]
-        direction = float(a.mean()) if a.size else None
-    return {
-        "direction_agreement": direction,
-        "median_abs_dstart_s": median(dstart),
-        "median_abs_dend_s": median(dend),
-    }
+def _pair_stats(codes: np.ndarray, n_groups: int, agree, dstart, dend) -> list[dict[str, Any]]:
+    """Per group of matched pairs: direction agreement and the medians of |Δstart|, |Δend|
+    (one sort per grouping, not a pass over every pair per group)."""
+    order = np.argsort(codes, kind="stable")
+    cuts = np.searchsorted(codes[order], np.arange(1, n_groups))
+    out = []
+    for rows in np.split(order, cuts):
+        direction = None
+        if agree is not None:
+            a = agree[rows]
+            a = a[np.isfinite(a)]
+            direction = float(a.mean()) if a.size else None
+        out.append(
+            {
+                "direction_agreement": direction,
+                "median_abs_dstart_s": float(np.median(dstart[rows])) if rows.size else None,
+                "median_abs_dend_s": float(np.median(dend[rows])) if rows.size else None,
+            }
+        )
+    return out
 
 
 def _rates(
@@ -360,13 +395,51 @@ def _rates(
     return table, summary
 
 
-def _ci(distribution: Mapping[str, np.ndarray], column: int | None) -> dict[str, Any]:
-    out: dict[str, Any] = {}
+def _percentiles(values: np.ndarray, q: float) -> np.ndarray:
+    """``numpy.percentile(column[finite], q)`` (linear) of every column at once.
+
+    NaN sorts last, so each column's finite values are its first ``k``; the rank is
+    ``q / 100 * (k - 1)`` and the value the linear interpolation between its neighbours
+    (numpy's own formulas, so the same bits). NaN for a column without a finite value.
+    """
+    ordered = np.sort(values, axis=0)
+    k = np.isfinite(ordered).sum(axis=0)
+    fraction = q / 100
+    # numpy's virtual index of the linear method, as numpy computes it (same rounding).
+    rank = np.maximum(k - 1, 0) * fraction
+    lo = np.floor(rank).astype(np.int64)
+    hi = np.minimum(lo + 1, np.maximum(k - 1, 0))
+    cols = np.arange(values.shape[1])
+    a, b = ordered[lo, cols], ordered[hi, cols]
+    t = rank - lo
+    diff = b - a
+    out = np.where(t >= 0.5, b - diff * (1 - t), a + diff * t)
+    return np.where(k > 0, out, np.nan)
+
+
+def _intervals(distribution: Mapping[str, np.ndarray]) -> tuple[dict[str, np.ndarray], ...]:
+    """Per metric, the percentile bounds of every group and of the groups' average.
+
+    :func:`turn_eval.metrics.percentile_interval` for all groups at once (tested equal):
+    undefined resamples are left out; the average on a resample is undefined when one
+    group is."""
+    alpha = (1 - CONFIDENCE) / 2  # the bounds as percentile_interval computes them
+    groups: dict[str, np.ndarray] = {}
+    average: dict[str, np.ndarray] = {}
     for m in CI_METRICS:
         values = distribution[m]
-        v = values[:, column] if column is not None else values.mean(axis=1)
-        bounds = percentile_interval(v)
-        out[m] = None if bounds is None else [bounds[0], bounds[1]]
+        both = np.concatenate([values, values.mean(axis=1, keepdims=True)], axis=1)
+        bounds = np.stack([_percentiles(both, 100 * alpha), _percentiles(both, 100 * (1 - alpha))])
+        groups[m] = bounds[:, :-1]
+        average[m] = bounds[:, -1]
+    return groups, average
+
+
+def _ci(bounds: Mapping[str, np.ndarray], column: int | None) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for m in CI_METRICS:
+        low, high = bounds[m][:, column] if column is not None else bounds[m]
+        out[m] = [float(low), float(high)] if np.isfinite(low) else None
     return out
 
 
@@ -454,7 +527,8 @@ def score_events(
     ref_unit = units.codes(ref)
     det, det_unit, n_dropped = drop_unknown(det, units, ignore_unknown=ignore_unknown, warn=warn)
 
-    events = categorize_events(det, det_unit, ref, ref_unit, iou=iou)
+    overlaps = overlapping_pairs(det, det_unit, ref, ref_unit)
+    events = categorize_events(det, det_unit, ref, ref_unit, iou=iou, overlaps=overlaps)
     labels = _event_groups(events, ref, ref_unit, det, units, ctx, groupings)
     tp, outcomes, agree, dstart, dend = _matched_block(events, det, ref, bin_width_deg)
     kind = events["kind"].to_numpy()
@@ -473,7 +547,12 @@ def score_events(
         p.name: unit_sums(unit, p.codes, components, len(units), len(p.labels)) for p in partitions
     }
     distributions = (
-        cluster_bootstrap(sums, n_resamples=n_resamples, seed=seed, progress=progress)
+        {
+            name: _intervals(d)
+            for name, d in cluster_bootstrap(
+                sums, n_resamples=n_resamples, seed=seed, progress=progress
+            ).items()
+        }
         if n_resamples > 0 and len(units) > 0
         else None
     )
@@ -483,13 +562,15 @@ def score_events(
         else [{} for _ in partitions]
     )
 
+    pair_stats = [_pair_stats(p.codes[tp], len(p.labels), agree, dstart, dend) for p in partitions]
+    totals = [sums[p.name].sum(axis=0) for p in partitions]
+
     def entry(part: int, g: int) -> dict[str, Any]:
         p = partitions[part]
-        values = _detection_entry(sums[p.name][:, g, :].sum(axis=0))
-        mask = p.codes[tp] == g
-        values["matched"] = _matched_entry(matched[part], g, _pair_stats(mask, agree, dstart, dend))
+        values = _detection_entry(totals[part][g])
+        values["matched"] = _matched_entry(matched[part], g, pair_stats[part][g])
         if distributions is not None:
-            values["ci95"] = _ci(distributions[p.name], g)
+            values["ci95"] = _ci(distributions[p.name][0], g)
         return values
 
     overall = entry(0, 0)
@@ -498,7 +579,7 @@ def score_events(
         rates, overall["turns_per_hour"] = _rates(units, ref_unit, det_unit, ses)
     curves = None
     if "score" in det:
-        ap = average_precision(det, det_unit, ref, ref_unit, ious=AP_IOUS)
+        ap = average_precision(det, det_unit, ref, ref_unit, ious=AP_IOUS, overlaps=overlaps)
         overall["ap"] = {"by_iou": ap["by_iou"], "mean": ap["mean"]}
         curves = ap["curves"]
     by_doc: dict[str, Any] = {}
@@ -506,7 +587,7 @@ def score_events(
         groups = {label: entry(part, g) for g, label in enumerate(p.labels)}
         avg = _average(groups)
         if distributions is not None:
-            avg["ci95"] = _ci(distributions[p.name], None)
+            avg["ci95"] = _ci(distributions[p.name][1], None)
         by_doc[p.name] = {
             "groups": groups,
             "avg": avg,
@@ -542,9 +623,11 @@ def score_events(
     }
     return EventScores(
         doc=doc,
-        events=_events_table(events, det, ref, units, labels),
         rates=rates,
         pr_curves=curves,
+        detections=det,
+        reference=ref,
+        _parts=(events, det, ref, units, labels),
     )
 
 
