@@ -432,3 +432,24 @@ def test_estimate_without_mediapipe_is_one_helpful_line(tmp_path, capsys, monkey
 def test_estimate_help_has_an_example(capsys):
     code, out, _ = run(cli, ["estimate", "--help"], capsys)
     assert code == 0 and "Example:" in out and "turn-eval estimate" in out
+
+
+def test_estimate_option_mistakes_are_one_line_before_any_work(tmp_path, capsys):
+    a, b = tmp_path / "a" / "walk.mp4", tmp_path / "b" / "walk.mp4"
+    for v in (a, b):
+        v.parent.mkdir()
+        _write_numbered_video(v, 2)
+    cases = [
+        ([a], "exactly one of --out"),
+        ([a, "--out", tmp_path / "x.npz", "--out-dir", tmp_path], "exactly one of --out"),
+        ([a, b, "--out", tmp_path / "x.npz"], "--out takes one video"),
+        ([a, "--out", tmp_path / "x.csv"], "must end in .npz"),
+        ([a, b, "--out-dir", tmp_path / "o"], "both write walk.npz"),
+        ([tmp_path / "missing.mp4", "--out-dir", tmp_path / "o"], "no such video file"),
+        ([a, "--out-dir", tmp_path / "o", "--fps", "nan"], "--fps"),
+    ]
+    for args, message in cases:
+        code, out, err = run(cli, ["estimate", *args], capsys)
+        assert code == EXIT_BAD_INPUT and out == "" and err.count("\n") == 1, err
+        assert message in err, err
+    assert not (tmp_path / "o").exists() and not (tmp_path / "x.npz").exists()

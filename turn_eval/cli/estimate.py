@@ -125,11 +125,11 @@ def estimate_command(
       turn-eval estimate videos/*.mp4 --out-dir skeletons/
       turn-eval predict skeletons/*.npz --layout h36m17 --up-axis -y --out predictions.csv
     """
-    load_mediapipe()  # before any work: a missing extra is one line, exit 2
     names = _targets(videos, out, out_dir)
     for video in videos:
         if not video.is_file():
             raise TurnbenchError("no such video file", file=video)
+    load_mediapipe()  # before any work: a missing extra is one line, exit 2
     params = EstimateParams(fps_hz=fps_hz, level=level)
     target_dir = out.parent if out is not None else out_dir
     assert target_dir is not None
