@@ -32,8 +32,10 @@ from pathlib import Path
 import numpy as np
 
 from turn_datasets.h36m.miner import MinerParams, build_index, iter_clips
-from turn_datasets.mocap.readers import H36M_ACTIONS, SourceFile, read_source, write_videopose_npz
+from turn_datasets.mocap.h36m import H36M_ACTIONS
+from turn_datasets.mocap.readers import SourceFile, read_source
 from turn_datasets.synthetic import mocap as sm
+from turn_datasets.synthetic.h36m_files import write_videopose_npz
 
 SUBJECTS = ("S1", "S5", "S6", "S7", "S8", "S9", "S11")
 ACTIONS = H36M_ACTIONS

@@ -7,7 +7,8 @@ import pandas as pd
 import pytest
 from _eaf_builder import REAL_FILES
 
-from turn_datasets.remap.agreement import MATCH_COLUMNS, match_annotations
+from turn_datasets.errors import TurnbenchError
+from turn_datasets.remap.matching import MATCH_COLUMNS, match_annotations
 
 
 def _ann(rows, index=None):
@@ -106,7 +107,7 @@ def test_match_empty_and_bad_arguments():
     empty = _ann([])
     m = match_annotations(empty, empty)
     assert m.empty and list(m.columns) == list(MATCH_COLUMNS)
-    with pytest.raises(ValueError):
+    with pytest.raises(TurnbenchError, match="min_overlap"):
         match_annotations(empty, empty, min_overlap=0.0)
     with pytest.raises(ValueError):
         match_annotations(empty.drop(columns="participant"), empty)
@@ -186,7 +187,8 @@ def test_pair_stats_by_hand():
 
 
 def test_disagreements_list_angles_and_unmatched():
-    from turn_datasets.remap.agreement import DISAGREEMENT_COLUMNS, audit_agreement
+    from turn_datasets.remap.agreement import audit_agreement
+    from turn_datasets.remap.matching import DISAGREEMENT_COLUMNS
 
     d = audit_agreement(HAND, n_bootstrap=0).disagreements
     assert list(d.columns) == list(DISAGREEMENT_COLUMNS)
@@ -198,7 +200,7 @@ def test_disagreements_list_angles_and_unmatched():
 
 
 def test_units_labelled_by_one_rater_are_left_out():
-    from turn_datasets.remap.agreement import pair_items
+    from turn_datasets.remap.matching import pair_items
 
     extra = _annotations(
         [
@@ -241,7 +243,8 @@ def test_kappa_undefined_is_null_with_a_reason():
 
 def test_rater_choice():
     from turn_datasets.errors import TurnbenchError
-    from turn_datasets.remap.agreement import audit_agreement, default_raters
+    from turn_datasets.remap.agreement import audit_agreement
+    from turn_datasets.remap.matching import default_raters
 
     cons = _annotations([("Consensus", "s1", "P1", 20.0, 22.0, 135)])
     with_cons = pd.concat([HAND, cons], ignore_index=True)
@@ -270,7 +273,7 @@ def test_rater_choice():
 def test_vectorised_kappa_equals_scikit_learn():
     from sklearn.metrics import cohen_kappa_score
 
-    from turn_datasets.remap.agreement import _kappa_from_counts, _weights
+    from turn_datasets.remap.kappa import _kappa_from_counts, _weights
 
     rng = np.random.default_rng(3)
     for _ in range(20):
@@ -288,7 +291,7 @@ def test_bootstrap_ci_is_seeded_and_agrees_with_scipy():
     from scipy.stats import bootstrap
     from sklearn.metrics import cohen_kappa_score
 
-    from turn_datasets.remap.agreement import bootstrap_kappa_ci
+    from turn_datasets.remap.kappa import bootstrap_kappa_ci
 
     rng = np.random.default_rng(0)
     a = rng.integers(0, 4, size=300)
@@ -315,7 +318,7 @@ def test_bootstrap_ci_is_seeded_and_agrees_with_scipy():
 
 
 def test_bootstrap_drops_resamples_with_undefined_kappa():
-    from turn_datasets.remap.agreement import bootstrap_kappa_ci
+    from turn_datasets.remap.kappa import bootstrap_kappa_ci
 
     # 9 pairs (0, 0) and one (1, 1): a resample without the (1, 1) pair has one category,
     # probability (9/10)^10 = 0.35; those are counted and left out.
@@ -456,8 +459,8 @@ def test_synthetic_lower_min_overlap_matches_the_shifted_pairs(synth):
 @pytest.mark.parametrize("name", REAL_FILES)
 def test_review_copy_of_real_exports_keeps_everything(real_eaf_dir, tmp_path, name):
     from turn_datasets.fileio import sha256_file
-    from turn_datasets.remap.agreement import write_review_eaf
     from turn_datasets.remap.eaf import load_eaf
+    from turn_datasets.remap.review_eaf import write_review_eaf
 
     src = real_eaf_dir / name
     digest = sha256_file(src)

@@ -16,7 +16,8 @@ import pytest
 
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.geometry import turning_angle
-from turn_datasets.mocap.readers import discover, iter_arrays, read_source
+from turn_datasets.mocap.arrays import iter_arrays
+from turn_datasets.mocap.readers import discover, read_source
 from turn_datasets.skeleton import H36M17, to_z_up
 from turn_datasets.synthetic.degrade import degrade_skeleton
 from turn_datasets.synthetic.demo_corpus import (

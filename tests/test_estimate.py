@@ -453,3 +453,45 @@ def test_estimate_option_mistakes_are_one_line_before_any_work(tmp_path, capsys)
         assert code == EXIT_BAD_INPUT and out == "" and err.count("\n") == 1, err
         assert message in err, err
     assert not (tmp_path / "o").exists() and not (tmp_path / "x.npz").exists()
+
+
+# --- detect reads the same files, through the same dispatch --------------------------------
+
+
+def test_detect_reads_estimate_and_other_estimators_files_by_name(tmp_path, capsys):
+    from test_detect import WALK_TURN_WALK, stream
+
+    camera = minus_y_up_copy(stream(WALK_TURN_WALK))  # one planted 90° left turn at 8-10 s
+    pelvis = (camera[:, H36M17.index("left_hip")] + camera[:, H36M17.index("right_hip")]) / 2
+    # turn-eval estimate's file (root-relative, camera axes, key = the session's stem)
+    (tmp_path / "est").mkdir()
+    est_npz = tmp_path / "est" / "home01.npz"
+    np.savez(est_npz, **{"home01": (camera - pelvis[:, None]).astype(np.float32)})
+    (tmp_path / "mb" / "home02").mkdir(parents=True)
+    np.save(tmp_path / "mb" / "home02" / "X3D.npy", camera)
+    found = {}
+    for source, fmt in ((tmp_path / "est", "turnbench"), (tmp_path / "mb", "motionbert")):
+        out = tmp_path / f"{fmt}.csv"
+        code, _, err = run(
+            cli, ["detect", source, "--from", fmt, "--fps", "30", "--out", out], capsys
+        )
+        assert code == 0, err
+        found[fmt] = pd.read_csv(out)
+        manifest = json.loads(out.with_name(f"{fmt}.manifest.json").read_text())
+        assert manifest["reading"]["from"] == fmt and manifest["reading"]["up_axis"] is None
+    assert found["turnbench"][["session", "subject"]].values.tolist() == [["home01", "home01"]]
+    assert found["motionbert"][["session", "subject"]].values.tolist() == [["home02", "home02"]]
+    for table in found.values():
+        assert table["direction"].tolist() == ["left"]
+        assert abs(table["angle_deg"].iloc[0] - 90.0) < 6.0
+    # generic arrays still need the layout and axis; a JSON is AlphaPose's 2D
+    code, _, err = run(
+        cli, ["detect", tmp_path / "est", "--fps", "30", "--out", tmp_path / "x.csv"], capsys
+    )
+    assert code == EXIT_BAD_INPUT and "--layout and --up-axis" in err
+    alphapose = tmp_path / "alphapose-results.json"
+    alphapose.write_text("[]")
+    code, _, err = run(
+        cli, ["detect", alphapose, "--fps", "30", "--out", tmp_path / "x.csv"], capsys
+    )
+    assert code == EXIT_BAD_INPUT and "3D lifter" in err and not (tmp_path / "x.csv").exists()

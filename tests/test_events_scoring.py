@@ -286,7 +286,7 @@ def test_vectorised_percentiles_equal_the_harness_interval():
     values[:, 3] = np.nan
     values[:999, 4] = np.nan
     alpha = (1 - 0.95) / 2
-    low, high = _percentiles(values, 100 * alpha), _percentiles(values, 100 * (1 - alpha))
+    low, high = _percentiles(values, (100 * alpha, 100 * (1 - alpha)))
     for column in range(values.shape[1]):
         expected = percentile_interval(values[:, column])
         got = (low[column], high[column])
@@ -294,3 +294,12 @@ def test_vectorised_percentiles_equal_the_harness_interval():
             assert np.isnan(got).all()
         else:
             assert got == expected
+
+
+def test_the_callers_frames_are_left_as_they_were():
+    det, ref = DET.copy(), REF.copy()
+    det["direction"] = ["Left", "right", "", "left"]
+    before = (det.copy(), ref.copy())
+    score_events(det, ref, n_resamples=10)
+    pd.testing.assert_frame_equal(det, before[0])
+    pd.testing.assert_frame_equal(ref, before[1])

@@ -261,7 +261,7 @@ def test_console_script_exit_code(tmp_path: Path) -> None:
 
 
 def test_read_clip_index_dtypes(tmp_path: Path) -> None:
-    df = export.read_clip_index(_index(tmp_path / "i.csv", [WALK, PHOTO]))
+    df = export.read_export_index(_index(tmp_path / "i.csv", [WALK, PHOTO]))
     assert list(df.columns) == [*export.INDEX_COLUMNS, "row"]
     assert df["start_frame"].dtype == np.int64 and df["fps"].dtype == np.float64
     assert df["subaction"].tolist() == ["1", ""]

@@ -12,19 +12,9 @@ from _eaf_builder import Tier, write_eaf
 
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.remap.eaf import read_annotations
-from turn_datasets.remap.labels import (
-    LABEL_COLUMNS,
-    PARTICIPANT_COLUMNS,
-    adjudicate,
-    clip_id_for,
-    make_labels,
-    read_labels,
-    read_participants,
-    stats_csv,
-    table1,
-    table2,
-    turns_per_location,
-)
+from turn_datasets.remap.labels import LABEL_COLUMNS, adjudicate, clip_id_for, make_labels
+from turn_datasets.remap.participants import PARTICIPANT_COLUMNS, read_participants
+from turn_datasets.remap.stats import read_labels, stats_csv, table1, table2, turns_per_location
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -106,7 +96,7 @@ def _session(tmp_path: Path, *, with_unresolved: bool = True) -> Path:
         (1000, 2000, "90"),  # T1: bob agrees (ratio 0.9/1.0)
         (3000, 4000, "180"),  # T2: bob says 135 (ratio 1.0/1.1); consensus says 180
         (6000, 7000, "90"),  # T3: only alice
-        (11000, 12000, "90"),  # T5: bob's 11.5-13 overlaps 0.5 of 1.5 s: ratio 1/3
+        (11000, 12000, "90"),  # T5: bob's 11.5-13 overlaps 0.5 of 1.5 s: ratio 1/3, unmatched
     ]
     bob = [
         (1100, 2000, "90"),
@@ -145,8 +135,7 @@ def test_adjudication_by_hand(tmp_path: Path) -> None:
             ("consensus", 3.05, 4.05, 180.0, True),  # T2 decided by consensus
             ("alice", 6.0, 7.0, 90.0, False),  # T3
             ("bob", 9.0, 9.5, 270.0, False),  # T4
-            ("alice", 11.0, 12.0, 90.0, False),  # T5: ratio 1/3 < 0.6, two turns
-            ("bob", 11.5, 13.0, 90.0, False),
+            # T5 (ratio 1/3 < 0.6): two overlapping turns of one person is no label (issue 10)
             ("consensus", 20.0, 21.0, 225.0, False),  # consensus only
         ],
         columns=got.columns,
@@ -155,15 +144,29 @@ def test_adjudication_by_hand(tmp_path: Path) -> None:
     assert list(adj.labels.columns) == list(LABEL_COLUMNS)
     assert set(adj.labels["scenario"]) == {"clinical"}
     assert set(adj.labels["location"]) == {"kitchen"}
-    assert adj.labels["duration_s"].tolist() == [1.0, 1.0, 1.0, 0.5, 1.0, 1.5, 1.0]
+    assert adj.labels["duration_s"].tolist() == [1.0, 1.0, 1.0, 0.5, 1.0]
     assert adj.labels["clip_id"].iloc[0] == "S01_P01_1000-2000"
     assert set(adj.labels["source"]) == {str(path)}
-    # T6 is listed, not labelled.
-    assert len(adj.unresolved) == 1
-    u = adj.unresolved.iloc[0]
-    assert (u["session"], u["participant"], u["start_s"], u["end_s"]) == ("S01", "P01", 15.0, 16.0)
-    assert u["values"] == "alice 90, bob 180"
-    assert u["tier"] == "Turn alice P01"
+    # T5 and T6 are listed, not labelled.
+    assert len(adj.unresolved) == 2
+    u5, u6 = adj.unresolved.iloc[0], adj.unresolved.iloc[1]
+    assert (u5["session"], u5["participant"], u5["start_s"], u5["end_s"]) == (
+        "S01",
+        "P01",
+        11.0,
+        13.0,
+    )
+    assert u5["values"] == (
+        "overlapping turns: alice 90 (11.000-12.000 s), bob 90 (11.500-13.000 s)"
+    )
+    assert (u6["session"], u6["participant"], u6["start_s"], u6["end_s"]) == (
+        "S01",
+        "P01",
+        15.0,
+        16.0,
+    )
+    assert u6["values"] == "alice 90, bob 180"
+    assert u5["tier"] == u6["tier"] == "Turn alice P01"
 
 
 def test_lower_min_overlap_joins_turns(tmp_path: Path) -> None:
@@ -182,7 +185,10 @@ def test_first_rater_resolves(tmp_path: Path) -> None:
     assert t6[["annotator", "angle_deg", "double_annotated"]].values.tolist() == [
         ["alice", 90.0, True]
     ]
-    assert len(adj.labels) == 8
+    # T5's two overlapping turns: the first rater's stands, bob's overlapping one goes
+    t5 = adj.labels[adj.labels["start_s"].between(10.9, 11.6)]
+    assert t5[["annotator", "start_s", "end_s"]].values.tolist() == [["alice", 11.0, 12.0]]
+    assert len(adj.labels) == 7
 
 
 def _participants(tmp_path: Path, rows: str = "P01,PD,a,F,60,3\n") -> pd.DataFrame:
@@ -191,8 +197,9 @@ def _participants(tmp_path: Path, rows: str = "P01,PD,a,F,60,3\n") -> pd.DataFra
 
 def test_make_labels_adds_cohort(tmp_path: Path) -> None:
     ann = read_annotations(_session(tmp_path, with_unresolved=False))
-    labels = make_labels(ann, _participants(tmp_path))
-    assert len(labels) == 7
+    # min_overlap 0.3 makes T5 one turn, so no disagreement is left: T1-T5 and the consensus'
+    labels = make_labels(ann, _participants(tmp_path), min_overlap=0.3)
+    assert len(labels) == 6
     assert set(labels["cohort"]) == {"PD"}
     assert list(labels.columns) == list(LABEL_COLUMNS)
     assert labels["double_annotated"].dtype == bool
@@ -204,9 +211,12 @@ def test_make_labels_unresolved_error(tmp_path: Path) -> None:
     with pytest.raises(TurnbenchError) as info:
         make_labels(read_annotations(path), _participants(tmp_path), on_unresolved=listed.append)
     msg = str(info.value)
-    assert str(path) in msg and "'Turn alice P01'" in msg and "15.000 s" in msg
-    assert "alice 90, bob 180" in msg and "--resolve first-rater" in msg
-    assert len(listed) == 1 and len(listed[0]) == 1
+    # the first of two (T5's overlapping turns at 11 s, then T6 at 15 s) locates the error
+    assert str(path) in msg and "'Turn alice P01'" in msg and "11.000 s" in msg
+    assert "2 turn(s)" in msg and "overlapping turns" in msg and "--resolve first-rater" in msg
+    assert len(listed) == 1 and len(listed[0]) == 2
+    assert listed[0]["values"].tolist()[1] == "alice 90, bob 180"
+    assert listed[0]["start_s"].tolist() == [11.0, 15.0]
 
 
 def test_make_labels_missing_participant(tmp_path: Path) -> None:

@@ -20,9 +20,9 @@ from turn_eval.metrics import (
     grouped_bootstrap,
     metrics_of,
     percentile_interval,
+    pooled_resampler,
     resample_indices,
-    resampled_metrics,
-    wprec_from_confusion,
+    wprec_from_counts,
 )
 
 # Four clips worked by hand (also the CLI tests' example).
@@ -78,7 +78,12 @@ def test_wprec_matches_sklearn_including_bins_only_predicted():
     o = clip_outcomes(pred, ref)
     confusion = np.zeros((o.bins_deg.size,) * 2)
     np.add.at(confusion, (o.ref_bin, o.pred_bin), 1)
-    assert wprec_from_confusion(confusion) == pytest.approx(expected, abs=1e-12)
+    # the same from the confusion counts: reference bins (row sums), predicted bins (column
+    # sums), and both (the diagonal)
+    from_counts = wprec_from_counts(
+        confusion.sum(axis=1), confusion.sum(axis=0), np.diag(confusion)
+    )
+    assert from_counts == pytest.approx(expected, abs=1e-12)
 
 
 def test_per_bin_precision_recall_by_hand():
@@ -161,7 +166,7 @@ def test_vectorised_group_metrics_equal_sklearn_on_the_same_resamples():
             )
             assert by["wprec"][r, g] == pytest.approx(expected, abs=1e-12)
             assert by["mae_deg"][r, g] == pytest.approx(np.abs(pred[keep] - ref[keep]).mean())
-    assert resampled_metrics(o, idx)["wprec"] == pytest.approx(overall["wprec"][:, 0])
+    assert pooled_resampler(o)(idx)["wprec"] == pytest.approx(overall["wprec"][:, 0])
 
 
 def test_overall_ci_equals_scipy_bootstrap_percentile():

@@ -18,8 +18,8 @@ import pytest
 from turn_datasets.cli import cli
 from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
 from turn_datasets.h36m.miner import CLIP_INDEX_DTYPES, MinerParams
-from turn_datasets.mocap.readers import write_h36m_cdf, write_h36m_h5, write_videopose_npz
 from turn_datasets.synthetic import mocap as sm
+from turn_datasets.synthetic.h36m_files import write_h36m_cdf, write_h36m_h5, write_videopose_npz
 
 REPO = Path(__file__).resolve().parents[1]
 

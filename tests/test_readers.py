@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.mocap import readers
+from turn_datasets.mocap import arrays, h36m, readers
 from turn_datasets.skeleton import H36M17, H36M17_FROM_32, H36M32
+from turn_datasets.synthetic import h36m_files
 
 
 def _arr(n_frames: int, n_joints: int, seed: int = 0) -> np.ndarray:
@@ -26,7 +27,7 @@ def _arr(n_frames: int, n_joints: int, seed: int = 0) -> np.ndarray:
 def test_iter_arrays_npy_yields_stem(tmp_path: Path) -> None:
     a = _arr(5, 17)
     np.save(tmp_path / "walk.npy", a)
-    out = list(readers.iter_arrays(tmp_path / "walk.npy"))
+    out = list(arrays.iter_arrays(tmp_path / "walk.npy"))
     assert [k for k, _ in out] == ["walk"]
     np.testing.assert_array_equal(out[0][1], a)
 
@@ -34,7 +35,7 @@ def test_iter_arrays_npy_yields_stem(tmp_path: Path) -> None:
 def test_iter_arrays_npz_one_per_key_sorted(tmp_path: Path) -> None:
     a, b = _arr(4, 17, 1), _arr(6, 32, 2)
     np.savez(tmp_path / "two.npz", zeta=a, alpha=b)
-    out = list(readers.iter_arrays(tmp_path / "two.npz"))
+    out = list(arrays.iter_arrays(tmp_path / "two.npz"))
     assert [k for k, _ in out] == ["alpha", "zeta"]
     np.testing.assert_array_equal(out[0][1], b)
     np.testing.assert_array_equal(out[1][1], a)
@@ -46,7 +47,7 @@ def test_iter_arrays_h5_walks_nested_groups(tmp_path: Path) -> None:
         fh["top"] = a
         fh.create_group("g").create_group("inner")["x"] = b
         fh["g"]["a"] = c
-    out = dict(readers.iter_arrays(tmp_path / "nested.h5"))
+    out = dict(arrays.iter_arrays(tmp_path / "nested.h5"))
     assert list(out) == ["g/a", "g/inner/x", "top"]
     np.testing.assert_array_equal(out["g/inner/x"], b)
     np.testing.assert_array_equal(out["top"], a)
@@ -56,7 +57,7 @@ def test_iter_arrays_h5_walks_nested_groups(tmp_path: Path) -> None:
 def test_iter_arrays_wrong_shape_names_file_key_shape(tmp_path: Path, shape) -> None:
     np.savez(tmp_path / "bad.npz", seq=np.zeros(shape))
     with pytest.raises(TurnbenchError) as exc:
-        list(readers.iter_arrays(tmp_path / "bad.npz"))
+        list(arrays.iter_arrays(tmp_path / "bad.npz"))
     text = str(exc.value)
     assert "bad.npz" in text and "seq" in text and str(shape) in text
 
@@ -64,7 +65,7 @@ def test_iter_arrays_wrong_shape_names_file_key_shape(tmp_path: Path, shape) -> 
 def test_iter_arrays_non_numeric(tmp_path: Path) -> None:
     np.save(tmp_path / "s.npy", np.full((2, 3, 3), "x"))
     with pytest.raises(TurnbenchError, match="dtype"):
-        list(readers.iter_arrays(tmp_path / "s.npy"))
+        list(arrays.iter_arrays(tmp_path / "s.npy"))
 
 
 def test_iter_arrays_truncated_files(tmp_path: Path) -> None:
@@ -77,25 +78,25 @@ def test_iter_arrays_truncated_files(tmp_path: Path) -> None:
         data = path.read_bytes()
         path.write_bytes(data[: len(data) // 2])
         with pytest.raises(TurnbenchError, match="t.np"):
-            list(readers.iter_arrays(path))
+            list(arrays.iter_arrays(path))
     h5 = tmp_path / "t.h5"
     h5.write_bytes(b"\x89HDF\r\n\x1a\n" + b"\0" * 20)
     with pytest.raises(TurnbenchError, match="t.h5"):
-        list(readers.iter_arrays(h5))
+        list(arrays.iter_arrays(h5))
 
 
 def test_iter_arrays_refuses_pickles(tmp_path: Path) -> None:
     np.savez(tmp_path / "p.npz", obj=np.array([{"a": 1}], dtype=object))
     with pytest.raises(TurnbenchError, match="p.npz"):
-        list(readers.iter_arrays(tmp_path / "p.npz"))
+        list(arrays.iter_arrays(tmp_path / "p.npz"))
 
 
 def test_iter_arrays_unknown_suffix_and_missing(tmp_path: Path) -> None:
     (tmp_path / "x.txt").write_text("1")
     with pytest.raises(TurnbenchError, match="x.txt"):
-        list(readers.iter_arrays(tmp_path / "x.txt"))
+        list(arrays.iter_arrays(tmp_path / "x.txt"))
     with pytest.raises(TurnbenchError, match="nope.npy"):
-        list(readers.iter_arrays(tmp_path / "nope.npy"))
+        list(arrays.iter_arrays(tmp_path / "nope.npy"))
 
 
 # --- helpers ------------------------------------------------------------------------------
@@ -119,7 +120,7 @@ def _walking_h36m(n_frames: int = 40, seed: int = 0) -> np.ndarray:
 def test_cdf_round_trip(tmp_path: Path, dtype) -> None:
     x = _walking_h36m().astype(dtype)
     path = tmp_path / "S7" / "MyPoseFeatures" / "D3_Positions" / "Walking 1.cdf"
-    readers.write_h36m_cdf(path, x)
+    h36m_files.write_h36m_cdf(path, x)
     # the file's own layout, read with cdflib directly: Pose (1, N, 96), joint-major
     raw = cdflib.CDF(path).varget("Pose")
     assert raw.shape == (1, 40, 96) and raw.dtype == dtype
@@ -135,7 +136,7 @@ def test_cdf_round_trip(tmp_path: Path, dtype) -> None:
 def test_h36m_h5_round_trip_is_transposed(tmp_path: Path) -> None:
     x = _walking_h36m()
     path = tmp_path / "S11" / "MyPoses" / "3D_positions" / "WalkingDog 1.h5"
-    readers.write_h36m_h5(path, x)
+    h36m_files.write_h36m_h5(path, x)
     with h5py.File(path, "r") as fh:
         raw = fh["3D_positions"][()]
     # 3d-pose-baseline stores (96, N): row 3 * joint + axis, column frame
@@ -150,7 +151,7 @@ def test_h36m_h5_round_trip_is_transposed(tmp_path: Path) -> None:
 def test_videopose_npz_round_trip_in_metres(tmp_path: Path) -> None:
     a, b, c = (_walking_h36m(n, seed=n) / 1000.0 for n in (30, 40, 50))
     path = tmp_path / "data_3d_h36m.npz"
-    readers.write_videopose_npz(
+    h36m_files.write_videopose_npz(
         path, {"S11": {"Walking": a}, "S9": {"TakingPhoto 1": b, "Directions": c}}
     )
     # VideoPose3D's own way of reading it
@@ -172,9 +173,9 @@ def test_videopose_npz_round_trip_in_metres(tmp_path: Path) -> None:
 def test_writers_are_reproducible(tmp_path: Path) -> None:
     x = _walking_h36m()
     for name, write in (
-        ("a.cdf", lambda p: readers.write_h36m_cdf(p, x)),
-        ("a.h5", lambda p: readers.write_h36m_h5(p, x)),
-        ("a.npz", lambda p: readers.write_videopose_npz(p, {"S1": {"Walking": x / 1000}})),
+        ("a.cdf", lambda p: h36m_files.write_h36m_cdf(p, x)),
+        ("a.h5", lambda p: h36m_files.write_h36m_h5(p, x)),
+        ("a.npz", lambda p: h36m_files.write_videopose_npz(p, {"S1": {"Walking": x / 1000}})),
     ):
         write(tmp_path / "1" / name)
         write(tmp_path / "2" / name)
@@ -183,7 +184,7 @@ def test_writers_are_reproducible(tmp_path: Path) -> None:
 
 def test_writers_refuse_wrong_shapes(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match=r"\(N, 32, 3\)"):
-        readers.write_h36m_h5(tmp_path / "x.h5", np.zeros((5, 17, 3)))
+        h36m_files.write_h36m_h5(tmp_path / "x.h5", np.zeros((5, 17, 3)))
     assert not (tmp_path / "x.h5").exists()
 
 
@@ -291,19 +292,19 @@ def fake_root(tmp_path: Path) -> Path:
     x = _walking_h36m(8)
     root = tmp_path / "h36m"
     for subject in ("S11", "S9", "S1"):
-        readers.write_h36m_cdf(
+        h36m_files.write_h36m_cdf(
             root / subject / "MyPoseFeatures" / "D3_Positions" / "Walking.cdf", x
         )
     # camera-frame and 2-D positions, angles: not world 3-D positions
-    readers.write_h36m_cdf(
+    h36m_files.write_h36m_cdf(
         root / "S1" / "MyPoseFeatures" / "D3_Positions_mono" / "Walking.54138969.cdf", x
     )
-    readers.write_h36m_cdf(
+    h36m_files.write_h36m_cdf(
         root / "S1" / "MyPoseFeatures" / "D2_Positions" / "Walking.54138969.cdf", x
     )
-    readers.write_h36m_h5(root / "S5" / "MyPoses" / "3D_positions" / "Photo 1.h5", x)
-    readers.write_h36m_h5(root / "S5" / "StackedHourglass" / "Photo 1.54138969.h5", x)
-    readers.write_videopose_npz(root / "data_3d_h36m.npz", {"S6": {"Walking": x / 1000}})
+    h36m_files.write_h36m_h5(root / "S5" / "MyPoses" / "3D_positions" / "Photo 1.h5", x)
+    h36m_files.write_h36m_h5(root / "S5" / "StackedHourglass" / "Photo 1.54138969.h5", x)
+    h36m_files.write_videopose_npz(root / "data_3d_h36m.npz", {"S6": {"Walking": x / 1000}})
     np.savez(root / "data_2d_h36m_gt.npz", positions_2d=np.zeros(3))
     np.save(root / "stats.npy", np.zeros((4, 32, 3)))
     (root / "cmu").mkdir()
@@ -407,25 +408,25 @@ def test_discover_bad_sources(tmp_path: Path, fake_root: Path) -> None:
     ],
 )
 def test_parse_h36m_action(on_disk: str, action: str, subaction: str) -> None:
-    assert readers.parse_h36m_action(on_disk) == (action, subaction)
+    assert h36m.parse_h36m_action(on_disk) == (action, subaction)
 
 
 def test_every_canonical_action_is_its_own_spelling() -> None:
-    assert len(readers.H36M_ACTIONS) == 15
-    for action in readers.H36M_ACTIONS:
-        assert readers.parse_h36m_action(action) == (action, "")
+    assert len(h36m.H36M_ACTIONS) == 15
+    for action in h36m.H36M_ACTIONS:
+        assert h36m.parse_h36m_action(action) == (action, "")
 
 
 @pytest.mark.parametrize("name", ["Jogging 1", "", "Walking one", "1", "Box"])
 def test_unknown_action_names(name: str) -> None:
     with pytest.raises(TurnbenchError, match="not a Human3.6M action"):
-        readers.parse_h36m_action(name)
+        h36m.parse_h36m_action(name)
 
 
 def test_subject_from_the_s_folder(tmp_path: Path) -> None:
-    assert readers.h36m_subject_of(tmp_path / "S11" / "MyPoses" / "3D_positions" / "a.h5") == "S11"
+    assert h36m.h36m_subject_of(tmp_path / "S11" / "MyPoses" / "3D_positions" / "a.h5") == "S11"
     path = tmp_path / "loose" / "Walking.cdf"
-    readers.write_h36m_cdf(path, _walking_h36m(4))
+    h36m_files.write_h36m_cdf(path, _walking_h36m(4))
     with pytest.raises(TurnbenchError, match="not inside an S<n> folder") as exc:
         list(readers.read_source(path))
     assert exc.value.where.file == str(path)
@@ -434,7 +435,7 @@ def test_subject_from_the_s_folder(tmp_path: Path) -> None:
 def test_s11_without_directions_2_is_normal(tmp_path: Path) -> None:
     root = tmp_path / "h36m"
     for name in ("Directions 1", "Directions", "Walking"):
-        readers.write_h36m_cdf(
+        h36m_files.write_h36m_cdf(
             root / "S11" / "MyPoseFeatures" / "D3_Positions" / f"{name}.cdf", _walking_h36m(4)
         )
     got = [
@@ -459,9 +460,9 @@ def test_truncated_files_name_the_file(tmp_path: Path) -> None:
     cdf = tmp_path / "S1" / "D3_Positions" / "Walking.cdf"
     h5 = tmp_path / "S1" / "3D_positions" / "Walking.h5"
     npz = tmp_path / "data_3d_h36m.npz"
-    readers.write_h36m_cdf(cdf, x)
-    readers.write_h36m_h5(h5, x)
-    readers.write_videopose_npz(npz, {"S1": {"Walking": x / 1000}})
+    h36m_files.write_h36m_cdf(cdf, x)
+    h36m_files.write_h36m_h5(h5, x)
+    h36m_files.write_videopose_npz(npz, {"S1": {"Walking": x / 1000}})
     for path, fmt in ((cdf, "cdf"), (h5, "h36m-h5"), (npz, "videopose-npz")):
         _truncate(path)
         with pytest.raises(TurnbenchError, match="truncated or corrupt") as exc:
@@ -472,7 +473,7 @@ def test_truncated_files_name_the_file(tmp_path: Path) -> None:
 def test_wrong_shapes(tmp_path: Path) -> None:
     # a 2-D (D2_Positions-like) CDF: 64 values per frame
     cdf = tmp_path / "S1" / "Walking.cdf"
-    readers.write_h36m_cdf(cdf, _walking_h36m(5))
+    h36m_files.write_h36m_cdf(cdf, _walking_h36m(5))
     cdf.unlink()
     w = cdflib.cdfwrite.CDF(cdf)
     w.write_var(
@@ -535,7 +536,7 @@ def test_unusable_hips(tmp_path: Path, problem: str) -> None:
         x[1:, lh] = np.nan
         message = "all but 1 of 20 frames"
     path = tmp_path / "S1" / "MyPoses" / "3D_positions" / "Walking.h5"
-    readers.write_h36m_h5(path, x)
+    h36m_files.write_h36m_h5(path, x)
     with pytest.raises(TurnbenchError, match=message) as exc:
         list(readers.read_source(path))
     assert exc.value.where.file == str(path)
@@ -546,13 +547,13 @@ def test_videopose_sequences_one_at_a_time_error_names_the_sequence(tmp_path: Pa
     bad = good.copy()
     bad[:, H36M32.index("right_hip")] = np.nan
     path = tmp_path / "data_3d_h36m.npz"
-    readers.write_videopose_npz(path, {"S1": {"Walking": good, "Waiting": bad, "Jogging": good}})
+    h36m_files.write_videopose_npz(path, {"S1": {"Walking": good, "Waiting": bad, "Jogging": good}})
     it = readers.read_source(path)
     # actions sorted: Jogging (not a Human3.6M action) comes first
     with pytest.raises(TurnbenchError, match="'Jogging' is not a Human3.6M action") as exc:
         next(it)
     assert exc.value.where.item == "S1/Jogging"
-    readers.write_videopose_npz(path, {"S1": {"Walking": good}, "S5": {"Waiting": bad}})
+    h36m_files.write_videopose_npz(path, {"S1": {"Walking": good}, "S5": {"Waiting": bad}})
     it = readers.read_source(path)
     first = next(it)  # S1 is yielded before S5 is looked at
     assert (first.subject, first.action) == ("S1", "Walking")
@@ -564,8 +565,8 @@ def test_videopose_sequences_one_at_a_time_error_names_the_sequence(tmp_path: Pa
 
 def test_videopose_npz_stored_uncompressed_reads_the_same(tmp_path: Path) -> None:
     x = _walking_h36m(30) / 1000.0
-    readers.write_videopose_npz(tmp_path / "z.npz", {"S1": {"Walking": x}})
-    readers.write_videopose_npz(tmp_path / "s.npz", {"S1": {"Walking": x}}, compressed=False)
+    h36m_files.write_videopose_npz(tmp_path / "z.npz", {"S1": {"Walking": x}})
+    h36m_files.write_videopose_npz(tmp_path / "s.npz", {"S1": {"Walking": x}}, compressed=False)
     with zipfile.ZipFile(tmp_path / "s.npz") as zf:
         assert zf.getinfo("positions_3d.npy").compress_type == zipfile.ZIP_STORED
     with zipfile.ZipFile(tmp_path / "z.npz") as zf:
@@ -624,11 +625,11 @@ def test_damaged_files_fail_with_one_error_naming_the_file(tmp_path: Path, fmt: 
     }[fmt]
     path.parent.mkdir(parents=True, exist_ok=True)
     if fmt == "cdf":
-        readers.write_h36m_cdf(path, x)
+        h36m_files.write_h36m_cdf(path, x)
     elif fmt == "h36m-h5":
-        readers.write_h36m_h5(path, x)
+        h36m_files.write_h36m_h5(path, x)
     elif fmt == "videopose-npz":
-        readers.write_videopose_npz(path, {"S1": {"Walking": x / 1000}})
+        h36m_files.write_videopose_npz(path, {"S1": {"Walking": x / 1000}})
     elif fmt == "array-npz":
         np.savez_compressed(path, a=x)
     else:
@@ -649,7 +650,7 @@ def test_relative_paths_from_inside_the_tree(tmp_path: Path, monkeypatch) -> Non
     # A curator inside S7/MyPoseFeatures/D3_Positions runs `h36m mine .`: the folder names
     # above the working directory still give the layout and the subject.
     d3 = tmp_path / "S7" / "MyPoseFeatures" / "D3_Positions"
-    readers.write_h36m_cdf(d3 / "Walking 1.cdf", _walking_h36m(6))
+    h36m_files.write_h36m_cdf(d3 / "Walking 1.cdf", _walking_h36m(6))
     np.save(tmp_path / "S7" / "poses.npy", _walking_h36m(6))
     monkeypatch.chdir(d3)
     (src,) = readers.discover(["."])
@@ -667,7 +668,7 @@ def test_one_bad_sequence_of_many_is_reported_and_the_others_read(tmp_path: Path
     no_hip = good.copy()
     no_hip[:, H36M32.index("right_hip")] = np.nan
     path = tmp_path / "data_3d_h36m.npz"
-    readers.write_videopose_npz(
+    h36m_files.write_videopose_npz(
         path, {"S1": {"Walking": good, "Waiting": no_hip, "Jogging": good}, "S5": {"Eating": good}}
     )
     errors: list[TurnbenchError] = []

@@ -124,3 +124,33 @@ def test_iou_out_of_range_is_a_usage_error(capsys, files):
     det, ref = files
     code, _, err = _run(capsys, ["score-events", str(det), "-r", str(ref), "--iou", "0"])
     assert code == 2 and "--iou" in err
+
+
+def test_plots_are_written_identically_and_removed_by_a_run_without(capsys, files, tmp_path):
+    det, ref = files
+    args = ["score-events", str(det), "-r", str(ref), "--bootstrap", "20"]
+    for name in ("a", "b"):
+        code, _, err = _run(capsys, [*args, "--out-dir", str(tmp_path / name), "--plots"])
+        assert code == 0, err
+    a, b = tmp_path / "a", tmp_path / "b"
+    figures = sorted(str(p.relative_to(a)) for p in a.rglob("*.png"))
+    # One timeline per (session, subject), F1 per group, the PR curve (the detections score).
+    assert figures == [
+        "f1_by_group.png",
+        "pr_curve.png",
+        "timelines/0000_s1_P1.png",
+        "timelines/0001_s2_P2.png",
+    ]
+    for name in figures:
+        assert (a / name).read_bytes() == (b / name).read_bytes()
+        assert (a / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    code, _, err = _run(capsys, [*args, "--out-dir", str(a)])
+    assert code == 0
+    assert not list(a.rglob("*.png"))
+    assert "removed 4 file(s) of the previous run" in err
+
+
+def test_plots_need_an_out_dir(capsys, files):
+    det, ref = files
+    code, _, err = _run(capsys, ["score-events", str(det), "-r", str(ref), "--plots"])
+    assert code == 2 and "--plots needs --out-dir" in err

@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import sha256_file
 from turn_datasets.remap.eaf import load_eaf, read_annotations
 from turn_datasets.synthetic.eaf import (
@@ -124,7 +125,10 @@ def test_truth_kinds_are_what_they_say(synth):
     wrong_b = dis["b_angle_deg"] != dis["angle_deg"]
     assert (wrong_a ^ wrong_b).all()
     assert (dis["consensus_angle_deg"] == dis["angle_deg"]).all()
-    assert t.loc[t["kind"] != "disagree", "consensus_angle_deg"].isna().all()
+    # a shifted pair (two overlapping turns of one person) is adjudicated too (issue 10 #6)
+    shifted = t[t["kind"] == "shifted"]
+    assert (shifted["consensus_angle_deg"] == shifted["angle_deg"]).all()
+    assert t.loc[~t["kind"].isin(["disagree", "shifted"]), "consensus_angle_deg"].isna().all()
 
     assert t.loc[t["kind"] == "missed_a", "a_angle_deg"].isna().all()
     assert t.loc[t["kind"] == "missed_a", "b_angle_deg"].notna().all()
@@ -202,11 +206,11 @@ def test_paper_sized_corpus_has_the_papers_shape(tmp_path):
 
 
 def test_bad_parameters(tmp_path):
-    with pytest.raises(ValueError):
+    with pytest.raises(TurnbenchError, match="two different raters"):
         write_sessions(tmp_path, seed=0, raters=("x", "x"))
-    with pytest.raises(ValueError):
+    with pytest.raises(TurnbenchError, match="consensus rater must differ"):
         write_sessions(tmp_path, seed=0, raters=("x", "consensus"))
-    with pytest.raises(ValueError):
+    with pytest.raises(TurnbenchError, match="add up to more than 1"):
         write_sessions(tmp_path, seed=0, disagreement_rate=0.6, missed_rate=0.6)
-    with pytest.raises(ValueError):
+    with pytest.raises(TurnbenchError, match="outside the vocabulary"):
         write_sessions(tmp_path, seed=0, angle_mix={100: 1.0})

@@ -228,7 +228,7 @@ def test_markdown_of_a_hand_made_document_rounds_half_up():
 
 def test_markdown_rounds_any_finite_value():
     # A submission in the wrong unit can make an MAE of 1e300 degrees: printed, not a crash.
-    from turn_eval.scores import _format
+    from turn_datasets.render.numbers import format_metric as _format
 
     assert _format("mae_deg", 1e300) == "1" + "0" * 300 + ".0"
     assert _format("mae_deg", 0.05) == "0.1" and _format("accuracy", 0.3333) == "33.3"

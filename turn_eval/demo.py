@@ -41,6 +41,8 @@ from turn_datasets import cli as datasets_cli
 from turn_datasets.cli.common import run_group
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import write_csv, write_text
+from turn_datasets.render.markdown import markdown_table
+from turn_datasets.render.numbers import MISSING, fixed, format_metric
 from turn_datasets.synthetic.degrade import degrade_skeleton
 from turn_datasets.synthetic.demo_corpus import (
     DEMO_SEED,
@@ -141,33 +143,43 @@ def match_planted(
 def _miner_check(planted: pd.DataFrame, index: pd.DataFrame) -> tuple[pd.DataFrame, str]:
     """Recall of planted turns, precision of mined clips, angle and boundary errors."""
     matched = match_planted(planted, index)
-    lines = [
-        "| planted turns | planted | found | recall | median angle error (°) | "
-        "median start error (s) | median end error (s) |",
-        "|---|---:|---:|---:|---:|---:|---:|",
-    ]
+    rows = []
     # The range is the planted hips' own: the generator asks for 48° to 233° of heading, and
     # the pelvic sway at a turn's ends moves the hip rotation a few degrees either way.
     low, high = planted["angle_deg"].min(), planted["angle_deg"].max()
-    for label, rows in (
-        (f"all ({low:.0f}° to {high:.0f}°)", matched),
+    for label, group in (
+        (f"all ({fixed(low, 0)}° to {fixed(high, 0)}°)", matched),
         ("at least 60°", matched[matched["angle_deg"] >= 60.0]),
     ):
-        found = rows[rows["found"]]
-        lines.append(
-            f"| {label} | {len(rows)} | {len(found)} | "
-            f"{100.0 * len(found) / max(len(rows), 1):.1f}% | "
-            f"{np.median(np.abs(found['mined_angle_deg'] - found['angle_deg'])):.1f} | "
-            f"{np.median(np.abs(found['start_error_s'])):.2f} | "
-            f"{np.median(np.abs(found['end_error_s'])):.2f} |"
+        found = group[group["found"]]
+        rows.append(
+            [
+                label,
+                len(group),
+                len(found),
+                fixed(100.0 * len(found) / max(len(group), 1), 1) + "%",
+                fixed(np.median(np.abs(found["mined_angle_deg"] - found["angle_deg"])), 1),
+                fixed(np.median(np.abs(found["start_error_s"])), 2),
+                fixed(np.median(np.abs(found["end_error_s"])), 2),
+            ]
         )
+    header = [
+        "planted turns",
+        "planted",
+        "found",
+        "recall",
+        "median angle error (°)",
+        "median start error (s)",
+        "median end error (s)",
+    ]
+    lines = markdown_table(header, rows, align="lrrrrrr")
     claimed = set(matched.loc[matched["found"], "clip_id"])
     spurious = len(index) - len(claimed & set(index["clip_id"]))
     precision = 100.0 * (len(index) - spurious) / max(len(index), 1)
     lines.append("")
     lines.append(
         f"Mined clips: {len(index)}, of which {len(index) - spurious} cover a planted turn "
-        f"(precision {precision:.1f}%); {spurious} cover none (a sway or a wander read as a turn, "
+        f"(precision {fixed(precision, 1)}%); {spurious} cover none (a sway or a wander read as a turn, "
         "or the second half of a planted turn split in two)."
     )
     return matched, "\n".join(lines) + "\n"
@@ -176,10 +188,13 @@ def _miner_check(planted: pd.DataFrame, index: pd.DataFrame) -> tuple[pd.DataFra
 def _overall_line(scores: dict) -> str:
     o = scores["overall"]
     speed = o.get("mae_speed_deg_s")
-    speed_text = "" if speed is None else f", MAE speed {speed:.1f}°/s"
+    speed_text = (
+        "" if speed is None else f", MAE speed {format_metric('mae_speed_deg_s', speed)}°/s"
+    )
     return (
-        f"n {o['n']}: accuracy {100 * o['accuracy']:.1f}%, MAE {o['mae_deg']:.1f}°, "
-        f"WPrec {100 * o['wprec']:.1f}%{speed_text}"
+        f"n {o['n']}: accuracy {format_metric('accuracy', o['accuracy'])}%, "
+        f"MAE {format_metric('mae_deg', o['mae_deg'])}°, "
+        f"WPrec {format_metric('wprec', o['wprec'])}%{speed_text}"
     )
 
 
@@ -417,8 +432,9 @@ def _agreement_line(audit: dict) -> str:
     ci = audit.get("kappa_ci95") or [float("nan"), float("nan")]
     return (
         f"Agreement of {raters[0]} and {raters[1]} on {audit.get('matched')} matched turns: "
-        f"{100 * audit.get('percent_agreement', float('nan')):.1f}% agree, Cohen's kappa "
-        f"{audit.get('kappa', float('nan')):.3f} (95% CI {ci[0]:.3f} to {ci[1]:.3f}); "
+        f"{fixed(100 * audit.get('percent_agreement', float('nan')), 1)}% agree, Cohen's kappa "
+        f"{fixed(audit.get('kappa', float('nan')), 3)} "
+        f"(95% CI {fixed(ci[0], 3)} to {fixed(ci[1], 3)}); "
         f"gate kappa >= {MIN_KAPPA} passed."
     )
 
@@ -478,7 +494,7 @@ def _disagreements_table(path: Path, *, max_rows: int = 60) -> pd.DataFrame:
     df = pd.read_csv(path, keep_default_na=False, na_values=[""])
     df = df.drop(columns=[c for c in ("file",) if c in df.columns]).head(max_rows)
     for col in [c for c in df.columns if c.startswith("angle_")]:
-        df[col] = df[col].map(lambda v: "–" if pd.isna(v) else f"{v:.0f}")
+        df[col] = df[col].map(lambda v: MISSING if pd.isna(v) else fixed(v, 0))
     return df
 
 

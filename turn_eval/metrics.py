@@ -37,6 +37,11 @@ Bootstrap
     (paired, with a statistic that keeps the group's clips). The metrics of all groups on all
     resamples come from per-resample draw counts (``np.bincount``) and two sparse products
     (:class:`_Engine`), never from a call to scikit-learn per resample.
+
+From a notebook or another tool, :func:`compute_metrics` gives the metrics of one set of
+predictions (plain arrays in, a dict out) and :func:`bootstrap_ci` their pooled intervals;
+``turn-eval score`` uses the grouped functions (:func:`grouped_metrics`,
+:func:`grouped_bootstrap`) that compute every group at once.
 """
 
 from __future__ import annotations
@@ -68,11 +73,9 @@ __all__ = [
     "grouped_bootstrap",
     "grouped_metrics",
     "pooled_resampler",
-    "resampled_metrics",
     "bootstrap_distribution",
     "percentile_interval",
     "bootstrap_ci",
-    "wprec_from_confusion",
     "wprec_from_counts",
 ]
 
@@ -363,15 +366,6 @@ def wprec_from_counts(true, predicted, true_positive) -> np.ndarray:
     )
     with np.errstate(divide="ignore", invalid="ignore"):
         return terms.sum(axis=-1) / true.sum(axis=-1)
-
-
-def wprec_from_confusion(confusion: np.ndarray) -> np.ndarray:
-    """Weighted precision from confusion counts ``(..., ref bin, predicted bin)``
-    (:func:`wprec_from_counts` of its row sums, column sums and diagonal)."""
-    counts = np.asarray(confusion, dtype=np.float64)
-    return wprec_from_counts(
-        counts.sum(axis=-1), counts.sum(axis=-2), np.diagonal(counts, axis1=-2, axis2=-1)
-    )
 
 
 @dataclass(frozen=True)
@@ -684,11 +678,6 @@ def pooled_resampler(outcomes: ClipOutcomes) -> Callable[[np.ndarray], dict[str,
         return {name: values[:, 0] for name, values in result.items() if name != "n"}
 
     return evaluate
-
-
-def resampled_metrics(outcomes: ClipOutcomes, indices: np.ndarray) -> dict[str, np.ndarray]:
-    """Every metric of the pooled clips on each row of an index matrix (one value per row)."""
-    return pooled_resampler(outcomes)(np.asarray(indices))
 
 
 def bootstrap_distribution(

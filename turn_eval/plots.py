@@ -23,6 +23,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from turn_datasets.geometry import quantise_deg
+from turn_datasets.render.numbers import fixed
 from turn_eval.submission import group_label
 
 __all__ = ["PLOT_FILES", "write_plots"]
@@ -139,7 +140,7 @@ def _abs_error(error_deg: np.ndarray, bin_width_deg: float, path: Path) -> Path:
     ax = fig.add_subplot()
     ax.hist(error_deg, bins=np.arange(0.0, top + step, step), color="#4c78a8")
     mae = float(error_deg.mean())
-    ax.axvline(mae, color="black", linewidth=1.2, label=f"MAE {mae:.1f}°")
+    ax.axvline(mae, color="black", linewidth=1.2, label=f"MAE {fixed(mae, 1)}°")
     ax.axvline(
         bin_width_deg / 2,
         color="#d62728",
@@ -163,7 +164,7 @@ def _bland_altman(pred_deg: np.ndarray, ref_deg: np.ndarray, path: Path) -> Path
     fig = Figure(figsize=(5.5, 4.0))
     ax = fig.add_subplot()
     ax.scatter(mean, diff, s=6, alpha=0.5, color="#4c78a8", linewidths=0, rasterized=True)
-    ax.axhline(bias, color="black", linewidth=1.2, label=f"mean difference {bias:.1f}°")
+    ax.axhline(bias, color="black", linewidth=1.2, label=f"mean difference {fixed(bias, 1)}°")
     for sign in (-1, 1):
         ax.axhline(
             bias + sign * 1.96 * sd,

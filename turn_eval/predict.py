@@ -101,7 +101,7 @@ def predict_angles(
     ----------
     arrays
         ``(clip_id, positions)`` pairs, positions ``(n_frames, n_joints, 3)``; for example
-        :func:`turn_datasets.mocap.readers.iter_arrays` of a file.
+        :func:`turn_datasets.mocap.arrays.iter_arrays` of a file.
     layout, up_axis, joints, method, fps_hz
         As in :func:`predict_angle`; checked once, before any clip is read.
 

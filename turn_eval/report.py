@@ -42,6 +42,8 @@ import pandas as pd
 from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import write_text
+from turn_datasets.render.labels import METRIC_LABELS
+from turn_datasets.render.numbers import MISSING, fixed, format_metric, is_missing
 
 __all__ = [
     "METRICS",
@@ -55,16 +57,11 @@ __all__ = [
     "table_html",
 ]
 
-#: The metrics of a scores JSON in the paper's row order: (key, row label, kind).
-#: ``fraction`` prints as a percentage with one decimal (as the paper prints them),
-#: ``deg`` and ``deg_s`` with one decimal, ``count`` as an integer.
-METRICS: tuple[tuple[str, str, str], ...] = (
-    ("accuracy", "Acc. (%)", "fraction"),
-    ("mae_deg", "MAE (°)", "deg"),
-    ("wprec", "WPrec (%)", "fraction"),
-    ("mae_speed_deg_s", "MAE speed (°/s)", "deg_s"),
+#: The metrics of a scores JSON in the paper's row order: (key, row label, kind), from the
+#: one label table (:data:`turn_datasets.render.labels.METRIC_LABELS`).
+METRICS: tuple[tuple[str, str, str], ...] = tuple(
+    (key, label.short, label.kind) for key, label in METRIC_LABELS.items()
 )
-_METRIC_KIND = {key: kind for key, _, kind in METRICS}
 
 _CSS = """
 body{font-family:-apple-system,"Segoe UI",Helvetica,Arial,sans-serif;margin:0;color:#1d232a;
@@ -96,40 +93,11 @@ def _esc(value: object) -> str:
     return html.escape(str(value), quote=True)
 
 
-def _is_missing(value: object) -> bool:
-    return value is None or (isinstance(value, float) and not math.isfinite(value))
-
-
-def format_metric(key: str, value: object) -> str:
-    """One metric value as the paper prints it; an empty cell (``–``) for a null.
-
-    ``accuracy`` 0.735 -> ``73.5``; ``mae_deg`` 18.46 -> ``18.5``; ``n`` 619 -> ``619``.
-    A metric this module does not know is printed with up to three decimals.
-    """
-    if _is_missing(value):
-        return "–"
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return str(value)
-    kind = _METRIC_KIND.get(key)
-    if key == "n" or key.startswith("n_"):
-        # an Avg. column's count is a mean over groups: one decimal, as the paper prints it
-        if isinstance(value, float) and not value.is_integer():
-            return f"{value:.1f}"
-        return f"{int(value)}"
-    if kind == "fraction":
-        return f"{100.0 * value:.1f}"
-    if kind in ("deg", "deg_s"):
-        return f"{value:.1f}"
-    if isinstance(value, int):
-        return str(value)
-    return f"{value:.3f}".rstrip("0").rstrip(".") if abs(value) < 1e6 else f"{value:.4g}"
-
-
 def _format_ci(key: str, ci: object) -> str:
     if not isinstance(ci, Sequence) or isinstance(ci, str) or len(ci) != 2:
         return ""
     lo, hi = ci
-    if _is_missing(lo) or _is_missing(hi):
+    if is_missing(lo) or is_missing(hi):
         return ""
     return f"{format_metric(key, lo)}–{format_metric(key, hi)}"
 
@@ -152,7 +120,7 @@ def table_html(
         cls = row_classes[i] if row_classes and i < len(row_classes) and row_classes[i] else ""
         cells = []
         for j, cell in enumerate(row):
-            text = "–" if _is_missing(cell) else str(cell)
+            text = MISSING if is_missing(cell) else str(cell)
             if j == 0 and first_column_header:
                 cells.append(f"<th>{_esc(text)}</th>")
             elif _looks_numeric(text):
@@ -196,7 +164,7 @@ def scores_table_html(
     groups: Mapping[str, Mapping[str, Any]] = block.get("groups", {})
     avg: Mapping[str, Any] = block.get("avg", {})
     names = list(groups)
-    present = [m for m in metrics if any(not _is_missing(g.get(m[0])) for g in groups.values())]
+    present = [m for m in metrics if any(not is_missing(g.get(m[0])) for g in groups.values())]
     header = [grouping, *names, "Avg."]
     rows = []
     for key, label, _ in present:
@@ -234,7 +202,7 @@ def overall_rows(
         for key, _, _ in metrics:
             cell = format_metric(key, overall.get(key))
             interval = _format_ci(key, ci.get(key))
-            row.append(f"{cell} ({interval})" if interval and cell != "–" else cell)
+            row.append(f"{cell} ({interval})" if interval and cell != MISSING else cell)
         rows.append(row)
     return header, rows
 
@@ -343,8 +311,8 @@ def _flatten(mapping: Mapping[str, Any], prefix: str = "") -> list[tuple[str, An
             items.append(
                 (
                     name,
-                    "–"
-                    if any(_is_missing(v) for v in value)
+                    MISSING
+                    if any(is_missing(v) for v in value)
                     else f"[{_fmt_plain(value[0])}, {_fmt_plain(value[1])}]",
                 )
             )
@@ -356,8 +324,8 @@ def _flatten(mapping: Mapping[str, Any], prefix: str = "") -> list[tuple[str, An
 
 
 def _fmt_plain(value: object) -> str:
-    if _is_missing(value):
-        return "–"
+    if is_missing(value):
+        return MISSING
     if isinstance(value, float):
         return f"{value:.4g}"
     return str(value)
@@ -396,7 +364,7 @@ class Section:
         for record in df.itertuples(index=False, name=None):
             rows.append(
                 [
-                    (f"{v:.{float_digits}f}" if isinstance(v, float) and math.isfinite(v) else v)
+                    (fixed(v, float_digits) if isinstance(v, float) and math.isfinite(v) else v)
                     for v in record
                 ]
             )

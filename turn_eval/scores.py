@@ -27,9 +27,7 @@ decimal, as the paper does.
 
 from __future__ import annotations
 
-import re
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
-from decimal import ROUND_HALF_UP, Context, Decimal
 from typing import Any
 
 import numpy as np
@@ -38,6 +36,10 @@ import pandas as pd
 from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import typed_frame
+from turn_datasets.render.labels import METRIC_LABELS
+from turn_datasets.render.markdown import metric_table
+from turn_datasets.render.numbers import MISSING, fixed, format_metric
+from turn_datasets.render.order import natural_key
 from turn_eval.metrics import (
     CONFIDENCE,
     KAPPA_WEIGHTS,
@@ -55,23 +57,14 @@ from turn_eval.metrics import (
 from turn_eval.submission import BIN_COLUMN, Joined, group_label
 
 __all__ = [
-    "ROW_LABELS",
     "SCORES_CSV_COLUMNS",
     "BLANK_GROUP",
     "outcomes_of",
     "build_scores",
     "scores_markdown",
     "scores_frame",
-    "one_decimal",
 ]
 
-#: Markdown row labels of the metrics, in the paper's order, and how each prints.
-ROW_LABELS: Mapping[str, tuple[str, str]] = {
-    "accuracy": ("Acc. (%)", "percent"),
-    "mae_deg": ("MAE (°)", "decimal"),
-    "wprec": ("WPrec (%)", "percent"),
-    "mae_speed_deg_s": ("MAE speed (°/s)", "decimal"),
-}
 #: The label of the group of clips whose grouping column is empty.
 BLANK_GROUP = "(blank)"
 #: Columns and dtypes of ``scores.csv``: one row per group, the overall row and ``avg`` rows.
@@ -99,12 +92,6 @@ def outcomes_of(joined: Joined) -> ClipOutcomes:
     )
 
 
-def _natural_key(label: str) -> tuple:
-    # S2 before S11, and numbers as numbers: the order a reader expects of subjects and bins.
-    parts = re.split(r"(\d+(?:\.\d+)?)", label)
-    return tuple((0, float(p), "") if i % 2 else (1, 0.0, p.lower()) for i, p in enumerate(parts))
-
-
 def _partition(joined: Joined, column: str) -> Partition:
     """The groups of one grouping column, in natural order; empty cells form one group."""
     values = joined.table[column]
@@ -113,7 +100,7 @@ def _partition(joined: Joined, column: str) -> Partition:
         return Partition(column, tuple(group_label(b) for b in bins), codes.reshape(-1))
     inverse, unique = pd.factorize(values.to_numpy(dtype=object))
     labels = [BLANK_GROUP if u == "" else str(u) for u in unique]
-    order = sorted(range(len(labels)), key=lambda i: _natural_key(labels[i]))
+    order = sorted(range(len(labels)), key=lambda i: natural_key(labels[i]))
     rank = np.empty(len(labels), dtype=np.int64)
     rank[order] = np.arange(len(labels))
     return Partition(column, tuple(labels[i] for i in order), rank[inverse.reshape(-1)])
@@ -250,37 +237,6 @@ def build_scores(
     }
 
 
-#: Enough digits for any finite float to one decimal (the largest has 309 before the point).
-_DECIMALS = Context(prec=320, rounding=ROUND_HALF_UP)
-
-
-def one_decimal(value: float) -> str:
-    """``value`` with one decimal, half up on its shortest decimal form (6.25 -> 6.3), as a
-    reader rounds a printed table (Python's own formatting rounds the binary value, which
-    prints 6.25 as 6.2). Every Markdown table of the harness prints its numbers so."""
-    return str(Decimal(repr(float(value))).quantize(Decimal("0.1"), context=_DECIMALS))
-
-
-def _format(metric: str, value: Any) -> str:
-    if value is None or (isinstance(value, float) and not np.isfinite(value)):
-        return "–"
-    if metric == "n":
-        return one_decimal(value) if not float(value).is_integer() else f"{int(value)}"
-    kind = ROW_LABELS[metric][1]
-    return one_decimal(100 * value) if kind == "percent" else one_decimal(value)
-
-
-def _cell(text: str) -> str:
-    return text.replace("|", "\\|")
-
-
-def _md_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
-    lines = ["| " + " | ".join(_cell(h) for h in header) + " |"]
-    lines.append("|" + "|".join([" --- "] + [" ---: "] * (len(header) - 1)) + "|")
-    lines += ["| " + " | ".join(_cell(c) for c in row) + " |" for row in rows]
-    return lines
-
-
 def _present(entries: Iterable[Mapping[str, Any]]) -> list[str]:
     entries = list(entries)
     return [m for m in METRICS if any(e.get(m) is not None for e in entries)]
@@ -300,23 +256,25 @@ def scores_markdown(scores: Mapping[str, Any]) -> str:
     header = ["Metric", "All"] + (["95% CI"] if ci is not None else [])
     rows = []
     for m in _present([overall]):
-        row = [ROW_LABELS[m][0], _format(m, overall[m])]
+        row = [METRIC_LABELS[m].short, format_metric(m, overall[m])]
         if ci is not None:
             bounds = ci.get(m)
             row.append(
-                "–" if bounds is None else f"{_format(m, bounds[0])} – {_format(m, bounds[1])}"
+                MISSING
+                if bounds is None
+                else f"{format_metric(m, bounds[0])} – {format_metric(m, bounds[1])}"
             )
         rows.append(row)
     kappa = overall.get("kappa")
     rows.append(
         [
             f"Kappa ({settings.get('kappa_weights', KAPPA_WEIGHTS)})",
-            "–" if kappa is None else f"{kappa:.3f}",
+            MISSING if kappa is None else fixed(kappa, 3),
         ]
         + ([""] if ci is not None else [])
     )
-    rows.append(["# Turns", _format("n", overall["n"])] + ([""] if ci is not None else []))
-    out += _md_table(header, rows)
+    rows.append(["# Turns", format_metric("n", overall["n"])] + ([""] if ci is not None else []))
+    out += metric_table(header, rows)
 
     for col, block in scores.get("by", {}).items():
         groups = block["groups"]
@@ -326,24 +284,28 @@ def scores_markdown(scores: Mapping[str, Any]) -> str:
         rows = []
         for m in _present(groups.values()):
             rows.append(
-                [ROW_LABELS[m][0]]
-                + [_format(m, groups[g].get(m)) for g in names]
-                + [_format(m, avg.get(m))]
+                [METRIC_LABELS[m].short]
+                + [format_metric(m, groups[g].get(m)) for g in names]
+                + [format_metric(m, avg.get(m))]
             )
         rows.append(
-            ["# Turns"] + [_format("n", groups[g]["n"]) for g in names] + [_format("n", avg["n"])]
+            ["# Turns"]
+            + [format_metric("n", groups[g]["n"]) for g in names]
+            + [format_metric("n", avg["n"])]
         )
-        out += _md_table([col, *names, "Avg."], rows)
+        header = [col, *names, "Avg."]
+        out += metric_table(header, rows)
 
     per_bin = overall.get("per_bin")
     if per_bin:
         out += ["", "## Per bin (reference bin, degrees)", ""]
         labels = list(per_bin)
-        out += _md_table(
+        out += metric_table(
             ["Bin", *labels],
             [
-                ["Precision (%)"] + [_format("wprec", per_bin[b]["precision"]) for b in labels],
-                ["Recall (%)"] + [_format("accuracy", per_bin[b]["recall"]) for b in labels],
+                ["Precision (%)"]
+                + [format_metric("wprec", per_bin[b]["precision"]) for b in labels],
+                ["Recall (%)"] + [format_metric("accuracy", per_bin[b]["recall"]) for b in labels],
                 ["# Turns"] + [str(per_bin[b]["n"]) for b in labels],
                 ["# Predicted"] + [str(per_bin[b]["n_predicted"]) for b in labels],
             ],

@@ -38,7 +38,7 @@ from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import typed_frame
 from turn_datasets.geometry import quantise_deg
 from turn_datasets.limits import MAX_ANGLE_DEG, MAX_SPEED_DEG_S
-from turn_datasets.strings import count, strip, stripped_objects, text_array
+from turn_datasets.strings import count, stripped_objects, text_array
 
 __all__ = [
     "GROUP_COLUMNS",
@@ -233,8 +233,11 @@ def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.nd
         lines = np.arange(2, 2 + ends.size, dtype=np.int64)
         return header_text, 1, lines, fields + 1, body
     # Variable-width strings: one long line must not widen every other one in memory.
-    all_lines = text_array(text.split("\n"))
-    nonblank = strip(all_lines) != ""
+    split = text.split("\n")
+    all_lines = text_array(split)
+    # Python's strip, as the fast path's: numpy's string functions drop trailing NULs, so a
+    # line of a NUL would be blank here and not there.
+    nonblank = np.fromiter((bool(line.strip()) for line in split), dtype=bool, count=len(split))
     numbers = np.flatnonzero(nonblank) + 1
     kept = all_lines[nonblank]
     body_lines = kept[1:]

@@ -33,14 +33,12 @@ from turn_datasets.fileio import (
     write_json,
     write_text,
 )
-from turn_datasets.remap.agreement import (
-    AgreementAudit,
-    audit_agreement,
-    write_confusion_png,
-    write_review_eaf,
-)
+from turn_datasets.remap.agreement import AgreementAudit, audit_agreement
+from turn_datasets.remap.agreement_report import write_confusion_png
 from turn_datasets.remap.eaf import expand_eaf_paths, read_annotations
+from turn_datasets.remap.review_eaf import write_review_eaf
 from turn_datasets.remap.schema import load_schema
+from turn_datasets.render.numbers import fixed
 
 #: Files written into --out-dir (review copies go to its ``review/`` folder).
 OUT_FILES = (
@@ -194,7 +192,7 @@ def agreement(
                 f"Cohen's kappa is undefined ({audit.overall.kappa_undefined_reason}), so "
                 f"--min-kappa {min_kappa:g} is not met"
             )
-        raise GateFailed(f"Cohen's kappa {kappa:.3f} is below --min-kappa {min_kappa:g}")
+        raise GateFailed(f"Cohen's kappa {fixed(kappa, 3)} is below --min-kappa {min_kappa:g}")
 
 
 def _write_outputs(

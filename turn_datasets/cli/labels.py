@@ -14,17 +14,18 @@ from turn_datasets.cli import CONTEXT_SETTINGS, remap
 from turn_datasets.cli.common import FRACTION, emit, format_option, info, progress, warn, wrote
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, staged_dir, to_json_text, write_csv
+from turn_datasets.remap.context import context_table, sessions_table
 from turn_datasets.remap.eaf import (
     expand_eaf_paths,
     inspect_eaf,
     inspect_markdown,
-    read_annotations,
+    read_annotations_and_context,
 )
-from turn_datasets.remap.labels import (
-    RESOLVE_CHOICES,
-    make_labels,
+from turn_datasets.remap.labels import RESOLVE_CHOICES, make_labels
+from turn_datasets.remap.participants import read_participants
+from turn_datasets.remap.schema import Schema, load_schema
+from turn_datasets.remap.stats import (
     read_labels,
-    read_participants,
     stats_csv,
     stats_dict,
     stats_markdown,
@@ -32,10 +33,15 @@ from turn_datasets.remap.labels import (
     table2,
     turns_per_location,
 )
-from turn_datasets.remap.schema import Schema, load_schema
 
 #: The raw per-rater rows are written beside the labels under this name (DESIGN.md).
 ANNOTATIONS_NAME = "annotations.csv"
+#: For untrimmed scoring, beside the labels too: the context intervals and the annotated
+#: duration per session and participant (:mod:`turn_datasets.remap.context`).
+CONTEXT_NAME = "context.csv"
+SESSIONS_NAME = "sessions.csv"
+#: Every file ``labels`` writes beside ``--out``.
+BESIDE_NAMES = (ANNOTATIONS_NAME, CONTEXT_NAME, SESSIONS_NAME)
 
 _schema_option = click.option(
     "--schema",
@@ -133,7 +139,8 @@ def inspect_cmd(
     "--out",
     required=True,
     type=click.Path(dir_okay=False, path_type=Path),
-    help=f"Labels CSV to write; {ANNOTATIONS_NAME} (every rater's raw rows) goes beside it.",
+    help=f"Labels CSV to write; {ANNOTATIONS_NAME} (every rater's raw rows), {CONTEXT_NAME} "
+    f"and {SESSIONS_NAME} (for score-events) go beside it.",
 )
 def labels_cmd(
     inputs: tuple[Path, ...],
@@ -151,7 +158,10 @@ def labels_cmd(
     participants table. Columns: clip_id, session, subject, cohort, annotator, start_s,
     end_s, duration_s, angle_deg, scenario, location, double_annotated, source; clip_id is
     {session}_{subject}_{start_ms}-{end_ms}. annotations.csv beside --out holds every raw
-    row. Both files are written together or not at all.
+    row; context.csv the context tiers' intervals per session and participant (session,
+    subject, start_s, end_s, scenario, location) and sessions.csv each participant's
+    annotated duration (session, subject, duration_s), for `turn-eval score-events`. All
+    four are written together or not at all.
 
     Exit 2, naming file, tier and time: a value outside the vocabulary, overlapping turns on
     one tier, an end not after its start, a participant missing from the table, or
@@ -164,19 +174,17 @@ def labels_cmd(
       turn-datasets remap labels eaf/ --participants participants.csv \\
           --resolve first-rater --out labels.csv
     """
-    out_annotations = out.parent / ANNOTATIONS_NAME
-    if out.name == ANNOTATIONS_NAME:
-        raise click.UsageError(
-            f"--out must not be named {ANNOTATIONS_NAME}: that file goes beside it"
-        )
+    beside = [out.parent / name for name in BESIDE_NAMES]
+    if out.name in BESIDE_NAMES:
+        raise click.UsageError(f"--out must not be named {out.name}: that file goes beside it")
     schema = load_schema(schema_path)
     paths = expand_eaf_paths(inputs)
     inputs_all = [*paths, participants_path, *([schema_path] if schema_path else [])]
-    check_not_input(out, inputs_all)
-    check_not_input(out_annotations, inputs_all)
+    for path in (out, *beside):
+        check_not_input(path, inputs_all)
 
     participants = read_participants(participants_path)
-    annotations = read_annotations(
+    annotations, file_contexts = read_annotations_and_context(
         paths,
         schema=schema,
         iterate=lambda ps: progress(ps, label="reading ELAN files"),
@@ -204,10 +212,12 @@ def labels_cmd(
     with staged_dir(out.parent) as stage:
         write_csv(labels, stage / out.name)
         write_csv(annotations, stage / ANNOTATIONS_NAME)
+        write_csv(context_table(file_contexts), stage / CONTEXT_NAME)
+        write_csv(sessions_table(file_contexts), stage / SESSIONS_NAME)
     n_double = int(labels["double_annotated"].sum())
     wrote(
         out,
-        out_annotations,
+        *beside,
         what=f"{len(labels)} turns ({n_double} double-annotated) from {len(annotations)} "
         "annotations:",
     )

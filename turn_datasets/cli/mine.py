@@ -1,7 +1,8 @@
 """``turn-datasets h36m mine`` and ``turn-datasets h36m stats`` (registered on the h36m group).
 
 Thin: options are parsed here, the work is :mod:`turn_datasets.mocap.readers`,
-:mod:`turn_datasets.h36m.miner` and :mod:`turn_datasets.h36m.curation`.
+:mod:`turn_datasets.h36m.miner`, :mod:`turn_datasets.h36m.overrides`,
+:mod:`turn_datasets.h36m.manifest` and :mod:`turn_datasets.h36m.stats`.
 """
 
 from __future__ import annotations
@@ -29,22 +30,15 @@ from turn_datasets.cli.common import (
 )
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import atomic_path, check_not_input, sha256_file, to_json_text
-from turn_datasets.h36m.curation import (
-    apply_overrides,
-    build_manifest,
-    manifest_path,
-    read_clip_index,
-    read_overrides,
-    stats_csv,
-    stats_dict,
-    stats_markdown,
-    unmatched_overrides,
-)
+from turn_datasets.h36m.clip_index import read_clip_index
+from turn_datasets.h36m.manifest import build_manifest, manifest_path
 from turn_datasets.h36m.miner import MinerParams, build_index, mine_clips
+from turn_datasets.h36m.overrides import apply_overrides, read_overrides, unmatched_overrides
+from turn_datasets.h36m.stats import STATS_INDEX_COLUMNS, stats_csv, stats_dict, stats_markdown
+from turn_datasets.mocap.arrays import UNITS
 from turn_datasets.mocap.bvh import parse_joint_map
 from turn_datasets.mocap.readers import (
     FORMATS,
-    UNITS,
     SourceFile,
     discover,
     read_source,
@@ -463,7 +457,7 @@ def stats_cmd(index_csv: Path, as_csv: bool, fmt: str) -> None:
       turn-datasets h36m stats turn-h36m.csv
       turn-datasets h36m stats turn-h36m.csv --csv > table3.csv
     """
-    index: pd.DataFrame = read_clip_index(index_csv)
+    index: pd.DataFrame = read_clip_index(index_csv, STATS_INDEX_COLUMNS)
     fmt = "csv" if as_csv else fmt
     if fmt == "csv":
         emit(stats_csv(index))

@@ -16,7 +16,7 @@ Frame accuracy
     checked afterwards. When a video's frame rate differs from the index's ``fps``, frames are
     mapped through time: ``round(frame * video_fps / fps)``.
 
-Video names are matched through :func:`turn_datasets.mocap.readers.parse_h36m_action`, so the
+Video names are matched through :func:`turn_datasets.mocap.h36m.parse_h36m_action`, so the
 index's canonical ``Photo`` finds ``TakingPhoto.55011271.mp4`` and ``WalkDog`` finds
 ``WalkingDog 1.58860488.mp4``; files whose names are no action (``_ALL.54138969.mp4``, the
 whole session) are ignored.
@@ -36,7 +36,8 @@ import pandas as pd
 
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import atomic_path, check_not_input, staged_dir
-from turn_datasets.mocap.readers import parse_h36m_action
+from turn_datasets.h36m.clip_index import read_clip_index
+from turn_datasets.mocap.h36m import parse_h36m_action
 
 __all__ = [
     "INDEX_COLUMNS",
@@ -44,7 +45,7 @@ __all__ = [
     "ExportPlan",
     "VideoInfo",
     "find_videos",
-    "read_clip_index",
+    "read_export_index",
     "plan_exports",
     "probe_video",
     "cut_clip",
@@ -90,85 +91,14 @@ def find_videos(videos_dir: str | os.PathLike[str]) -> dict[VideoKey, dict[str, 
     return out
 
 
-def read_clip_index(path: str | os.PathLike[str]) -> pd.DataFrame:
-    """Read the columns of a clip index that the export needs, checked row by row.
+def read_export_index(path: str | os.PathLike[str]) -> pd.DataFrame:
+    """The columns of a clip index that the export needs (:data:`INDEX_COLUMNS`), checked.
 
-    Returns
-    -------
-    DataFrame
-        ``INDEX_COLUMNS`` plus ``row`` (the CSV line number, 1 = header), with ``action``
-        canonical, frames as int64 and ``fps`` as float64.
-
-    Raises
-    ------
-    TurnbenchError
-        A missing or unreadable file, a missing column, and, naming the row: an empty or
-        duplicate ``clip_id``, an unknown action, frames that are not whole numbers or not
-        ``0 <= start_frame < end_frame``, an ``fps`` that is not positive.
+    ``INDEX_COLUMNS`` plus ``row`` (the CSV line number, 1 = header), with ``action``
+    canonical, frames as int64 and ``fps`` as float64
+    (:func:`turn_datasets.h36m.clip_index.read_clip_index`).
     """
-    p = Path(path)
-    if not p.is_file():
-        raise TurnbenchError("no such file", file=p)
-    try:
-        df = pd.read_csv(p, dtype=str, keep_default_na=False, encoding="utf-8")
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-        raise TurnbenchError(f"not a readable CSV clip index: {exc}", file=p) from None
-    missing = [c for c in INDEX_COLUMNS if c not in df.columns]
-    if missing:
-        raise TurnbenchError(f"the clip index lacks columns {', '.join(missing)}", file=p, row=1)
-    rows = []
-    seen: dict[str, int] = {}
-    for i, rec in enumerate(df.loc[:, list(INDEX_COLUMNS)].itertuples(index=False)):
-        line = i + 2
-        clip_id = rec.clip_id.strip()
-        if not clip_id:
-            raise TurnbenchError("empty clip_id", file=p, row=line)
-        if clip_id in seen:
-            raise TurnbenchError(
-                f"clip_id {clip_id!r} repeats row {seen[clip_id]}", file=p, row=line
-            )
-        seen[clip_id] = line
-        try:
-            action, _ = parse_h36m_action(rec.action)
-        except TurnbenchError as exc:
-            raise TurnbenchError(exc.message, file=p, row=line) from None
-        try:
-            start, end = int(rec.start_frame), int(rec.end_frame)
-        except ValueError:
-            raise TurnbenchError(
-                f"start_frame {rec.start_frame!r} / end_frame {rec.end_frame!r} are not whole "
-                "numbers",
-                file=p,
-                row=line,
-            ) from None
-        if not 0 <= start < end:
-            raise TurnbenchError(
-                f"frames must satisfy 0 <= start_frame < end_frame, got {start} and {end}",
-                file=p,
-                row=line,
-            )
-        try:
-            fps = float(rec.fps)
-        except ValueError:
-            fps = float("nan")
-        if not fps > 0:
-            raise TurnbenchError(f"fps must be positive, got {rec.fps!r}", file=p, row=line)
-        rows.append(
-            {
-                "clip_id": clip_id,
-                "subject": rec.subject.strip(),
-                "action": action,
-                "subaction": rec.subaction.strip(),
-                "start_frame": start,
-                "end_frame": end,
-                "fps": fps,
-                "row": line,
-            }
-        )
-    out = pd.DataFrame(rows, columns=[*INDEX_COLUMNS, "row"])
-    return out.astype(
-        {"start_frame": "int64", "end_frame": "int64", "fps": "float64", "row": "int64"}
-    )
+    return read_clip_index(path, INDEX_COLUMNS, h36m_actions=True)
 
 
 @dataclass(frozen=True)
@@ -359,11 +289,11 @@ def export_clips(
     Raises
     ------
     TurnbenchError
-        Naming the index (and row) or the video: see :func:`read_clip_index`,
+        Naming the index (and row) or the video: see :func:`read_export_index`,
         :func:`plan_exports`; clips without video unless ``skip_missing``; an ffmpeg failure
         or a cut whose frame count is wrong.
     """
-    index = read_clip_index(index_path)
+    index = read_export_index(index_path)
     videos = find_videos(videos_dir)
     plan = plan_exports(index, videos, index_path=index_path, cameras=cameras)
     if plan.missing and not skip_missing:

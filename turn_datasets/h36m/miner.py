@@ -107,7 +107,7 @@ from turn_datasets.geometry import (
     turning_angle,
     usable_frames,
 )
-from turn_datasets.mocap.readers import natural_key
+from turn_datasets.render.order import natural_key
 from turn_datasets.skeleton import Layout, MocapSequence
 
 __all__ = [

@@ -38,7 +38,7 @@ names (``left_hip`` ...) to CMU's joint names and can be overridden per joint.
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
@@ -47,7 +47,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.skeleton import Layout, to_z_up
+from turn_datasets.mocap.checks import checked_positions
+from turn_datasets.skeleton import Layout, MocapSequence, to_z_up
 
 __all__ = [
     "CMU_JOINT_MAP",
@@ -60,6 +61,7 @@ __all__ = [
     "parse_joint_map",
     "read_bvh",
     "fps_from_frame_time",
+    "read_bvh_source",
 ]
 
 #: Our joint names -> CMU's BVH joint names (the 2010 MotionBuilder-friendly conversion).
@@ -499,4 +501,30 @@ def read_bvh(
         fps=bvh.fps,
         n_frames_in_file=bvh.n_frames,
         skipped_first_frame=skip_first_frame,
+    )
+
+
+def read_bvh_source(
+    path: Path,
+    *,
+    units: str | None,
+    joint_map: Mapping[str, str] | None,
+    skip_first_frame: bool | None,
+) -> Iterator[MocapSequence]:
+    seq = read_bvh(path, joint_map=joint_map, skip_first_frame=skip_first_frame)
+    yield MocapSequence(
+        subject=path.absolute().parent.name,
+        action=path.stem,
+        subaction="",
+        positions=checked_positions(seq.positions, seq.layout, path=path, item=None),
+        layout=seq.layout,
+        fps=seq.fps,
+        # BVH does not state its unit: the label is the user's, or "bvh" (the file's own)
+        units=units or "bvh",
+        source=str(path),
+        meta={
+            "format": "bvh",
+            "n_frames_in_file": seq.n_frames_in_file,
+            "skipped_first_frame": seq.skipped_first_frame,
+        },
     )

@@ -1,4 +1,4 @@
-"""Inter-rater agreement on Turn-REMAP turn labels: matching, kappa, the audit.
+"""Inter-rater agreement on Turn-REMAP turn labels: the audit.
 
 In the paper (Cheng et al., Section 3.2, Turn-REMAP) two clinicians labelled each turn in
 ELAN with its angle from a controlled vocabulary (90° to 360° in 45° steps); about half of
@@ -6,9 +6,10 @@ the turns were labelled by both, and Cohen's kappa (0.96) backed the labels befo
 disagreements were resolved. This module reproduces that check on any set of annotations.
 
 Matching follows ELAN's own inter-annotator reliability ("modified kappa", Holle & Rein
-2015): two annotations of the same participant in the same session are linked when their
-overlap divided by the duration of the *longer* one is at least ``min_overlap``; links are
-made greedily, highest ratio first, each annotation used at most once.
+2015), in :mod:`turn_datasets.remap.matching`; the kappas and their bootstrap are in
+:mod:`turn_datasets.remap.kappa`; the Markdown and the PNG of an audit in
+:mod:`turn_datasets.remap.agreement_report`, its ELAN review copies in
+:mod:`turn_datasets.remap.review_eaf`.
 
 The audit (:func:`audit_agreement`) compares two raters over the (session, participant) units
 that both labelled, and reports, overall, per session and for every pair of raters present:
@@ -28,453 +29,37 @@ disagreement: its annotations are counted as ``single_annotated`` and left out.
 
 from __future__ import annotations
 
-import os
-import warnings
-import xml.etree.ElementTree as ET
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from itertools import combinations
-from pathlib import Path
 from typing import Any
 
-import defusedxml.ElementTree as safe_et
 import numpy as np
 import pandas as pd
-from sklearn.metrics import cohen_kappa_score, confusion_matrix
+from sklearn.metrics import confusion_matrix
 
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.fileio import atomic_path, typed_frame
+from turn_datasets.fileio import typed_frame
+from turn_datasets.remap.kappa import bootstrap_kappa_ci, kappa_score, kappa_undefined_reason
+from turn_datasets.remap.matching import (
+    UNMATCHED,
+    check_annotations,
+    default_raters,
+    disagreements,
+    pair_items,
+)
+from turn_datasets.render.numbers import format_deg
 
 __all__ = [
-    "MATCH_COLUMNS",
-    "PAIR_COLUMNS",
-    "DISAGREEMENT_COLUMNS",
     "AgreementAudit",
     "PairStats",
     "audit_agreement",
-    "bootstrap_kappa_ci",
-    "default_raters",
-    "disagreements",
-    "match_annotations",
-    "pair_items",
     "pair_stats",
-    "write_confusion_png",
-    "write_review_eaf",
 ]
 
-#: Column contract of :func:`match_annotations`.
-MATCH_COLUMNS = {"index_a": "int64", "index_b": "int64", "overlap_ratio": "float64"}
-
-#: Overlap ratios are computed in floating point; a ratio meant to equal ``min_overlap``
-#: exactly (0.6 s of a 1.0 s turn) can come out a hair below it, so the test allows this.
-_RATIO_TOLERANCE = 1e-9
-
-_KEYS = ("session", "participant")
-
-
-def _check_columns(df: pd.DataFrame, name: str) -> None:
-    missing = [c for c in (*_KEYS, "start_s", "end_s") if c not in df.columns]
-    if missing:
-        raise ValueError(f"annotations {name} lack columns {missing}")
-
-
-def match_annotations(
-    a: pd.DataFrame, b: pd.DataFrame, *, min_overlap: float = 0.6
-) -> pd.DataFrame:
-    """Link annotations of rater A to those of rater B, as ELAN's reliability check does.
-
-    Parameters
-    ----------
-    a, b
-        One rater's annotations each, with columns ``session``, ``participant``, ``start_s``
-        and ``end_s`` (seconds). Their index labels identify the annotations and must be
-        unique; any other column is ignored.
-    min_overlap
-        Smallest ``overlap / max(duration_a, duration_b)`` for a link, in ``(0, 1]``
-        (ELAN's default and the issue's: 0.6).
-
-    Returns
-    -------
-    pandas.DataFrame
-        ``index_a, index_b, overlap_ratio`` (:data:`MATCH_COLUMNS`), one row per link, each
-        index label at most once, in the row order of ``a``.
-
-    Notes
-    -----
-    Only annotations with the same ``session`` and ``participant`` can be linked. Candidate
-    pairs are taken in order of decreasing ratio; ties are broken by the smaller absolute
-    start difference, then by the position of the annotations in ``a`` and in ``b``, so the
-    result never depends on hash order. An annotation with zero or negative duration is
-    never linked (its ratio is undefined).
-    """
-    if not 0.0 < float(min_overlap) <= 1.0:
-        raise ValueError(f"min_overlap must be in (0, 1], got {min_overlap}")
-    _check_columns(a, "a")
-    _check_columns(b, "b")
-    for df, name in ((a, "a"), (b, "b")):
-        if not df.index.is_unique:
-            raise ValueError(f"annotations {name} have duplicate index labels")
-
-    def _side(df: pd.DataFrame, suffix: str) -> pd.DataFrame:
-        out = pd.DataFrame(
-            {
-                "session": df["session"].to_numpy(dtype=object),
-                "participant": df["participant"].to_numpy(dtype=object),
-                f"start{suffix}": df["start_s"].to_numpy(dtype="float64"),
-                f"end{suffix}": df["end_s"].to_numpy(dtype="float64"),
-                f"pos{suffix}": range(len(df)),
-            }
-        )
-        return out[out[f"end{suffix}"] > out[f"start{suffix}"]]
-
-    left = _side(a, "_a")
-    right = _side(b, "_b")
-    pairs = left.merge(right, on=list(_KEYS), how="inner", sort=False)
-    overlap = pairs[["end_a", "end_b"]].min(axis=1) - pairs[["start_a", "start_b"]].max(axis=1)
-    longer = pd.concat(
-        [pairs["end_a"] - pairs["start_a"], pairs["end_b"] - pairs["start_b"]], axis=1
-    ).max(axis=1)
-    pairs = pairs.assign(
-        ratio=(overlap / longer) if len(pairs) else pd.Series([], dtype="float64"),
-        start_gap=(pairs["start_a"] - pairs["start_b"]).abs(),
-    )
-    pairs = pairs[(overlap > 0) & (pairs["ratio"] >= float(min_overlap) - _RATIO_TOLERANCE)]
-    pairs = pairs.sort_values(
-        ["ratio", "start_gap", "pos_a", "pos_b"],
-        ascending=[False, True, True, True],
-        kind="mergesort",
-    )
-
-    used_a: set[int] = set()
-    used_b: set[int] = set()
-    rows: list[tuple[int, int, float]] = []
-    for pos_a, pos_b, ratio in zip(
-        pairs["pos_a"].to_numpy(),
-        pairs["pos_b"].to_numpy(),
-        pairs["ratio"].to_numpy(),
-        strict=True,
-    ):
-        if pos_a in used_a or pos_b in used_b:
-            continue
-        used_a.add(int(pos_a))
-        used_b.add(int(pos_b))
-        rows.append((int(pos_a), int(pos_b), float(min(ratio, 1.0))))
-    rows.sort()
-
-    out = pd.DataFrame(
-        {
-            "index_a": [a.index[r[0]] for r in rows],
-            "index_b": [b.index[r[1]] for r in rows],
-            "overlap_ratio": [r[2] for r in rows],
-        }
-    )
-    # Index labels are usually the integer row numbers of the annotations table; keep other
-    # labels (strings) as they are rather than failing the int64 contract.
-    dtypes = dict(MATCH_COLUMNS)
-    for col, df in (("index_a", a), ("index_b", b)):
-        if not pd.api.types.is_integer_dtype(df.index.dtype):
-            dtypes[col] = "object"
-    return out.astype(dtypes).reset_index(drop=True)
-
 
 # ---------------------------------------------------------------------------------------
-# Pairing two raters' annotations
-
-#: One row per compared item of two raters (``pairs.csv``): a matched pair, or an annotation
-#: of one rater that the other has no partner for (``status`` ``unmatched_a``/``unmatched_b``).
-PAIR_COLUMNS = {
-    "session": "object",
-    "participant": "object",
-    "status": "object",
-    "start_a_s": "float64",
-    "end_a_s": "float64",
-    "angle_a_deg": "float64",
-    "start_b_s": "float64",
-    "end_b_s": "float64",
-    "angle_b_deg": "float64",
-    "overlap_ratio": "float64",
-    "agree": "bool",
-    "file": "object",
-}
-
-#: One row per disagreement for review (``disagreements.csv``): ``kind`` is ``angle`` (a
-#: matched pair with different angles) or ``unmatched`` (one rater only; the other's columns
-#: empty).
-DISAGREEMENT_COLUMNS = {
-    "session": "object",
-    "participant": "object",
-    "kind": "object",
-    "rater_a": "object",
-    "start_a_s": "float64",
-    "end_a_s": "float64",
-    "angle_a_deg": "float64",
-    "rater_b": "object",
-    "start_b_s": "float64",
-    "end_b_s": "float64",
-    "angle_b_deg": "float64",
-    "overlap_ratio": "float64",
-    "file": "object",
-}
-
-_STATUS_ORDER = {"matched": 0, "unmatched_a": 1, "unmatched_b": 2}
-UNMATCHED = "unmatched"
-
-
-def _check_annotations(annotations: pd.DataFrame) -> None:
-    need = ("session", "file", "annotator", "participant", "start_s", "end_s", "angle_deg")
-    missing = [c for c in need if c not in annotations.columns]
-    if missing:
-        raise ValueError(f"annotations lack columns {missing}")
-
-
-def default_raters(
-    annotations: pd.DataFrame, *, consensus_annotator: str = "consensus"
-) -> tuple[str, str]:
-    """The two raters to compare when none are named: the non-consensus raters present.
-
-    Raises
-    ------
-    TurnbenchError
-        There are not exactly two (the message lists those found and suggests ``--raters``).
-    """
-    names = sorted(
-        {
-            str(r)
-            for r in annotations["annotator"].dropna().unique()
-            if str(r).casefold().strip() != consensus_annotator.casefold().strip()
-        },
-        key=lambda r: (r.casefold(), r),
-    )
-    if len(names) != 2:
-        found = ", ".join(repr(n) for n in names) or "none"
-        raise TurnbenchError(
-            f"the agreement audit compares two raters; found {len(names)} besides "
-            f"{consensus_annotator!r}: {found}",
-            hint="name the two with --raters A B" if len(names) > 2 else None,
-        )
-    return names[0], names[1]
-
-
-def pair_items(
-    annotations: pd.DataFrame, *, rater_a: str, rater_b: str, min_overlap: float = 0.6
-) -> tuple[pd.DataFrame, dict[str, int]]:
-    """Match two raters' annotations and list every compared item.
-
-    Parameters
-    ----------
-    annotations
-        Every rater's rows (``eaf.read_annotations``).
-    rater_a, rater_b
-        The two raters (values of ``annotator``).
-    min_overlap
-        See :func:`match_annotations`.
-
-    Returns
-    -------
-    items : pandas.DataFrame
-        :data:`PAIR_COLUMNS`, sorted by session, participant and time: the matched pairs and
-        the unmatched annotations of the (session, participant) units both raters labelled.
-    single_annotated : dict
-        Rater -> number of annotations in units the other rater did not label (left out).
-    """
-    _check_annotations(annotations)
-    a = annotations[annotations["annotator"] == rater_a]
-    b = annotations[annotations["annotator"] == rater_b]
-    units_a = set(zip(a["session"], a["participant"], strict=True))
-    units_b = set(zip(b["session"], b["participant"], strict=True))
-    both = units_a & units_b
-    in_a = [u in both for u in zip(a["session"], a["participant"], strict=True)]
-    in_b = [u in both for u in zip(b["session"], b["participant"], strict=True)]
-    single = {rater_a: int(len(a) - sum(in_a)), rater_b: int(len(b) - sum(in_b))}
-    a = a[in_a].reset_index(drop=True)
-    b = b[in_b].reset_index(drop=True)
-
-    links = match_annotations(a, b, min_overlap=min_overlap)
-    ia = links["index_a"].to_numpy(dtype=int)
-    ib = links["index_b"].to_numpy(dtype=int)
-    matched = pd.DataFrame(
-        {
-            "session": a["session"].to_numpy()[ia],
-            "participant": a["participant"].to_numpy()[ia],
-            "status": "matched",
-            "start_a_s": a["start_s"].to_numpy()[ia],
-            "end_a_s": a["end_s"].to_numpy()[ia],
-            "angle_a_deg": a["angle_deg"].to_numpy()[ia],
-            "start_b_s": b["start_s"].to_numpy()[ib],
-            "end_b_s": b["end_s"].to_numpy()[ib],
-            "angle_b_deg": b["angle_deg"].to_numpy()[ib],
-            "overlap_ratio": links["overlap_ratio"].to_numpy(),
-            "file": a["file"].to_numpy()[ia],
-        }
-    )
-    rest_a = a.drop(index=ia)
-    rest_b = b.drop(index=ib)
-    unmatched_a = pd.DataFrame(
-        {
-            "session": rest_a["session"].to_numpy(),
-            "participant": rest_a["participant"].to_numpy(),
-            "status": "unmatched_a",
-            "start_a_s": rest_a["start_s"].to_numpy(),
-            "end_a_s": rest_a["end_s"].to_numpy(),
-            "angle_a_deg": rest_a["angle_deg"].to_numpy(),
-            "file": rest_a["file"].to_numpy(),
-        }
-    )
-    unmatched_b = pd.DataFrame(
-        {
-            "session": rest_b["session"].to_numpy(),
-            "participant": rest_b["participant"].to_numpy(),
-            "status": "unmatched_b",
-            "start_b_s": rest_b["start_s"].to_numpy(),
-            "end_b_s": rest_b["end_s"].to_numpy(),
-            "angle_b_deg": rest_b["angle_deg"].to_numpy(),
-            "file": rest_b["file"].to_numpy(),
-        }
-    )
-    parts = [df for df in (matched, unmatched_a, unmatched_b) if len(df)]
-    items = (
-        pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=list(PAIR_COLUMNS))
-    )
-    for col in PAIR_COLUMNS:
-        if col not in items.columns:
-            items[col] = np.nan
-    items["agree"] = (items["status"] == "matched") & (items["angle_a_deg"] == items["angle_b_deg"])
-    # Sort by where the item happens, so the table reads like the timeline.
-    items["_t"] = items[["start_a_s", "start_b_s"]].min(axis=1)
-    items["_s"] = items["status"].map(_STATUS_ORDER)
-    items = items.sort_values(["session", "participant", "_t", "_s"], kind="mergesort").drop(
-        columns=["_t", "_s"]
-    )
-    return typed_frame(items, PAIR_COLUMNS), single
-
-
-def disagreements(items: pd.DataFrame, *, rater_a: str, rater_b: str) -> pd.DataFrame:
-    """The items to review: matched pairs with different angles, and unmatched annotations."""
-    rows = items[~items["agree"]].copy()
-    rows["kind"] = np.where(rows["status"] == "matched", "angle", UNMATCHED)
-    rows["rater_a"] = rater_a
-    rows["rater_b"] = rater_b
-    return typed_frame(rows, DISAGREEMENT_COLUMNS)
-
-
-# ---------------------------------------------------------------------------------------
-# Kappa and its bootstrap
-
-
-def _fmt_deg(angle: float) -> str:
-    return f"{angle:g}"
-
-
-def _kappa_from_counts(counts: np.ndarray, weights: np.ndarray) -> np.ndarray:
-    """Cohen's kappa of confusion matrices ``counts[..., k, k]`` (NaN where undefined).
-
-    The same formula as scikit-learn's ``cohen_kappa_score`` (1 - sum(w O) / sum(w E), with
-    E the outer product of the marginals over n), vectorised over the bootstrap resamples;
-    a test checks it against scikit-learn.
-    """
-    counts = counts.astype(float)
-    n = counts.sum(axis=(-2, -1))
-    rows = counts.sum(axis=-1)
-    cols = counts.sum(axis=-2)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        expected = rows[..., :, None] * cols[..., None, :] / n[..., None, None]
-        observed_cost = (weights * counts).sum(axis=(-2, -1))
-        expected_cost = (weights * expected).sum(axis=(-2, -1))
-        kappa = 1.0 - observed_cost / expected_cost
-    return np.where(expected_cost > 0, kappa, np.nan)
-
-
-def _weights(n_labels: int, kind: str | None) -> np.ndarray:
-    idx = np.arange(n_labels)
-    if kind is None:
-        return 1.0 - np.eye(n_labels)
-    return np.abs(idx[:, None] - idx[None, :]).astype(float)
-
-
-def bootstrap_kappa_ci(
-    codes_a: np.ndarray,
-    codes_b: np.ndarray,
-    *,
-    n_labels: int,
-    weights: str | None = None,
-    n_bootstrap: int = 1000,
-    seed: int = 0,
-    confidence: float = 0.95,
-) -> tuple[tuple[float, float] | None, int]:
-    """Percentile bootstrap CI of Cohen's kappa over paired items.
-
-    Parameters
-    ----------
-    codes_a, codes_b
-        Each item's category for the two raters, as positions ``0 .. n_labels - 1`` in the
-        ordered label list (the order is what linear weights count).
-    n_labels
-        Number of categories.
-    weights
-        ``None`` (unweighted) or ``"linear"``.
-    n_bootstrap
-        Resamples of the items, with replacement, each the size of the data.
-    seed
-        Seed of ``numpy.random.default_rng``: the same seed gives the same interval.
-    confidence
-        Coverage of the interval (0.95: the 2.5th and 97.5th percentiles).
-
-    Returns
-    -------
-    ci : (float, float) or None
-        The interval; ``None`` without items, without resamples, or when kappa is undefined
-        in every resample.
-    n_undefined : int
-        Resamples in which kappa is undefined (a single category); they are left out, so the
-        interval describes the resamples where kappa exists.
-    """
-    codes_a = np.asarray(codes_a, dtype=np.int64)
-    codes_b = np.asarray(codes_b, dtype=np.int64)
-    n = len(codes_a)
-    if n == 0 or n_bootstrap <= 0:
-        return None, 0
-    rng = np.random.default_rng(seed)
-    k = n_labels
-    w = _weights(k, weights)
-    values: list[np.ndarray] = []
-    # Chunks keep the (resamples x items) index array small for large audits.
-    chunk = max(1, min(n_bootstrap, 2_000_000 // max(n, 1)))
-    done = 0
-    while done < n_bootstrap:
-        m = min(chunk, n_bootstrap - done)
-        idx = rng.integers(0, n, size=(m, n))
-        cell = codes_a[idx] * k + codes_b[idx] + (np.arange(m)[:, None] * k * k)
-        counts = np.bincount(cell.ravel(), minlength=m * k * k).reshape(m, k, k)
-        values.append(_kappa_from_counts(counts, w))
-        done += m
-    kappas = np.concatenate(values)
-    ok = kappas[np.isfinite(kappas)]
-    n_undefined = int(len(kappas) - len(ok))
-    if len(ok) == 0:
-        return None, n_undefined
-    alpha = (1.0 - confidence) / 2.0
-    lo, hi = np.percentile(ok, [100 * alpha, 100 * (1 - alpha)])
-    return (float(lo), float(hi)), n_undefined
-
-
-def _sk_kappa(y1: Sequence[Any], y2: Sequence[Any], labels: Sequence[Any], weights: str | None):
-    if len(y1) == 0:
-        return None
-    with warnings.catch_warnings():
-        # scikit-learn warns and returns NaN when kappa is undefined; we report a reason.
-        warnings.simplefilter("ignore")
-        value = cohen_kappa_score(y1, y2, labels=list(labels), weights=weights)
-    return None if not np.isfinite(value) else float(value)
-
-
-def _undefined_reason(y1: Sequence[Any], y2: Sequence[Any], what: str) -> str:
-    if len(y1) == 0:
-        return f"no {what}"
-    used = sorted({str(v) for v in (*y1, *y2)})
-    return (
-        f"every one of the {len(y1)} {what} has the same label ({used[0]}), so agreement "
-        "expected by chance is 1 and kappa is undefined"
-    )
+# Statistics of a set of compared items
 
 
 def _median(values: np.ndarray) -> float | None:
@@ -577,13 +162,13 @@ def pair_stats(
 
     ya = [float(x) for x in matched["angle_a_deg"]]
     yb = [float(x) for x in matched["angle_b_deg"]]
-    kappa = _sk_kappa(ya, yb, labels, None)
-    kappa_linear = _sk_kappa(ya, yb, labels, "linear")
+    kappa = kappa_score(ya, yb, labels, None)
+    kappa_linear = kappa_score(ya, yb, labels, "linear")
     reason = (
         None
         if kappa is not None
-        else _undefined_reason(
-            [_fmt_deg(x) for x in ya], [_fmt_deg(x) for x in yb], "matched pairs"
+        else kappa_undefined_reason(
+            [format_deg(x) for x in ya], [format_deg(x) for x in yb], "matched pairs"
         )
     )
     codes_a = np.array([position[x] for x in ya], dtype=np.int64)
@@ -605,15 +190,15 @@ def pair_stats(
 
     # Holle & Rein / ELAN: an unmatched annotation is an item the other rater put in the
     # extra category "unmatched".
-    text_labels = [_fmt_deg(x) for x in labels] + [UNMATCHED]
+    text_labels = [format_deg(x) for x in labels] + [UNMATCHED]
 
     def _cat(v: float) -> str:
-        return UNMATCHED if not np.isfinite(v) else _fmt_deg(v)
+        return UNMATCHED if not np.isfinite(v) else format_deg(v)
 
     y1u = [_cat(v) for v in items["angle_a_deg"]]
     y2u = [_cat(v) for v in items["angle_b_deg"]]
-    kappa_u = _sk_kappa(y1u, y2u, text_labels, None)
-    reason_u = None if kappa_u is not None else _undefined_reason(y1u, y2u, "items")
+    kappa_u = kappa_score(y1u, y2u, text_labels, None)
+    reason_u = None if kappa_u is not None else kappa_undefined_reason(y1u, y2u, "items")
 
     conf = (
         confusion_matrix(ya, yb, labels=labels)
@@ -747,14 +332,16 @@ class AgreementAudit:
     def confusion_table(self) -> pd.DataFrame:
         """The confusion matrix as a table: rows rater A's angle, columns rater B's."""
         a, b = self.raters
-        labels = [_fmt_deg(x) for x in self.overall.labels_deg]
+        labels = [format_deg(x) for x in self.overall.labels_deg]
         table = pd.DataFrame(self.overall.confusion, columns=labels).astype("int64")
         table.insert(0, f"{a} (rows) / {b} (columns)", labels)
         return table
 
     def to_markdown(self) -> str:
         """The report as Markdown (percentages with one decimal, as the paper prints them)."""
-        return _markdown(self)
+        from turn_datasets.remap.agreement_report import agreement_markdown
+
+        return agreement_markdown(self)
 
 
 def _nan(value: float | None) -> float:
@@ -797,7 +384,7 @@ def audit_agreement(
         A named rater is absent, the two are the same, or there are not exactly two raters
         to choose by default.
     """
-    _check_annotations(annotations)
+    check_annotations(annotations)
     if not 0.0 < float(min_overlap) <= 1.0:
         raise TurnbenchError(f"--min-overlap must be in (0, 1], not {min_overlap}")
     present = sorted({str(r) for r in annotations["annotator"].dropna().unique()})
@@ -851,383 +438,3 @@ def audit_agreement(
             "consensus_annotator": consensus_annotator,
         },
     )
-
-
-# ---------------------------------------------------------------------------------------
-# Markdown
-
-
-def _pct(value: float | None) -> str:
-    return "n/a" if value is None else f"{100 * value:.1f}%"
-
-
-def _k(value: float | None) -> str:
-    return "n/a" if value is None else f"{value:.3f}"
-
-
-def _k_ci(value: float | None, ci: tuple[float, float] | None) -> str:
-    if value is None:
-        return "n/a"
-    if ci is None:
-        return _k(value)
-    return f"{value:.3f} ({ci[0]:.3f} to {ci[1]:.3f})"
-
-
-def _s(value: float | None) -> str:
-    return "n/a" if value is None else f"{value:+.3f}"
-
-
-def _md_cell(value: Any) -> str:
-    # Rater names and session ids come from the files: a "|" would end the cell, a line
-    # break the row.
-    return " ".join(str(value).split()).replace("|", "\\|")
-
-
-def _md_table(header: Sequence[str], rows: Iterable[Sequence[str]]) -> list[str]:
-    lines = [
-        "| " + " | ".join(_md_cell(h) for h in header) + " |",
-        "|" + "|".join("---" for _ in header) + "|",
-    ]
-    lines += ["| " + " | ".join(_md_cell(c) for c in row) + " |" for row in rows]
-    return lines
-
-
-def _stats_row(st: PairStats) -> list[str]:
-    a, b = st.raters
-    return [
-        str(st.annotations[a]),
-        str(st.annotations[b]),
-        str(st.matched),
-        str(st.unmatched[a]),
-        str(st.unmatched[b]),
-        _pct(st.percent_agreement),
-        _k_ci(st.kappa, st.kappa_ci95),
-        _k_ci(st.kappa_linear, st.kappa_linear_ci95),
-        _k(st.kappa_with_unmatched),
-        _s(st.median_start_diff_s),
-        _s(st.median_end_diff_s),
-    ]
-
-
-_STATS_HEADER = [
-    "turns A",
-    "turns B",
-    "matched",
-    "unmatched A",
-    "unmatched B",
-    "agreement",
-    "kappa (95% CI)",
-    "linear kappa (95% CI)",
-    "kappa incl. unmatched",
-    "median start B-A (s)",
-    "median end B-A (s)",
-]
-
-
-def _markdown(audit: AgreementAudit) -> str:
-    st = audit.overall
-    a, b = st.raters
-    s = audit.settings
-    lines = [
-        f"# Inter-rater agreement: {a} (A) vs {b} (B)",
-        "",
-        f"Turns of the same participant linked when overlap / longer duration >= "
-        f"{s['min_overlap']:g}, greedily (as ELAN); kappa over matched pairs, 95% CI by "
-        f"percentile bootstrap ({s['bootstrap']} resamples, seed {s['seed']}).",
-        "",
-    ]
-    lines += _md_table(["", *_STATS_HEADER], [["all", *_stats_row(st)]])
-    lines.append("")
-    notes = []
-    if st.kappa_undefined_reason:
-        notes.append(f"Kappa: {st.kappa_undefined_reason}.")
-    if st.kappa_with_unmatched_undefined_reason:
-        notes.append(f"Kappa incl. unmatched: {st.kappa_with_unmatched_undefined_reason}.")
-    if st.bootstrap_undefined:
-        notes.append(
-            f"{st.bootstrap_undefined} bootstrap resamples had an undefined kappa and were "
-            "left out of the interval."
-        )
-    single = sum(st.single_annotated.values())
-    if single:
-        notes.append(
-            f"Not compared (labelled by one rater only): turns of {a}: "
-            f"{st.single_annotated[a]}, of {b}: {st.single_annotated[b]}."
-        )
-    if notes:
-        lines += [*notes, ""]
-
-    lines += ["## Confusion matrix (rows A, columns B)", ""]
-    labels = [_fmt_deg(x) + "°" for x in st.labels_deg]
-    lines += _md_table(
-        [f"{a} \\ {b}", *labels],
-        [[labels[i], *(str(int(c)) for c in row)] for i, row in enumerate(st.confusion)],
-    )
-    lines.append("")
-    if audit.by_session:
-        lines += ["## Per session", ""]
-        lines += _md_table(
-            ["session", *_STATS_HEADER],
-            [[sess, *_stats_row(x)] for sess, x in audit.by_session.items()],
-        )
-        lines.append("")
-    lines += ["## Per pair of raters", ""]
-    lines += _md_table(
-        ["A", "B", *_STATS_HEADER],
-        [[x.raters[0], x.raters[1], *_stats_row(x)] for x in audit.by_rater_pair],
-    )
-    lines.append("")
-    n_angle = int((audit.disagreements["kind"] == "angle").sum())
-    n_un = int((audit.disagreements["kind"] == UNMATCHED).sum())
-    lines.append(f"Disagreements to review: {n_angle} with different angles, {n_un} unmatched.")
-    return "\n".join(lines) + "\n"
-
-
-# ---------------------------------------------------------------------------------------
-# Figures and review copies
-
-
-def write_confusion_png(audit: AgreementAudit, path: str | os.PathLike[str]) -> Path:
-    """The confusion matrix as a heat map with counts (PNG, reproducible bytes)."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    st = audit.overall
-    a, b = st.raters
-    labels = [_fmt_deg(x) + "°" for x in st.labels_deg]
-    conf = st.confusion
-    fig = Figure(figsize=(1.0 + 0.6 * len(labels), 0.8 + 0.6 * len(labels)), dpi=100)
-    FigureCanvasAgg(fig)
-    ax = fig.add_subplot(1, 1, 1)
-    ax.imshow(conf, cmap="Blues", vmin=0, vmax=max(1, int(conf.max())))
-    ax.set_xticks(range(len(labels)), labels=labels, rotation=45)
-    ax.set_yticks(range(len(labels)), labels=labels)
-    ax.set_xlabel(f"{b} (B)")
-    ax.set_ylabel(f"{a} (A)")
-    kappa = "undefined" if st.kappa is None else f"{st.kappa:.3f}"
-    ax.set_title(f"matched turns: {st.matched}, kappa {kappa}", fontsize=9)
-    half = conf.max() / 2 if conf.size else 0
-    for i in range(conf.shape[0]):
-        for j in range(conf.shape[1]):
-            if conf[i, j]:
-                ax.text(
-                    j,
-                    i,
-                    str(int(conf[i, j])),
-                    ha="center",
-                    va="center",
-                    fontsize=8,
-                    color="white" if conf[i, j] > half else "black",
-                )
-    fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", metadata={"Software": None})
-    return Path(path)
-
-
-_XSI = "http://www.w3.org/2001/XMLSchema-instance"
-REVIEW_TIER = "Disagreement"
-REVIEW_ANNOTATOR = "turnbench"
-#: Header properties that count annotation ids: ELAN writes ``lastUsedAnnotationId``,
-#: pympi-ling ``lastUsedAnnotation``. The review copy keeps them past its new ids.
-_ID_PROPERTIES = ("lastUsedAnnotationId", "lastUsedAnnotation")
-_NEUTRAL_DATE = "1970-01-01T00:00:00+00:00"
-
-
-def _review_spans(rows: pd.DataFrame, *, rater_a: str, rater_b: str) -> list[tuple[int, int, str]]:
-    """(start_ms, end_ms, text) per disagreement of one participant, overlaps merged."""
-    spans: list[tuple[int, int, str]] = []
-    for r in rows.itertuples(index=False):
-        starts = [t for t in (r.start_a_s, r.start_b_s) if np.isfinite(t)]
-        ends = [t for t in (r.end_a_s, r.end_b_s) if np.isfinite(t)]
-        va = "none" if not np.isfinite(r.angle_a_deg) else _fmt_deg(r.angle_a_deg)
-        vb = "none" if not np.isfinite(r.angle_b_deg) else _fmt_deg(r.angle_b_deg)
-        text = f"{rater_a}: {va} / {rater_b}: {vb}"
-        if r.kind == UNMATCHED:
-            text += " (unmatched)"
-        spans.append((int(round(min(starts) * 1000)), int(round(max(ends) * 1000)), text))
-    spans.sort()
-    merged: list[list[Any]] = []
-    for s0, s1, text in spans:
-        # Annotations on one ELAN tier must not overlap: join overlapping disagreements.
-        if merged and s0 < merged[-1][1]:
-            merged[-1][1] = max(merged[-1][1], s1)
-            merged[-1][2] += "; " + text
-        else:
-            merged.append([s0, s1, text])
-    return [(int(s0), int(s1), str(t)) for s0, s1, t in merged]
-
-
-def _max_numeric_id(values: Iterable[str | None], prefix: str) -> int:
-    best = 0
-    for v in values:
-        if v and v.startswith(prefix) and v[len(prefix) :].isdigit():
-            best = max(best, int(v[len(prefix) :]))
-    return best
-
-
-def write_review_eaf(
-    source: str | os.PathLike[str],
-    target: str | os.PathLike[str],
-    rows: pd.DataFrame,
-    *,
-    rater_a: str,
-    rater_b: str,
-    tier_per_participant: bool = False,
-    keep_media_paths: bool = False,
-) -> Path:
-    """Copy an ``.eaf`` with a "Disagreement" tier marking ``rows``, to open in ELAN.
-
-    The copy is the source's XML with added time slots, one linguistic type and one tier
-    per participant with disagreements (``Disagreement``, or ``Disagreement <participant>``
-    with ``tier_per_participant``; ``PARTICIPANT`` set), whose
-    annotations span both raters' intervals and read ``A: 90 / B: 135``. Everything else is
-    kept as written (XML is edited directly: pympi-ling would drop ELAN 3.0 ``CVE_REF`` links
-    when writing the file back), and ELAN's annotation counter (``lastUsedAnnotationId``) is
-    moved past the new ids. Without ``keep_media_paths`` the header goes, as from every
-    turnbench output: media and linked-file descriptors, ``MEDIA_FILE``, the author, the
-    date (set to 1970-01-01) and every header property but the counter. The source is only
-    read.
-
-    Parameters
-    ----------
-    source, target
-        The original ``.eaf`` and the copy to write (atomically).
-    rows
-        :data:`DISAGREEMENT_COLUMNS` rows of this session.
-    rater_a, rater_b
-        Names used in the annotation texts.
-    tier_per_participant
-        Name the tiers after their participant (for sessions with several participants,
-        even if only one of them has disagreements, so the names do not depend on that).
-    keep_media_paths
-        Keep the header as it is (media paths, author, date, properties).
-    """
-    src = Path(source)
-    if Path(target).resolve() == src.resolve():
-        raise TurnbenchError("the review copy would overwrite its source", file=str(src))
-    try:
-        tree = safe_et.parse(str(src), forbid_dtd=True, forbid_entities=True, forbid_external=True)
-    except Exception as exc:  # the file was read once already; a change since is the user's
-        raise TurnbenchError(
-            f"cannot read the file again for the review copy ({exc})", file=str(src)
-        ) from None
-    root = tree.getroot()
-    ET.register_namespace("xsi", _XSI)
-
-    header = root.find("HEADER")
-    if not keep_media_paths:
-        # What inspect shows only with --keep-media-paths goes: media and linked files, the
-        # author, the date, and header properties other than ELAN's annotation counter.
-        if header is not None:
-            for tag in ("MEDIA_DESCRIPTOR", "LINKED_FILE_DESCRIPTOR"):
-                for el in header.findall(tag):
-                    header.remove(el)
-            for prop in header.findall("PROPERTY"):
-                if prop.get("NAME") not in _ID_PROPERTIES:
-                    header.remove(prop)
-            if header.get("MEDIA_FILE"):
-                header.set("MEDIA_FILE", "")
-        if "AUTHOR" in root.attrib:
-            root.set("AUTHOR", "")
-        if "DATE" in root.attrib:
-            # ELAN requires a date; a fixed one says nothing about the recording.
-            root.set("DATE", _NEUTRAL_DATE)
-
-    time_order = root.find("TIME_ORDER")
-    if time_order is None:
-        time_order = ET.Element("TIME_ORDER")
-        root.insert(1 if header is not None else 0, time_order)
-    ts_next = _max_numeric_id((el.get("TIME_SLOT_ID") for el in root.iter("TIME_SLOT")), "ts") + 1
-    ann_ids = [
-        el.get("ANNOTATION_ID")
-        for tag in ("ALIGNABLE_ANNOTATION", "REF_ANNOTATION")
-        for el in root.iter(tag)
-    ]
-    counters = [
-        prop
-        for prop in (header.findall("PROPERTY") if header is not None else [])
-        if prop.get("NAME") in _ID_PROPERTIES
-    ]
-    # Past every id in the file and past ELAN's counter, so no id is ever given twice.
-    aid_next = (
-        max(
-            [_max_numeric_id(ann_ids, "a")]
-            + [int(p.text.strip()) for p in counters if p.text and p.text.strip().isdigit()]
-        )
-        + 1
-    )
-
-    children = list(root)
-    tier_ids = {el.get("TIER_ID") for el in root.findall("TIER")}
-    lt_ids = {el.get("LINGUISTIC_TYPE_ID") for el in root.findall("LINGUISTIC_TYPE")}
-    lt_id = "turnbench-disagreement"
-    while lt_id in lt_ids:
-        lt_id += "-"
-    last_tier = max((children.index(el) for el in root.findall("TIER")), default=None)
-    insert_at = (last_tier + 1) if last_tier is not None else children.index(time_order) + 1
-
-    participants = sorted({str(p) for p in rows["participant"]})
-    several = tier_per_participant or len(participants) > 1
-    new_tiers: list[ET.Element] = []
-    for participant in participants:
-        name = f"{REVIEW_TIER} {participant}" if several else REVIEW_TIER
-        tier_id, k = name, 2
-        while tier_id in tier_ids:
-            tier_id, k = f"{name} {k}", k + 1
-        tier_ids.add(tier_id)
-        tier = ET.Element(
-            "TIER",
-            {
-                "TIER_ID": tier_id,
-                "LINGUISTIC_TYPE_REF": lt_id,
-                "PARTICIPANT": participant,
-                "ANNOTATOR": REVIEW_ANNOTATOR,
-            },
-        )
-        spans = _review_spans(
-            rows[rows["participant"] == participant], rater_a=rater_a, rater_b=rater_b
-        )
-        for s0, s1, text in spans:
-            ids = []
-            for t in (s0, s1):
-                slot = ET.SubElement(
-                    time_order, "TIME_SLOT", {"TIME_SLOT_ID": f"ts{ts_next}", "TIME_VALUE": str(t)}
-                )
-                slot.tail = "\n\t\t"
-                ids.append(f"ts{ts_next}")
-                ts_next += 1
-            ann = ET.SubElement(tier, "ANNOTATION")
-            al = ET.SubElement(
-                ann,
-                "ALIGNABLE_ANNOTATION",
-                {
-                    "ANNOTATION_ID": f"a{aid_next}",
-                    "TIME_SLOT_REF1": ids[0],
-                    "TIME_SLOT_REF2": ids[1],
-                },
-            )
-            aid_next += 1
-            ET.SubElement(al, "ANNOTATION_VALUE").text = text
-        new_tiers.append(tier)
-    for offset, tier in enumerate(new_tiers):
-        ET.indent(tier, space="\t", level=1)  # laid out like ELAN's own files
-        tier.tail = "\n\t"
-        root.insert(insert_at + offset, tier)
-
-    children = list(root)
-    last_lt = max((children.index(el) for el in root.findall("LINGUISTIC_TYPE")), default=None)
-    lt = ET.Element(
-        "LINGUISTIC_TYPE",
-        {"LINGUISTIC_TYPE_ID": lt_id, "TIME_ALIGNABLE": "true", "GRAPHIC_REFERENCES": "false"},
-    )
-    lt.tail = "\n\t"
-    root.insert((last_lt if last_lt is not None else insert_at + len(new_tiers) - 1) + 1, lt)
-
-    for prop in counters:
-        # ELAN numbers new annotations after this one.
-        prop.text = str(aid_next - 1)
-
-    with atomic_path(target) as tmp:
-        tree.write(str(tmp), encoding="UTF-8", xml_declaration=True)
-    return Path(target)

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import os
 import warnings
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from os import PathLike
 from pathlib import Path
@@ -34,6 +34,8 @@ from defusedxml.common import DTDForbidden, EntitiesForbidden, ExternalReference
 from turn_datasets.errors import TurnbenchError, Where
 from turn_datasets.fileio import typed_frame
 from turn_datasets.remap.schema import Schema, Vocabulary, load_schema
+from turn_datasets.render.markdown import markdown_table
+from turn_datasets.render.numbers import MISSING, fixed
 
 __all__ = [
     "ANNOTATION_COLUMNS",
@@ -41,9 +43,10 @@ __all__ = [
     "expand_eaf_paths",
     "inspect_eaf",
     "inspect_markdown",
-    "iter_inspect",
     "load_eaf",
     "read_annotations",
+    "read_annotations_and_context",
+    "FileContext",
 ]
 
 #: Column contract of :func:`read_annotations` (``annotations.csv``).
@@ -493,12 +496,34 @@ def _context_value(contexts: list[_Context], participant: str, start_ms: int, en
     return ""
 
 
-def _file_rows(doc: _Document, schema: Schema) -> list[dict[str, Any]]:
-    eaf = doc.eaf
-    file = str(doc.path)
-    roles = _classify(eaf, schema)
-    times = _annotation_times_ms(eaf)
+@dataclass(frozen=True)
+class FileContext:
+    """What one session's file says about its context, for untrimmed scoring.
 
+    Attributes
+    ----------
+    session
+        The session id (the file stem).
+    participants
+        Participants with turn annotations, in order of first appearance.
+    contexts
+        ``"scenario"`` and ``"location"``: the context tiers' annotations (participant
+        ``""`` for a tier shared by everyone), in time order.
+    last_time_ms
+        The file's last aligned time slot (ms), 0 when it has none.
+    """
+
+    session: str
+    participants: tuple[str, ...]
+    contexts: dict[str, list[_Context]]
+    last_time_ms: int
+
+
+def _file_contexts(
+    doc: _Document, schema: Schema, roles: list[_TierRole], times
+) -> dict[str, list[_Context]]:
+    """The context tiers' annotations of a file, by role, in time order."""
+    eaf = doc.eaf
     contexts: dict[str, list[_Context]] = {"location": [], "scenario": []}
     for r in roles:
         if r.role == "turn":
@@ -514,6 +539,15 @@ def _file_rows(doc: _Document, schema: Schema) -> list[dict[str, Any]]:
             contexts[r.role].append(_Context(r.participant, a.start_ms, a.end_ms, value))
     for pool in contexts.values():
         pool.sort(key=lambda c: (c.start_ms, c.end_ms))
+    return contexts
+
+
+def _file_rows(doc: _Document, schema: Schema) -> tuple[list[dict[str, Any]], FileContext]:
+    eaf = doc.eaf
+    file = str(doc.path)
+    roles = _classify(eaf, schema)
+    times = _annotation_times_ms(eaf)
+    contexts = _file_contexts(doc, schema, roles, times)
 
     rows: list[dict[str, Any]] = []
     seen: dict[tuple[str, str], str] = {}
@@ -573,17 +607,25 @@ def _file_rows(doc: _Document, schema: Schema) -> list[dict[str, Any]]:
                     "value": a.value,
                 }
             )
-    return rows
+    participants = tuple(dict.fromkeys(str(r["participant"]) for r in rows))
+    slots = [t for t in eaf.timeslots.values() if t is not None]
+    return rows, FileContext(
+        session=doc.path.stem,
+        participants=participants,
+        contexts=contexts,
+        last_time_ms=int(max(slots)) if slots else 0,
+    )
 
 
-def read_annotations(
+def read_annotations_and_context(
     paths_or_dirs: str | PathLike[str] | Iterable[str | PathLike[str]],
     *,
     schema: Schema | None = None,
     iterate: Callable[[list[Path]], Iterable[Path]] | None = None,
     warn: Callable[[str], None] | None = None,
-) -> pd.DataFrame:
-    """Every turn annotation of every rater in ELAN files, one row each.
+) -> tuple[pd.DataFrame, list[FileContext]]:
+    """Every turn annotation of every rater in ELAN files, one row each, and each file's
+    context (:class:`FileContext`, for ``context.csv`` and ``sessions.csv``).
 
     Parameters
     ----------
@@ -621,6 +663,7 @@ def read_annotations(
     """
     schema = schema if schema is not None else load_schema()
     rows: list[dict[str, Any]] = []
+    contexts: list[FileContext] = []
     sessions: dict[str, Path] = {}
     paths = expand_eaf_paths(paths_or_dirs)
     for path in iterate(paths) if iterate is not None else paths:
@@ -632,12 +675,26 @@ def read_annotations(
             )
         sessions[path.stem] = path
         doc = _load(path)
-        rows.extend(_file_rows(doc, schema))
+        file_rows, context = _file_rows(doc, schema)
+        rows.extend(file_rows)
+        contexts.append(context)
         if warn is not None:
             for message in doc.cve_disagreements:
                 warn(message)
     frame = pd.DataFrame(rows, columns=list(ANNOTATION_COLUMNS))
-    return typed_frame(frame, ANNOTATION_COLUMNS)
+    return typed_frame(frame, ANNOTATION_COLUMNS), contexts
+
+
+def read_annotations(
+    paths_or_dirs: str | PathLike[str] | Iterable[str | PathLike[str]],
+    *,
+    schema: Schema | None = None,
+    iterate: Callable[[list[Path]], Iterable[Path]] | None = None,
+    warn: Callable[[str], None] | None = None,
+) -> pd.DataFrame:
+    """Every turn annotation of every rater in ELAN files, one row each (the first part of
+    :func:`read_annotations_and_context`, whose documentation says it all)."""
+    return read_annotations_and_context(paths_or_dirs, schema=schema, iterate=iterate, warn=warn)[0]
 
 
 # ---------------------------------------------------------------------------------------
@@ -830,31 +887,16 @@ def _count_cve_disagreements(
     return len(doc.cve_disagreements)
 
 
-def iter_inspect(
-    paths_or_dirs: str | PathLike[str] | Iterable[str | PathLike[str]],
-    *,
-    schema: Schema | None = None,
-    keep_media_paths: bool = False,
-) -> Iterator[dict[str, Any]]:
-    """:func:`inspect_eaf` for each file of :func:`expand_eaf_paths`."""
-    schema = schema if schema is not None else load_schema()
-    for path in expand_eaf_paths(paths_or_dirs):
-        yield inspect_eaf(path, schema=schema, keep_media_paths=keep_media_paths)
-
-
-def _cell(value: Any) -> str:
+def _cell(value: Any) -> Any:
     if value is None or value == "":
-        return "–"
+        return MISSING
     if isinstance(value, float):
-        return f"{value:.3f}"
-    # A "|" would end the Markdown cell; line breaks would end the row.
-    return " ".join(str(value).split()).replace("|", "\\|")
+        return fixed(value, 3)
+    return value
 
 
 def _md_table(header: list[str], rows: list[list[Any]]) -> list[str]:
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(_cell(v) for v in row) + " |" for row in rows]
-    return lines
+    return markdown_table(header, [[_cell(v) for v in row] for row in rows])
 
 
 def inspect_markdown(results: Iterable[dict[str, Any]]) -> str:

@@ -56,15 +56,10 @@ import pandas as pd
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import atomic_path, typed_frame, write_csv
 from turn_datasets.geometry import direction_of, quantise_deg
-from turn_datasets.mocap.readers import (
-    discover,
-    read_source,
-    write_h36m_cdf,
-    write_h36m_h5,
-    write_videopose_npz,
-)
+from turn_datasets.mocap.readers import discover, read_source
 from turn_datasets.skeleton import H36M17, H36M17_FROM_32
 from turn_datasets.synthetic.eaf import SyntheticRemap, write_sessions
+from turn_datasets.synthetic.h36m_files import write_h36m_cdf, write_h36m_h5, write_videopose_npz
 from turn_datasets.synthetic.mocap import Dropout, Segment, generate_sequence
 
 __all__ = [

@@ -16,7 +16,7 @@ them against:
 - about half of the sessions double-annotated: both raters label every turn, boundaries
   jittered by a few hundred milliseconds, with planted angle disagreements (one bin apart,
   sometimes two), turns one rater missed and, optionally, pairs shifted too far to match;
-  a ``consensus`` rater adjudicates the angle disagreements;
+  a ``consensus`` rater adjudicates the angle disagreements and the shifted pairs;
 - the other sessions labelled by one rater (alternately);
 - ``participants.csv`` (``subject, cohort, pair, sex, age, years_since_diagnosis``).
 
@@ -40,6 +40,7 @@ import numpy as np
 import pandas as pd
 import pympi.Elan as pympi_elan
 
+from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import atomic_path, typed_frame, write_csv
 from turn_datasets.remap.eaf import ANNOTATION_COLUMNS
 
@@ -190,7 +191,7 @@ def _jittered(
         b = (start_ms + _ms(d[2]), end_ms + _ms(d[3]))
         if a[1] > a[0] and b[1] > b[0] and _ratio(*a, *b) >= _MIN_MATCH_RATIO:
             return a, b
-    raise ValueError(f"jitter_s={jitter_s} is too large for turns this short")
+    raise TurnbenchError(f"jitter_s={jitter_s} is too large for turns this short", item="jitter_s")
 
 
 def _wrong_angle(rng: np.random.Generator, angle: int, *, far: bool) -> int:
@@ -312,7 +313,7 @@ def write_sessions(
         The two raters' names (``ANNOTATOR`` attribute and tier names).
     consensus
         Name of the adjudicating rater, who writes the true angle of every planted angle
-        disagreement; ``None`` writes no consensus tiers.
+        disagreement and shifted pair; ``None`` writes no consensus tiers.
     disagreement_rate, missed_rate, shifted_rate
         Per double-annotated turn, the chance of an angle disagreement (one rater writes a
         neighbouring bin; two bins away with ``far_disagreement_fraction``), of one rater
@@ -330,16 +331,26 @@ def write_sessions(
     """
     raters = tuple(raters)
     if len(raters) != 2 or raters[0] == raters[1]:
-        raise ValueError(f"need two different raters, got {raters!r}")
+        raise TurnbenchError(f"need two different raters, got {raters!r}", item="raters")
     if consensus is not None and consensus in raters:
-        raise ValueError("the consensus rater must differ from the two raters")
+        raise TurnbenchError(
+            "the consensus rater must differ from the two raters", item="consensus"
+        )
     if n_pairs < 1 or sessions_per_pair < 1 or turns_per_subject < 0:
-        raise ValueError("n_pairs and sessions_per_pair must be >= 1, turns_per_subject >= 0")
+        raise TurnbenchError(
+            "n_pairs and sessions_per_pair must be >= 1, turns_per_subject >= 0",
+            item="n_pairs",
+        )
     if disagreement_rate + missed_rate + shifted_rate > 1.0:
-        raise ValueError("disagreement, missed and shifted rates add up to more than 1")
+        raise TurnbenchError(
+            "disagreement, missed and shifted rates add up to more than 1",
+            item="disagreement_rate",
+        )
     unknown = set(angle_mix) - set(ANGLES_DEG)
     if unknown:
-        raise ValueError(f"angle_mix has angles outside the vocabulary: {sorted(unknown)}")
+        raise TurnbenchError(
+            f"angle_mix has angles outside the vocabulary: {sorted(unknown)}", item="angle_mix"
+        )
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -477,7 +488,9 @@ def write_sessions(
                         wrote[raters[0]] = (a[0], a[1], angle_a)
                     if kind != "missed_b":
                         wrote[raters[1]] = (b[0], b[1], angle_b)
-                    if kind == "disagree" and consensus:
+                    if kind in ("disagree", "shifted") and consensus:
+                        # a shifted pair is two overlapping turns of one person, which the
+                        # labels refuse without an adjudicated one (issue 10)
                         wrote[consensus] = (start_ms, end_ms, angle)
 
                 for rater, (w0, w1, value) in wrote.items():

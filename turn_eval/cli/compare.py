@@ -9,18 +9,13 @@ import click
 from turn_datasets.cli.common import SEED, emit, format_option, resamples, warn, wrote
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, to_json_text, write_text
+from turn_datasets.render.labels import METRIC_LABELS
+from turn_datasets.render.markdown import markdown_table
+from turn_datasets.render.numbers import one_decimal
+from turn_datasets.render.numbers import signed as with_sign
 from turn_eval.cli import CONTEXT_SETTINGS, cli
-from turn_eval.scores import one_decimal
 from turn_eval.significance import Comparison, compare_predictions
 from turn_eval.submission import Joined, _list_ids, read_predictions, read_reference
-
-#: How each metric prints in Markdown: label, scale (fractions as percentages, as the paper).
-_MD_METRICS = {
-    "accuracy": ("Accuracy (%)", 100.0),
-    "mae_deg": ("MAE (°)", 1.0),
-    "wprec": ("WPrec (%)", 100.0),
-    "mae_speed_deg_s": ("MAE speed (°/s)", 1.0),
-}
 
 
 def _same_clips(a: Joined, b: Joined) -> list[str]:
@@ -46,7 +41,7 @@ def _same_clips(a: Joined, b: Joined) -> list[str]:
 def _fmt(value: float, scale: float, *, signed: bool = False) -> str:
     # Rounded as `turn-eval score` prints its tables, so the same number reads the same.
     text = one_decimal(value * scale)
-    return "+" + text if signed and not text.startswith("-") else text
+    return with_sign(text) if signed else text
 
 
 def _markdown(result: Comparison, *, a: str, b: str, reference: str, n_missing: int) -> str:
@@ -57,20 +52,19 @@ def _markdown(result: Comparison, *, a: str, b: str, reference: str, n_missing: 
         + (f", {n_missing} missing from both" if n_missing else "")
         + ")",
         "",
-        "| metric | A | B | B - A | 95% CI | p |",
-        "|---|---:|---:|---:|---:|---:|",
     ]
+    rows = []
     for name, d in result.differences.items():
-        label, scale = _MD_METRICS[name]
+        label, scale = METRIC_LABELS[name].long, METRIC_LABELS[name].scale
         if d.ci_low is None or d.ci_high is None or d.p_value is None:
             ci, p = "n/a", "n/a"  # some resample had no clip with a duration
         else:
             ci = f"[{_fmt(d.ci_low, scale, signed=True)}, {_fmt(d.ci_high, scale, signed=True)}]"
             p = f"{d.p_value:.3g}"
-        lines.append(
-            f"| {label} | {_fmt(d.a, scale)} | {_fmt(d.b, scale)} | "
-            f"{_fmt(d.diff, scale, signed=True)} | {ci} | {p} |"
+        rows.append(
+            [label, _fmt(d.a, scale), _fmt(d.b, scale), _fmt(d.diff, scale, signed=True), ci, p]
         )
+    lines += markdown_table(["metric", "A", "B", "B - A", "95% CI", "p"], rows, align="lrrrrr")
     m = result.mcnemar
     lines += [
         "",

@@ -2,35 +2,20 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from pathlib import Path
 
 import click
-import numpy as np
 import pandas as pd
 
 from turn_datasets.cli.common import FPS_HZ, progress, wrote
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, write_csv
 from turn_datasets.geometry import METHODS, parse_joints
-from turn_datasets.mocap.readers import iter_arrays
 from turn_datasets.skeleton import LAYOUTS, UP_AXES, get_layout
 from turn_eval.cli import CONTEXT_SETTINGS, cli
+from turn_eval.detect.streams import iter_layout_arrays
 from turn_eval.estimate.formats import FORMAT_CHOICES, read_estimator_output
 from turn_eval.predict import predict_angles
-
-
-def _arrays_of(path: Path, n_joints: int, layout_name: str) -> Iterator[tuple[str, np.ndarray]]:
-    """The file's arrays, refusing one whose joint count does not fit the layout."""
-    for key, array in iter_arrays(path):
-        if array.shape[1] != n_joints:
-            raise TurnbenchError(
-                f"array has {array.shape[1]} joints but layout {layout_name!r} has {n_joints}",
-                file=path,
-                item=key,
-                hint="choose the layout with --layout",
-            )
-        yield key, array
 
 
 @cli.command("predict", context_settings=CONTEXT_SETTINGS)
@@ -137,7 +122,7 @@ def predict_command(
         try:
             # any .json (AlphaPose's) goes to the named readers, which say why it is refused
             if source_format == "arrays" and path.suffix.lower() != ".json":
-                arrays = _arrays_of(path, layout.n_joints, layout.name)
+                arrays = iter_layout_arrays(path, layout)
                 file_up_axis = up_axis or "z"
             else:
                 spec, named = read_estimator_output(path, source_format)

@@ -15,6 +15,7 @@ from turn_datasets.cli.common import (
     SEED,
     emit,
     format_option,
+    info,
     progress,
     resamples,
     warn,
@@ -30,12 +31,15 @@ from turn_datasets.fileio import (
     write_text,
 )
 from turn_eval.cli import CONTEXT_SETTINGS, cli
+from turn_eval.events.plots import EVENT_PLOT_FILES, TIMELINE_DIR
 from turn_eval.events.scoring import DEFAULT_BY, score_events
 from turn_eval.events.tables import events_frame, events_markdown
 
 #: The files ``--out-dir`` receives (``turn_rates.csv`` only with ``--sessions``).
 EVENT_FILES = ("event_scores.json", "event_scores.md", "event_scores.csv", "events.csv")
 RATES_FILE = "turn_rates.csv"
+#: What a run may or may not write: an old one this run did not write is removed.
+OWNED = (RATES_FILE, *EVENT_PLOT_FILES, f"{TIMELINE_DIR}/*.png")
 
 
 def _bootstrap_progress(chunks, n_chunks: int):
@@ -110,6 +114,12 @@ _path = click.Path(dir_okay=True, path_type=Path)
     help="Also write event_scores.json/.md/.csv, events.csv (every TP, FP, FN) and, with "
     "--sessions, turn_rates.csv here.",
 )
+@click.option(
+    "--plots",
+    is_flag=True,
+    help="With --out-dir: also the figures: a timeline per session and subject "
+    "(timelines/), F1 per group with intervals, and the PR curve (with scores).",
+)
 def score_events_cmd(
     detections: Path,
     reference: Path,
@@ -122,6 +132,7 @@ def score_events_cmd(
     ignore_unknown: bool,
     fmt: str,
     out_dir: Path | None,
+    plots: bool,
 ) -> None:
     """Score detected turns against time-stamped reference turns of whole sessions.
 
@@ -138,8 +149,10 @@ def score_events_cmd(
       turn-eval score-events detections.csv --reference labels/labels.csv \\
           --context labels/context.csv --sessions labels/sessions.csv
       turn-eval score-events det.csv -r turn-h36m.csv --iou 0.3 --format json
-      turn-eval score-events det.csv -r labels.csv --by cohort,scenario --out-dir events/
+      turn-eval score-events det.csv -r labels.csv --by cohort,scenario --out-dir events/ --plots
     """
+    if plots and out_dir is None:
+        raise click.UsageError("--plots needs --out-dir (the figures are files)")
     inputs = [p for p in (detections, reference, context_path, sessions_path) if p is not None]
     if out_dir is not None:
         for name in (*EVENT_FILES, RATES_FILE):
@@ -162,23 +175,46 @@ def score_events_cmd(
     texts = {"json": to_json_text(scores.doc), "md": events_markdown(scores.doc)}
     frame = events_frame(scores.doc)
     if out_dir is not None:
-        names = [*EVENT_FILES, *([RATES_FILE] if scores.rates is not None else [])]
-        try:
-            with staged_dir(out_dir) as tmp:
-                write_json(tmp / "event_scores.json", scores.doc)
-                write_text(tmp / "event_scores.md", texts["md"])
-                write_csv(frame, tmp / "event_scores.csv")
-                write_csv(scores.events, tmp / "events.csv")
-                if scores.rates is not None:
-                    write_csv(scores.rates, tmp / RATES_FILE)
-        except OSError as exc:
-            raise TurnbenchError(
-                "cannot write the scores: "
-                + (f"{exc.filename}: {exc.strerror}" if exc.filename else str(exc)),
-                file=str(out_dir),
-            ) from None
-        wrote(*(out_dir / name for name in names), what="event scores")
+        _write_out_dir(scores, texts["md"], frame, out_dir, plots=plots)
     if fmt == "csv":
         emit(frame.to_csv(index=False, lineterminator="\n"))
     else:
         emit(texts[fmt])
+
+
+def _write_out_dir(scores, markdown: str, frame, out_dir: Path, *, plots: bool) -> None:
+    """Every table (and with ``plots`` the figures) into ``out_dir``, together or not at all;
+    files an earlier run wrote and this one does not are removed (one run per folder)."""
+    removed: list[Path] = []
+    written: list[Path] = []
+    try:
+        with staged_dir(out_dir, owns=OWNED, removed=removed) as tmp:
+            write_json(tmp / "event_scores.json", scores.doc)
+            write_text(tmp / "event_scores.md", markdown)
+            write_csv(frame, tmp / "event_scores.csv")
+            write_csv(scores.events, tmp / "events.csv")
+            names = list(EVENT_FILES)
+            if scores.rates is not None:
+                write_csv(scores.rates, tmp / RATES_FILE)
+                names.append(RATES_FILE)
+            if plots:
+                from turn_eval.events.plots import write_event_plots
+
+                figures = write_event_plots(scores, tmp)
+                names += [str(p.relative_to(tmp)) for p in figures]
+            written = [out_dir / name for name in names]
+    except OSError as exc:
+        raise TurnbenchError(
+            "cannot write the scores: "
+            + (f"{exc.filename}: {exc.strerror}" if exc.filename else str(exc)),
+            file=str(out_dir),
+        ) from None
+    n_timelines = sum(1 for p in written if p.parent.name == TIMELINE_DIR)
+    shown = [p for p in written if p.parent.name != TIMELINE_DIR]
+    wrote(
+        *shown,
+        *([f"{n_timelines} timelines in {out_dir / TIMELINE_DIR}"] if n_timelines else []),
+        what="event scores",
+    )
+    if removed:
+        info(f"removed {len(removed)} file(s) of the previous run: " + ", ".join(map(str, removed)))

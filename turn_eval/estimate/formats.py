@@ -42,7 +42,7 @@ from types import MappingProxyType
 import numpy as np
 
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.mocap.readers import iter_arrays
+from turn_datasets.mocap.arrays import iter_arrays
 from turn_datasets.skeleton import H36M17
 
 __all__ = ["ESTIMATOR_FORMATS", "EstimatorFormat", "FORMAT_CHOICES", "read_estimator_output"]

@@ -104,10 +104,12 @@ def cluster_bootstrap(
         chunks = indices
     totals = []
     for chunk in chunks:
-        counts = np.empty((chunk.shape[0], n_units))
-        for r in range(chunk.shape[0]):
-            counts[r] = np.bincount(chunk[r], minlength=n_units)
-        totals.append(counts @ flat)
+        # How often each resample drew each unit: one bincount over the whole chunk, each
+        # row's draws offset into its own block of n_units counts.
+        rows = chunk.shape[0]
+        cells = chunk.astype(np.int64) + (np.arange(rows, dtype=np.int64) * n_units)[:, None]
+        counts = np.bincount(cells.ravel(), minlength=rows * n_units).reshape(rows, n_units)
+        totals.append(counts.astype(np.float64) @ flat)
     drawn = np.concatenate(totals, axis=0) if totals else np.zeros((0, flat.shape[1]))
     out: dict[str, dict[str, np.ndarray]] = {}
     start = 0

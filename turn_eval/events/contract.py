@@ -11,6 +11,7 @@ from __future__ import annotations
 from types import MappingProxyType
 
 from turn_datasets import limits
+from turn_datasets.remap import context as remap_context
 
 #: Columns every detections file has, in this order, with these dtypes.
 DETECTION_REQUIRED = MappingProxyType(
@@ -41,24 +42,14 @@ REFERENCE_REQUIRED = ("session", "subject", "start_s", "end_s", "angle_deg")
 #: alone when the subaction is empty), the miner's own name of a sequence within a subject.
 CLIP_INDEX_SESSION = ("action", "subaction")
 
-#: ``context.csv`` beside the labels (DESIGN.md): the context tiers' intervals. ``subject`` is
-#: empty for a tier shared by every participant of the session; a file without the column is
-#: read as shared throughout.
-CONTEXT_COLUMNS = MappingProxyType(
-    {
-        "session": "str",
-        "subject": "str",
-        "start_s": "float64",
-        "end_s": "float64",
-        "scenario": "str",
-        "location": "str",
-    }
-)
+#: ``context.csv`` and ``sessions.csv`` beside the labels: declared where ``remap labels``
+#: writes them (:mod:`turn_datasets.remap.context`). In ``context.csv``, ``subject`` may be
+#: empty (or absent) for context shared by every participant of the session.
+CONTEXT_COLUMNS = remap_context.CONTEXT_COLUMNS
 #: The context columns a false detection takes from the context at its midpoint.
 CONTEXT_GROUPS = ("scenario", "location")
 
-#: ``sessions.csv`` beside the labels: how long each participant's session was annotated.
-SESSIONS_COLUMNS = MappingProxyType({"session": "str", "subject": "str", "duration_s": "float64"})
+SESSIONS_COLUMNS = remap_context.SESSIONS_COLUMNS
 
 #: The plausible bounds of an angle and a speed are the harness's (one place for all readers).
 MAX_ANGLE_DEG = limits.MAX_ANGLE_DEG

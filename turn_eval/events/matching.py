@@ -251,7 +251,7 @@ def categorize_events(
     det_unit = np.asarray(det_unit, dtype=np.int64)
     ref_unit = np.asarray(ref_unit, dtype=np.int64)
     n_tp = pairs.shape[0]
-    kind = np.array(["TP"] * n_tp + ["FP"] * fp.size + ["FN"] * fn.size, dtype=object)
+    kind = np.repeat(np.array(["TP", "FP", "FN"], dtype=object), [n_tp, fp.size, fn.size])
     det_row = np.concatenate([pairs["det_row"].to_numpy(), fp, np.full(fn.size, -1)])
     ref_row = np.concatenate([pairs["ref_row"].to_numpy(), np.full(fp.size, -1), fn])
     unit = np.concatenate([pairs["unit"].to_numpy(dtype=np.int64), det_unit[fp], ref_unit[fn]])

@@ -112,7 +112,10 @@ def _first(bad: np.ndarray) -> tuple[int, int]:
 def _check_text(frame: pd.DataFrame, what: str, columns: Sequence[str]) -> None:
     for col in columns:
         values = frame[col].to_numpy(dtype=object)
-        bad = (values == "") | pd.isna(values)
+        # The file reader leaves no missing cell (an empty one is ""): one comparison.
+        bad = values == ""
+        if not frame.attrs.get("stripped"):
+            bad |= pd.isna(values)
         if bad.any():
             i, count = _first(bad)
             raise _fail(f"{col} is empty", frame, what, i, count)
@@ -237,7 +240,9 @@ def check_detections(frame: pd.DataFrame, *, what: str = "detections") -> pd.Dat
     """
     _missing(frame, list(DETECTION_REQUIRED), what)
     cols = [*DETECTION_REQUIRED, *(c for c in DETECTION_OPTIONAL if c in frame.columns)]
-    out = frame.loc[:, cols].copy()
+    # Shallow: every column this changes is replaced, never written into, so the caller's
+    # frame stays as it was without copying its cells.
+    out = frame.loc[:, cols].copy(deep=False)
     out.attrs = dict(frame.attrs)
     for col in _UNIT:
         out[col] = _text_series(_texts(out, col), out)
@@ -306,9 +311,9 @@ def check_event_reference(frame: pd.DataFrame, *, what: str = "reference") -> pd
     Returns ``session, subject, start_s, end_s, angle_deg`` (typed), ``direction`` when the
     reference has it, then every other text column (stripped strings) as possible groupings.
     """
-    frame = frame.copy() if "session" in frame.columns else _clip_index_sessions(frame, what)
+    frame = frame if "session" in frame.columns else _clip_index_sessions(frame, what)
     _missing(frame, REFERENCE_REQUIRED, what)
-    out = frame.copy()
+    out = frame.copy(deep=False)
     for col in _UNIT:
         out[col] = _text_series(_texts(out, col), out)
     _check_text(out, what, _UNIT)
@@ -336,7 +341,7 @@ def check_event_reference(frame: pd.DataFrame, *, what: str = "reference") -> pd
 def _clip_index_sessions(frame: pd.DataFrame, what: str) -> pd.DataFrame:
     if not all(c in frame.columns for c in CLIP_INDEX_SESSION):
         _missing(frame, REFERENCE_REQUIRED, what)
-    out = frame.copy()
+    out = frame.copy(deep=False)
     action = _texts(out, "action")
     sub = _texts(out, "subaction")
     out.insert(0, "session", _text_series(np.where(sub == "", action, action + " " + sub), out))
@@ -360,7 +365,7 @@ def check_context(frame: pd.DataFrame, *, what: str = "context") -> pd.DataFrame
     """
     required = [c for c in CONTEXT_COLUMNS if c != "subject"]
     _missing(frame, required, what)
-    out = frame.copy()
+    out = frame.copy(deep=False)
     if "subject" not in out:
         out["subject"] = ""
     for col in ("session", "subject", "scenario", "location"):
@@ -383,7 +388,7 @@ def check_sessions(frame: pd.DataFrame, *, what: str = "sessions") -> pd.DataFra
     """Validate a sessions frame (:data:`SESSIONS_COLUMNS`): positive finite durations, one row
     per (session, subject)."""
     _missing(frame, list(SESSIONS_COLUMNS), what)
-    out = frame.copy()
+    out = frame.copy(deep=False)
     for col in _UNIT:
         out[col] = _text_series(_texts(out, col), out)
     _check_text(out, what, _UNIT)

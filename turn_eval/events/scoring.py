@@ -42,6 +42,7 @@ import pandas as pd
 
 from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.render.order import natural_key
 from turn_eval.events.ap import AP_IOUS, average_precision
 from turn_eval.events.bootstrap import (
     CI_METRICS,
@@ -71,7 +72,7 @@ from turn_eval.metrics import (
     clip_outcomes,
     grouped_metrics,
 )
-from turn_eval.scores import BLANK_GROUP, _natural_key
+from turn_eval.scores import BLANK_GROUP
 
 __all__ = ["DEFAULT_BY", "UNKNOWN_GROUP", "MATCHING_RULE", "EventScores", "score_events"]
 
@@ -273,7 +274,7 @@ def _event_groups(
 def _partition(name: str, labels: np.ndarray) -> Partition:
     codes, uniq = pd.factorize(labels)
     names = [str(u) for u in uniq]
-    order = sorted(range(len(names)), key=lambda i: _natural_key(names[i]))
+    order = sorted(range(len(names)), key=lambda i: natural_key(names[i]))
     rank = np.empty(len(names), dtype=np.int64)
     rank[order] = np.arange(len(names))
     return Partition(name, tuple(names[i] for i in order), rank[codes])
@@ -395,26 +396,29 @@ def _rates(
     return table, summary
 
 
-def _percentiles(values: np.ndarray, q: float) -> np.ndarray:
-    """``numpy.percentile(column[finite], q)`` (linear) of every column at once.
+def _percentiles(values: np.ndarray, qs: Sequence[float]) -> np.ndarray:
+    """``numpy.percentile(column[finite], q)`` (linear) of every column at once, per ``q``.
 
     NaN sorts last, so each column's finite values are its first ``k``; the rank is
     ``q / 100 * (k - 1)`` and the value the linear interpolation between its neighbours
     (numpy's own formulas, so the same bits). NaN for a column without a finite value.
+    One sort serves every ``q``.
     """
     ordered = np.sort(values, axis=0)
     k = np.isfinite(ordered).sum(axis=0)
-    fraction = q / 100
-    # numpy's virtual index of the linear method, as numpy computes it (same rounding).
-    rank = np.maximum(k - 1, 0) * fraction
-    lo = np.floor(rank).astype(np.int64)
-    hi = np.minimum(lo + 1, np.maximum(k - 1, 0))
     cols = np.arange(values.shape[1])
-    a, b = ordered[lo, cols], ordered[hi, cols]
-    t = rank - lo
-    diff = b - a
-    out = np.where(t >= 0.5, b - diff * (1 - t), a + diff * t)
-    return np.where(k > 0, out, np.nan)
+    out = []
+    for q in qs:
+        # numpy's virtual index of the linear method, as numpy computes it (same rounding).
+        rank = np.maximum(k - 1, 0) * (q / 100)
+        lo = np.floor(rank).astype(np.int64)
+        hi = np.minimum(lo + 1, np.maximum(k - 1, 0))
+        a, b = ordered[lo, cols], ordered[hi, cols]
+        t = rank - lo
+        diff = b - a
+        value = np.where(t >= 0.5, b - diff * (1 - t), a + diff * t)
+        out.append(np.where(k > 0, value, np.nan))
+    return np.stack(out)
 
 
 def _intervals(distribution: Mapping[str, np.ndarray]) -> tuple[dict[str, np.ndarray], ...]:
@@ -429,7 +433,7 @@ def _intervals(distribution: Mapping[str, np.ndarray]) -> tuple[dict[str, np.nda
     for m in CI_METRICS:
         values = distribution[m]
         both = np.concatenate([values, values.mean(axis=1, keepdims=True)], axis=1)
-        bounds = np.stack([_percentiles(both, 100 * alpha), _percentiles(both, 100 * (1 - alpha))])
+        bounds = _percentiles(both, (100 * alpha, 100 * (1 - alpha)))
         groups[m] = bounds[:, :-1]
         average[m] = bounds[:, -1]
     return groups, average

@@ -1,5 +1,5 @@
 """The Markdown and CSV tables of ``score-events`` (as ``score``'s: fractions in JSON and CSV,
-percentages with one decimal in Markdown, rounded by :func:`turn_eval.scores.one_decimal`)."""
+percentages with one decimal in Markdown, rounded by :func:`turn_datasets.render.numbers.one_decimal`)."""
 
 from __future__ import annotations
 
@@ -10,9 +10,10 @@ import numpy as np
 import pandas as pd
 
 from turn_datasets.fileio import typed_frame
+from turn_datasets.render.markdown import metric_table
+from turn_datasets.render.numbers import fixed, one_decimal
 from turn_eval.events.bootstrap import CI_METRICS
 from turn_eval.events.scoring import UNKNOWN_GROUP
-from turn_eval.scores import _md_table, one_decimal
 
 __all__ = ["EVENT_LABELS", "EVENTS_CSV_COLUMNS", "events_markdown", "events_frame"]
 
@@ -68,7 +69,7 @@ def _format(metric: str, value: Any) -> str:
     if kind == "percent":
         return one_decimal(100 * value)
     if kind == "seconds":
-        return f"{float(value):.2f}"
+        return fixed(value, 2)
     return one_decimal(value)
 
 
@@ -100,13 +101,13 @@ def events_markdown(doc: Mapping[str, Any]) -> str:
     for m in ("tp", "fp", "fn", *_DETECTION, "n", *_present([overall], _MATCHED)):
         row = [EVENT_LABELS[m][0], _format(m, _get(overall, m))]
         rows.append(row + ([_interval(overall, m)] if with_ci else []))
-    out = ["## Overall", ""] + _md_table(header, rows)
+    out = ["## Overall", ""] + metric_table(header, rows)
 
     ap = overall.get("ap")
     if ap is not None:
         ious = list(ap["by_iou"])
         out += ["", "## Average precision (ActivityNet interpolation)", ""]
-        out += _md_table(
+        out += metric_table(
             ["tIoU", *ious, "Mean"],
             [
                 ["AP (%)"]
@@ -117,7 +118,7 @@ def events_markdown(doc: Mapping[str, Any]) -> str:
     rates = overall.get("turns_per_hour")
     if rates is not None:
         out += ["", "## Turns per hour (per session and participant)", ""]
-        out += _md_table(
+        out += metric_table(
             ["Reference (mean)", "Detected (mean)", "Mean abs. difference", "# Units"],
             [
                 [
@@ -146,7 +147,7 @@ def events_markdown(doc: Mapping[str, Any]) -> str:
             rows.append(
                 ["F1 95% CI"] + [_interval(groups[g], "f1") for g in names] + [_interval(avg, "f1")]
             )
-        out += _md_table([col, *names, "Avg."], rows)
+        out += metric_table([col, *names, "Avg."], rows)
         if UNKNOWN_GROUP in groups:
             notes.append(
                 f"By {col}: {UNKNOWN_GROUP!r} holds false detections whose {col} is not known"

@@ -1,4 +1,4 @@
-"""Curation that survives regeneration: overrides, the manifest, and the index's statistics.
+"""Curation that survives regeneration: a curator's overrides of the mined clips.
 
 The clip index is regenerated from the motion capture whenever the miner or its parameters
 change, so a curator's decisions live in a separate file, ``curation.csv``, applied on every
@@ -20,69 +20,37 @@ run (``turn-datasets h36m mine --overrides curation.csv``):
     ``note`` is free text. An override whose ``clip_id`` matches no mined clip (because the
     miner's boundaries moved, say) is never dropped silently: it is warned about on stderr
     and listed in the manifest under ``overrides.unmatched``.
-
-The manifest, ``<index stem>.manifest.json`` beside the index, records how the index was
-made: the tool version, every parameter, each input file with its sha256, size and the
-number of sequences read from it, the units of each source, its ``frame_offset`` (1 for a BVH
-whose rest-pose frame 0 was dropped, so that the index's frame k is the file's frame k + 1;
-else 0), counts per bin, split, subject
-and action, the overrides applied and unmatched, and the files and single sequences
-skipped (``--skip-bad``; ``item`` names the sequence, null for a whole file).
-Its ``created_utc`` timestamp is the only field that changes between two runs on the same
-inputs.
 """
 
 from __future__ import annotations
 
 import csv
-import datetime as _dt
 import os
 import re
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pandas as pd
 
-from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.fileio import sha256_file, typed_frame
-from turn_datasets.geometry import quantise_deg
+from turn_datasets.fileio import sha256_file
 from turn_datasets.h36m.miner import MinerParams, SequenceClips, clip_id_of, measure_clip
-from turn_datasets.limits import MAX_ANGLE_DEG
-from turn_datasets.mocap.readers import natural_key
 from turn_datasets.skeleton import MocapSequence
 
 __all__ = [
     "DECISIONS",
     "OVERRIDE_COLUMNS",
-    "STATS_COLUMNS",
     "Override",
     "Overrides",
     "read_overrides",
     "apply_overrides",
     "unmatched_overrides",
-    "manifest_path",
-    "build_manifest",
-    "read_clip_index",
-    "clip_stats",
-    "table3",
-    "stats_markdown",
-    "stats_csv",
-    "stats_dict",
 ]
 
 DECISIONS = ("exclude", "keep", "adjust")
 OVERRIDE_COLUMNS = ("clip_id", "decision", "start_frame", "end_frame", "note")
-STATS_COLUMNS = {
-    "clips": "int64",
-    "min_deg": "float64",
-    "max_deg": "float64",
-    "mean_deg": "float64",
-    "mean_duration_s": "float64",
-}
 _INT_RE = re.compile(r"^[+]?\d+$")
 
 
@@ -327,237 +295,3 @@ def unmatched_overrides(
         for ov in sorted(overrides.by_id.values(), key=lambda o: o.line)
         if ov.clip_id not in used
     ]
-
-
-def manifest_path(index_path: str | os.PathLike[str]) -> Path:
-    """``turn-h36m.csv`` -> ``turn-h36m.manifest.json`` (beside the index)."""
-    p = Path(index_path)
-    stem = p.name[: -len(p.suffix)] if p.suffix else p.name
-    return p.with_name(f"{stem}.manifest.json")
-
-
-def _counts(series: pd.Series, key=None) -> dict[str, int]:
-    counts = series.astype(str).value_counts()
-    names = sorted(counts.index, key=key) if key else sorted(counts.index)
-    return {str(n): int(counts[n]) for n in names}
-
-
-def build_manifest(
-    *,
-    index: pd.DataFrame,
-    params: MinerParams,
-    reader_options: Mapping[str, Any],
-    inputs: Sequence[Mapping[str, Any]],
-    overrides: Overrides | None,
-    applied: Sequence[Mapping[str, Any]],
-    unmatched: Sequence[Mapping[str, Any]],
-    skipped: Sequence[Mapping[str, Any]],
-    n_sequences: int,
-    n_frames: int,
-    created_utc: str | None = None,
-) -> dict[str, Any]:
-    """The manifest as a JSON-ready dict (see the module docstring).
-
-    ``created_utc`` defaults to now; every other field depends only on the inputs.
-    """
-    created = created_utc or _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
-    by_bin = index["bin_deg"].astype(int).value_counts()
-    return {
-        "tool": "turn-datasets h36m mine",
-        "version": __version__,
-        "created_utc": created,
-        "parameters": {"miner": params.as_dict(), "reader": dict(reader_options)},
-        "inputs": [dict(i) for i in inputs],
-        "skipped": [dict(s) for s in skipped],
-        "counts": {
-            "sequences": int(n_sequences),
-            "frames": int(n_frames),
-            "clips": int(len(index)),
-            "per_bin_deg": {str(b): int(by_bin[b]) for b in sorted(by_bin.index)},
-            "per_split": _counts(index["split"].fillna("")),
-            "per_subject": _counts(index["subject"], key=natural_key),
-            "per_action": _counts(index["action"]),
-            "per_direction": _counts(index["direction"]),
-        },
-        "overrides": {
-            "file": None if overrides is None else overrides.path,
-            "sha256": None if overrides is None else overrides.sha256,
-            "applied": [dict(a) for a in applied],
-            "unmatched": [dict(u) for u in unmatched],
-        },
-    }
-
-
-# --- statistics (the paper's Table 3) -------------------------------------------------------
-
-_STATS_NEEDS = ("subject", "action", "angle_deg", "duration_s", "bin_deg")
-
-
-def read_clip_index(path: str | os.PathLike[str]) -> pd.DataFrame:
-    """Read a clip index CSV for statistics, checking the columns :func:`table3` needs.
-
-    Raises
-    ------
-    TurnbenchError
-        A missing or unreadable file, a missing column, or a row (naming its file line)
-        whose ``angle_deg``, ``duration_s`` or ``bin_deg`` is not a finite number, whose
-        angle is negative or duration not positive, or whose ``bin_deg`` is not
-        :func:`turn_datasets.geometry.quantise_deg` of its angle.
-    """
-    p = Path(path)
-    if not p.is_file():
-        raise TurnbenchError("no such clip index", file=p)
-    try:
-        frame = pd.read_csv(
-            p, dtype={"subject": str, "action": str, "subaction": str}, keep_default_na=False
-        )
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-        raise TurnbenchError(f"cannot read the clip index: {exc}", file=p) from None
-    missing = [c for c in _STATS_NEEDS if c not in frame.columns]
-    if missing:
-        raise TurnbenchError(f"not a clip index: no column {', '.join(missing)}", file=p, row=1)
-    for col in ("angle_deg", "duration_s", "bin_deg"):
-        values = pd.to_numeric(frame[col], errors="coerce")
-        bad = ~np.isfinite(values.to_numpy(dtype=float))
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
-            raise TurnbenchError(
-                f"{col} {frame[col].iloc[i]!r} is not a finite number", file=p, row=i + 2
-            )
-        frame[col] = values.astype(float)
-    # Table 3 groups by bin_deg: a bin that is not the angle's nearest multiple of 45 (an
-    # angle edited by hand, a column shifted) would put a clip in the wrong row unnoticed.
-    checks = (
-        (frame["angle_deg"] < 0, "angle_deg {} is negative (it is a magnitude)", "angle_deg"),
-        (
-            frame["angle_deg"] > MAX_ANGLE_DEG,
-            f"angle_deg {{}} is beyond the plausible {MAX_ANGLE_DEG:g} (see the README)",
-            "angle_deg",
-        ),
-        (frame["duration_s"] <= 0, "duration_s {} is not positive", "duration_s"),
-        (
-            frame["bin_deg"] != quantise_deg(frame["angle_deg"].to_numpy()),
-            "bin_deg {} is not the nearest multiple of 45 to angle_deg",
-            "bin_deg",
-        ),
-    )
-    for bad, message, col in checks:
-        if bad.any():
-            i = int(np.flatnonzero(bad.to_numpy())[0])
-            value = frame[col].iloc[i]
-            raise TurnbenchError(message.format(f"{value:g}"), file=p, row=i + 2)
-    return frame
-
-
-def clip_stats(index: pd.DataFrame, by: str) -> pd.DataFrame:
-    """Clips, min, max and mean angle and mean duration per value of column ``by``.
-
-    Groups are sorted (bins numerically, subjects S2 before S11, others by name); the index
-    of the result is the group value as text.
-    """
-    if index.empty:
-        return typed_frame(pd.DataFrame({c: [] for c in STATS_COLUMNS}), STATS_COLUMNS)
-    keys = index[by].astype(int) if by == "bin_deg" else index[by].astype(str)
-    grouped = index.groupby(keys, sort=False)
-    frame = pd.DataFrame(
-        {
-            "clips": grouped.size(),
-            "min_deg": grouped["angle_deg"].min(),
-            "max_deg": grouped["angle_deg"].max(),
-            "mean_deg": grouped["angle_deg"].mean(),
-            "mean_duration_s": grouped["duration_s"].mean(),
-        }
-    )
-    order = sorted(
-        frame.index, key=(lambda v: v) if by == "bin_deg" else (lambda v: natural_key(str(v)))
-    )
-    frame = frame.loc[order]
-    names = [str(v) for v in frame.index]
-    out = typed_frame(frame.reset_index(drop=True), STATS_COLUMNS)
-    out.index = pd.Index(names, name=by)
-    return out
-
-
-def table3(index: pd.DataFrame) -> pd.DataFrame:
-    """The paper's Table 3: per 45° bin, clips, min/max/mean angle and mean duration, + Total."""
-    per_bin = clip_stats(index, "bin_deg")
-    total = pd.DataFrame(
-        {
-            "clips": [len(index)],
-            "min_deg": [index["angle_deg"].min() if len(index) else np.nan],
-            "max_deg": [index["angle_deg"].max() if len(index) else np.nan],
-            "mean_deg": [index["angle_deg"].mean() if len(index) else np.nan],
-            "mean_duration_s": [index["duration_s"].mean() if len(index) else np.nan],
-        },
-        index=pd.Index(["Total"], name="bin_deg"),
-    )
-    out = pd.concat(
-        [per_bin, typed_frame(total.reset_index(drop=True), STATS_COLUMNS).set_axis(total.index)]
-    )
-    out.index.name = "bin_deg"
-    return out
-
-
-def _fmt(value: float, digits: int) -> str:
-    return "–" if value is None or not np.isfinite(value) else f"{value:.{digits}f}"
-
-
-def _md_table(first: str, frame: pd.DataFrame) -> list[str]:
-    header = [first, "Clips", "Min (°)", "Max (°)", "Mean (°)", "Mean duration (s)"]
-    lines = ["| " + " | ".join(header) + " |", "|" + "|".join(["---"] + ["---:"] * 5) + "|"]
-    for name, r in frame.iterrows():
-        label = f"**{name}**" if name == "Total" else str(name)
-        cells = [
-            label,
-            str(int(r["clips"])),
-            _fmt(r["min_deg"], 1),
-            _fmt(r["max_deg"], 1),
-            _fmt(r["mean_deg"], 1),
-            _fmt(r["mean_duration_s"], 2),
-        ]
-        lines.append("| " + " | ".join(cells) + " |")
-    return lines
-
-
-def stats_markdown(index: pd.DataFrame) -> str:
-    """Table 3, then the same figures per subject and per action, as Markdown."""
-    lines = ["## Table 3: clips per angle bin", ""]
-    lines += _md_table("Bin (°)", table3(index))
-    lines += ["", "## Clips per subject", ""]
-    lines += _md_table("Subject", clip_stats(index, "subject"))
-    lines += ["", "## Clips per action", ""]
-    lines += _md_table("Action", clip_stats(index, "action"))
-    return "\n".join(lines) + "\n"
-
-
-def _long(index: pd.DataFrame) -> pd.DataFrame:
-    parts = []
-    for name, frame in (
-        ("bin", table3(index)),
-        ("subject", clip_stats(index, "subject")),
-        ("action", clip_stats(index, "action")),
-    ):
-        part = frame.reset_index(names="group")
-        part.insert(0, "table", name)
-        parts.append(part)
-    return pd.concat(parts, ignore_index=True)
-
-
-def stats_csv(index: pd.DataFrame) -> str:
-    """The three tables as one CSV: ``table`` (bin, subject, action), ``group``, the figures."""
-    return _long(index).to_csv(index=False, lineterminator="\n")
-
-
-def stats_dict(index: pd.DataFrame) -> dict[str, Any]:
-    """The three tables as JSON-ready dicts (NaN becomes null when written)."""
-    out: dict[str, Any] = {}
-    for name, frame in (
-        ("table3", table3(index)),
-        ("subject", clip_stats(index, "subject")),
-        ("action", clip_stats(index, "action")),
-    ):
-        out[name] = {
-            str(g): {k: (int(v) if k == "clips" else float(v)) for k, v in row.items()}
-            for g, row in frame.iterrows()
-        }
-    return out

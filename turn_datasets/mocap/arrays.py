@@ -1,0 +1,242 @@
+"""Generic arrays of positions: ``.npy``, ``.npz``, ``.h5``/``.hdf5`` of shape ``(frames, joints, 3)``.
+
+Their layout, fps, up axis and units are not in the file and must be given. The parent
+folder's name is the ``subject``, the file stem (with the array key for ``.npz``/``.h5``)
+the ``action``, so two files of the same name in different folders stay apart.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from turn_datasets.errors import TurnbenchError
+from turn_datasets.mocap.checks import CORRUPT, OnBadSequence, checked_positions
+from turn_datasets.skeleton import (
+    UP_AXES,
+    Layout,
+    MocapSequence,
+    get_layout,
+    to_z_up,
+)
+
+__all__ = [
+    "UNITS",
+    "ARRAY_SUFFIXES",
+    "iter_arrays",
+    "read_arrays",
+]
+
+
+#: Unit names a generic array may be declared in (a label: positions are not rescaled).
+UNITS = ("mm", "cm", "m", "in")
+
+
+def read_arrays(
+    path: Path,
+    *,
+    layout: str | Layout | None,
+    fps: float | None,
+    up_axis: str | None,
+    units: str | None,
+    on_bad: OnBadSequence | None,
+) -> Iterator[MocapSequence]:
+    missing = [
+        opt
+        for opt, value in (
+            ("--layout", layout),
+            ("--fps", fps),
+            ("--up-axis", up_axis),
+            ("--units", units),
+        )
+        if value is None
+    ]
+    if missing:
+        raise TurnbenchError(
+            f"a generic array does not say its {', '.join(m.lstrip('-') for m in missing)}",
+            file=path,
+            hint=f"give {' '.join(missing)} (layout: h36m32 or h36m17; up axis: "
+            f"{'/'.join(UP_AXES)}; units: {'/'.join(UNITS)})",
+        )
+    try:
+        lay = layout if isinstance(layout, Layout) else get_layout(str(layout))
+    except TurnbenchError as exc:
+        raise TurnbenchError(exc.message, file=path) from None
+    if not (np.isfinite(fps) and fps > 0):
+        raise TurnbenchError(f"fps must be positive, got {fps}", file=path)
+    if up_axis not in UP_AXES:
+        raise TurnbenchError(
+            f"unknown up axis {up_axis!r}; choose one of {', '.join(UP_AXES)}", file=path
+        )
+    if units not in UNITS:
+        raise TurnbenchError(
+            f"unknown units {units!r}; choose one of {', '.join(UNITS)}", file=path
+        )
+    single = path.suffix.lower() == ".npy"
+    for key, array in iter_arrays(path, on_bad_array=on_bad):
+        item = None if single else key
+        try:
+            if array.shape[1] != lay.n_joints:
+                raise TurnbenchError(
+                    f"array has {array.shape[1]} joints but layout {lay.name!r} has "
+                    f"{lay.n_joints} (shape {tuple(array.shape)})",
+                    file=path,
+                    item=item,
+                )
+            positions = to_z_up(np.asarray(array, dtype=np.float64), up_axis)
+            positions = checked_positions(positions, lay, path=path, item=item)
+        except TurnbenchError as exc:
+            if on_bad is None or single:
+                raise
+            on_bad(exc)
+            continue
+        yield MocapSequence(
+            subject=path.absolute().parent.name,
+            action=path.stem if single else f"{path.stem}.{key.replace('/', '.')}",
+            subaction="",
+            positions=positions,
+            layout=lay,
+            fps=float(fps),
+            units=units,
+            source=str(path),
+            meta={"format": "array", "key": key, "up_axis": up_axis},
+        )
+
+
+ARRAY_SUFFIXES = (".npy", ".npz", ".h5", ".hdf5")
+
+
+def _check_tj3(array: np.ndarray, *, path: Path, key: str) -> np.ndarray:
+    if array.ndim != 3 or array.shape[2] != 3 or array.shape[0] < 1 or array.shape[1] < 1:
+        raise TurnbenchError(
+            f"array has shape {tuple(array.shape)}, expected (frames, joints, 3)",
+            file=path,
+            item=key,
+        )
+    if not (np.issubdtype(array.dtype, np.floating) or np.issubdtype(array.dtype, np.integer)):
+        raise TurnbenchError(
+            f"array has dtype {array.dtype}, expected numbers", file=path, item=key
+        )
+    return array
+
+
+def _h5_dataset_names(group: h5py.Group) -> list[str]:
+    names: list[str] = []
+
+    def visit(name: str, obj: object) -> None:
+        if isinstance(obj, h5py.Dataset):
+            names.append(name)
+
+    group.visititems(visit)
+    return sorted(names)
+
+
+def iter_arrays(
+    path: str | os.PathLike[str], *, on_bad_array: OnBadSequence | None = None
+) -> Iterator[tuple[str, np.ndarray]]:
+    """Yield ``(name, array)`` for each ``(frames, joints, 3)`` array in a generic array file.
+
+    Parameters
+    ----------
+    path
+        ``.npy`` -> one ``(file stem, array)``; ``.npz`` -> one ``(key, array)`` per array, in
+        the archive's sorted key order, loaded without pickles; ``.h5``/``.hdf5`` -> one
+        ``(dataset path, array)`` per dataset, nested groups walked, sorted by path.
+    on_bad_array
+        ``.npz``/``.h5``: when given, an array that cannot be read or is not
+        ``(frames, joints, 3)`` is passed to it (a :class:`TurnbenchError` naming the file and
+        the key) and the others are still yielded; when None, it is raised.
+
+    Yields
+    ------
+    name, array
+        The array as stored (its dtype unchanged), read one at a time so memory is bounded by
+        the largest array.
+
+    Raises
+    ------
+    TurnbenchError
+        An unknown suffix, an unreadable (truncated, corrupt, pickled) file, a file holding no
+        array, or an array that is not numeric ``(frames, joints, 3)``; the message names the
+        file, the key and the shape.
+    """
+    p = Path(path)
+    suffix = p.suffix.lower()
+    if suffix not in ARRAY_SUFFIXES:
+        raise TurnbenchError(
+            f"not a generic array file (expected one of {', '.join(ARRAY_SUFFIXES)})", file=p
+        )
+    if not p.is_file():
+        raise TurnbenchError("no such file", file=p)
+    if suffix == ".npy":
+        try:
+            array = np.load(p, allow_pickle=False)
+        except CORRUPT as exc:
+            raise TurnbenchError(
+                f"cannot read .npy (truncated or corrupt?): {exc}", file=p
+            ) from None
+        yield p.stem, _check_tj3(array, path=p, key=p.stem)
+        return
+    if suffix == ".npz":
+        try:
+            archive = np.load(p, allow_pickle=False)
+        except CORRUPT as exc:
+            raise TurnbenchError(
+                f"cannot read .npz (truncated or corrupt?): {exc}", file=p
+            ) from None
+        with archive:
+            keys = sorted(archive.files)
+            if not keys:
+                raise TurnbenchError("the .npz archive holds no array", file=p)
+            for key in keys:
+                try:
+                    try:
+                        array = archive[key]
+                    except CORRUPT as exc:
+                        raise TurnbenchError(
+                            f"cannot read this array (pickled, truncated or corrupt?): {exc}",
+                            file=p,
+                            item=key,
+                        ) from None
+                    array = _check_tj3(array, path=p, key=key)
+                except TurnbenchError as exc:
+                    if on_bad_array is None:
+                        raise
+                    on_bad_array(exc)
+                    continue
+                yield key, array
+        return
+    try:
+        fh = h5py.File(p, "r")
+    except CORRUPT as exc:
+        raise TurnbenchError(f"cannot read HDF5 (truncated or corrupt?): {exc}", file=p) from None
+    with fh:
+        try:
+            names = _h5_dataset_names(fh)
+        except CORRUPT as exc:
+            raise TurnbenchError(
+                f"cannot list the datasets (truncated or corrupt?): {exc}", file=p
+            ) from None
+        if not names:
+            raise TurnbenchError("the HDF5 file holds no dataset", file=p)
+        for name in names:
+            try:
+                try:
+                    array = fh[name][()]
+                except CORRUPT as exc:
+                    raise TurnbenchError(
+                        f"cannot read this dataset (truncated or corrupt?): {exc}",
+                        file=p,
+                        item=name,
+                    ) from None
+                array = _check_tj3(np.asarray(array), path=p, key=name)
+            except TurnbenchError as exc:
+                if on_bad_array is None:
+                    raise
+                on_bad_array(exc)
+                continue
+            yield name, array

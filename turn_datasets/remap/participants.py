@@ -1,0 +1,173 @@
+"""The participants table of Turn-REMAP: who is who, and in which cohort.
+
+``subject, cohort, pair, sex, age, years_since_diagnosis``; cohort ``PD`` (Parkinson's
+disease) or ``HC`` (healthy control), as the paper's 12 + 12 people (Cheng et al.,
+Section 3.2). :func:`read_participants` reads and checks it, naming the file and row of any
+problem.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from os import PathLike
+from typing import Any
+
+import pandas as pd
+
+from turn_datasets.errors import TurnbenchError
+from turn_datasets.fileio import typed_frame
+
+__all__ = [
+    "PARTICIPANT_COLUMNS",
+    "COHORTS",
+    "read_participants",
+]
+
+
+#: Column contract of the participants table after :func:`read_participants`.
+PARTICIPANT_COLUMNS = {
+    "subject": "str",
+    "cohort": "str",
+    "pair": "str",
+    "sex": "str",
+    "age": "float64",
+    "years_since_diagnosis": "float64",
+}
+
+
+COHORTS = ("PD", "HC")
+
+
+def _number(text: str, *, column: str, file: str, row: int, lo: float, hi: float) -> float:
+    text = text.strip()
+    if not text:
+        return math.nan
+    try:
+        value = float(text)
+    except ValueError:
+        raise TurnbenchError(f"{column} {text!r} is not a number", file=file, row=row) from None
+    if not math.isfinite(value) or not lo <= value <= hi:
+        raise TurnbenchError(f"{column} {text!r} is outside {lo:g} to {hi:g}", file=file, row=row)
+    return value
+
+
+def read_participants(path: str | PathLike[str]) -> pd.DataFrame:
+    """Read and check the participants table.
+
+    Parameters
+    ----------
+    path
+        CSV with header ``subject, cohort, pair, sex, age, years_since_diagnosis`` (in any
+        order; extra columns are ignored). ``cohort`` is ``PD`` or ``HC`` (any case); ``pair``
+        (the matched PD/HC pair), ``sex``, ``age`` (years) and ``years_since_diagnosis`` may be
+        empty; a healthy control has no years since diagnosis.
+
+    Returns
+    -------
+    pandas.DataFrame
+        :data:`PARTICIPANT_COLUMNS`, one row per subject in file order; ``attrs["source"]``
+        is the file name.
+
+    Raises
+    ------
+    TurnbenchError
+        Naming the file and line: a missing column, an empty or repeated subject, a cohort
+        other than PD or HC, an age or duration that is not a number in range, a control with
+        years since diagnosis, a diagnosis longer ago than the subject's age.
+    """
+    file = str(path)
+    try:
+        fh = open(path, encoding="utf-8-sig", newline="")
+    except FileNotFoundError:
+        raise TurnbenchError("participants table not found", file=file) from None
+    except OSError as exc:
+        raise TurnbenchError(f"cannot read the participants table: {exc}", file=file) from None
+    rows: list[dict[str, Any]] = []
+    with fh:
+        reader = csv.reader(fh)
+        try:
+            header = [h.strip().lower() for h in next(reader)]
+        except StopIteration:
+            raise TurnbenchError("participants table is empty", file=file, row=1) from None
+        except (csv.Error, UnicodeDecodeError) as exc:
+            raise TurnbenchError(f"not a readable CSV: {exc}", file=file, row=1) from None
+        missing = [c for c in PARTICIPANT_COLUMNS if c not in header]
+        if missing:
+            raise TurnbenchError(
+                f"participants table lacks column(s) {', '.join(missing)}",
+                file=file,
+                row=1,
+                hint=f"header: {', '.join(PARTICIPANT_COLUMNS)}",
+            )
+        col = {c: header.index(c) for c in PARTICIPANT_COLUMNS}
+        seen: dict[str, int] = {}
+        try:
+            for cells in reader:
+                line = reader.line_num
+                if not any(c.strip() for c in cells):
+                    continue
+                if len(cells) < len(header):
+                    cells = cells + [""] * (len(header) - len(cells))
+
+                def cell(name: str, cells: list[str] = cells) -> str:
+                    return cells[col[name]].strip()
+
+                subject = cell("subject")
+                if not subject:
+                    raise TurnbenchError("empty subject", file=file, row=line)
+                if subject in seen:
+                    raise TurnbenchError(
+                        f"subject {subject!r} is listed twice (first on line {seen[subject]})",
+                        file=file,
+                        row=line,
+                    )
+                seen[subject] = line
+                cohort = cell("cohort").upper()
+                if cohort not in COHORTS:
+                    raise TurnbenchError(
+                        f"cohort {cell('cohort')!r} of {subject!r} is not PD or HC",
+                        file=file,
+                        row=line,
+                    )
+                age = _number(cell("age"), column="age", file=file, row=line, lo=0, hi=130)
+                years = _number(
+                    cell("years_since_diagnosis"),
+                    column="years_since_diagnosis",
+                    file=file,
+                    row=line,
+                    lo=0,
+                    hi=130,
+                )
+                if cohort == "HC" and years > 0:
+                    raise TurnbenchError(
+                        f"healthy control {subject!r} has years_since_diagnosis {years:g}; "
+                        "leave it empty",
+                        file=file,
+                        row=line,
+                    )
+                if years > age:  # False when either is NaN
+                    raise TurnbenchError(
+                        f"{subject!r} was diagnosed {years:g} years ago but is {age:g}",
+                        file=file,
+                        row=line,
+                    )
+                rows.append(
+                    {
+                        "subject": subject,
+                        "cohort": cohort,
+                        "pair": cell("pair"),
+                        "sex": cell("sex"),
+                        "age": age,
+                        "years_since_diagnosis": years,
+                    }
+                )
+        except (csv.Error, UnicodeDecodeError) as exc:
+            raise TurnbenchError(
+                f"not a readable CSV: {exc}", file=file, row=reader.line_num
+            ) from None
+    if not rows:
+        raise TurnbenchError("participants table lists no subject", file=file)
+    out = typed_frame(pd.DataFrame(rows, columns=list(PARTICIPANT_COLUMNS)), PARTICIPANT_COLUMNS)
+    out.attrs["source"] = file
+    return out

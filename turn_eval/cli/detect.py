@@ -1,0 +1,270 @@
+"""``turn-eval detect``: turns in long skeleton streams, one file at a time or on a Dask cluster."""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+import re
+import sys
+from dataclasses import fields
+from pathlib import Path
+
+import click
+
+from turn_datasets import limits
+from turn_datasets.cli.common import (
+    ANGLE_DEG,
+    DURATION_S,
+    FPS_HZ,
+    SPEED_DEG_S,
+    Number,
+    info,
+    wrote,
+)
+from turn_datasets.errors import TurnbenchError
+from turn_datasets.fileio import atomic_path, check_not_input, to_json_text
+from turn_datasets.h36m.manifest import manifest_path
+from turn_datasets.h36m.miner import MinerParams
+from turn_datasets.skeleton import LAYOUTS, UP_AXES, get_layout
+from turn_eval.cli import CONTEXT_SETTINGS, cli
+from turn_eval.detect.mapping import build_manifest, detect_files
+from turn_eval.detect.protocol import TurnDetector
+from turn_eval.detect.rule import DETECT_MINER_DEFAULTS, DetectParams, MinerRule
+from turn_eval.detect.streams import stream_files
+from turn_eval.estimate.formats import FORMAT_CHOICES
+
+
+def _attribute_docs(cls: type) -> dict[str, str]:
+    """``name -> first sentence`` from a dataclass's NumPy "Attributes" section, so each
+    parameter's help is written once, in its dataclass."""
+    doc = inspect.getdoc(cls) or ""
+    section = doc.split("Attributes\n----------\n", 1)[-1]
+    out: dict[str, str] = {}
+    for name, text in re.findall(r"^(\w+)\n((?:    .*\n?)+)", section, flags=re.M):
+        out[name] = " ".join(text.split())
+    return out
+
+
+def _option_type(name: str) -> Number:
+    """The checked option type for a parameter, by the unit its name ends in."""
+    if name.endswith("_deg_s"):
+        return SPEED_DEG_S
+    if name.endswith("_deg"):
+        return ANGLE_DEG
+    if name.endswith("_s"):
+        return DURATION_S
+    if name.endswith("_hz"):
+        return Number(float, min=0, max=limits.MAX_FPS_HZ)
+    return Number(float, min=0, min_open=True, max=100.0)  # sizes and fractions
+
+
+def _param_options(func):
+    """One option per float parameter of DetectParams and of the miner (units in the names)."""
+    detect_docs = _attribute_docs(DetectParams)
+    miner_docs = _attribute_docs(MinerParams)
+    defaults = DetectParams()
+    specs = [
+        (f.name, getattr(defaults, f.name), detect_docs.get(f.name, ""))
+        for f in fields(DetectParams)
+        if isinstance(getattr(defaults, f.name), float)
+    ]
+    specs += [
+        (f.name, getattr(DETECT_MINER_DEFAULTS, f.name), miner_docs.get(f.name, ""))
+        for f in fields(MinerParams)
+    ]
+    for name, default, text in reversed(specs):
+        func = click.option(
+            f"--{name.replace('_', '-')}",
+            name,
+            type=_option_type(name),
+            default=default,
+            show_default=True,
+            help=text,
+        )(func)
+    return func
+
+
+def _load_detector(spec: str | None, params: DetectParams) -> TurnDetector:
+    """The built-in rule, or ``MODULE:NAME`` (an object with ``detect``, or a class/factory
+    called without arguments that returns one)."""
+    if spec is None:
+        return MinerRule(params)
+    module_name, _, attr = spec.partition(":")
+    try:
+        obj = getattr(importlib.import_module(module_name), attr)
+    except (ImportError, AttributeError, ValueError) as exc:
+        raise TurnbenchError(
+            f"cannot load detector {spec!r}: {exc}", hint="give MODULE:NAME"
+        ) from None
+    detector = (
+        obj() if inspect.isclass(obj) or (callable(obj) and not hasattr(obj, "detect")) else obj
+    )
+    if not isinstance(detector, TurnDetector):
+        raise TurnbenchError(
+            f"{spec!r} is not a turn detector: it needs a name and detect(positions, fps_hz, layout)"
+        )
+    return detector
+
+
+@cli.command("detect", context_settings=CONTEXT_SETTINGS)
+@click.argument("skeletons", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.option(
+    "--out",
+    required=True,
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="Detections CSV to write (score-events reads it); <stem>.manifest.json goes beside it.",
+)
+@click.option(
+    "--from",
+    "source_format",
+    type=click.Choice(FORMAT_CHOICES),
+    default="arrays",
+    show_default=True,
+    help="Whose files: generic arrays (give --layout and --up-axis), or an estimator's own "
+    "output by name (turnbench = `turn-eval estimate`'s npz).",
+)
+@click.option(
+    "--layout",
+    "layout_name",
+    type=click.Choice(sorted(LAYOUTS)),
+    default=None,
+    help="Joint layout of the skeletons; required with --from arrays.",
+)
+@click.option(
+    "--up-axis",
+    type=click.Choice(UP_AXES),
+    default=None,
+    help="The vertical axis: z (world), y (y up), -y (camera axes: y down, as estimators "
+    "write); required with --from arrays, else the named format's own.",
+)
+@click.option(
+    "--fps",
+    "fps_hz",
+    type=FPS_HZ,
+    required=True,
+    help="Frame rate of the streams, Hz.",
+)
+@click.option(
+    "--joints",
+    default=",".join(DetectParams().joints),
+    show_default=True,
+    help="Joint pairs whose frontal vectors are combined: any of hip, knee, shoulder.",
+)
+@_param_options
+@click.option(
+    "--detector",
+    "detector_spec",
+    default=None,
+    metavar="MODULE:NAME",
+    help="Your own detector instead of the built-in rule (an object or class with name and detect(positions, fps_hz, layout)).",
+)
+@click.option(
+    "--workers",
+    type=Number(int, min=1, max=4096),
+    default=None,
+    help="Map over files on a local Dask cluster of N processes (default: serial, no Dask).",
+)
+@click.option(
+    "--scheduler",
+    default=None,
+    metavar="ADDRESS",
+    help="Use an existing Dask scheduler, e.g. tcp://10.0.0.5:8786.",
+)
+@click.option(
+    "--skip-bad",
+    is_flag=True,
+    help="Skip files that cannot be read (listed in the manifest) instead of failing.",
+)
+def detect_command(
+    skeletons: tuple[Path, ...],
+    out: Path,
+    source_format: str,
+    layout_name: str | None,
+    up_axis: str | None,
+    fps_hz: float,
+    joints: str,
+    detector_spec: str | None,
+    workers: int | None,
+    scheduler: str | None,
+    skip_bad: bool,
+    **values: float,
+) -> None:
+    """Detect turns in long skeleton streams (one person's skeleton per array, whole sessions).
+
+    SKELETONS are .npz files (stem = session, one array per subject), .h5 files (one dataset
+    per subject), .npy files (one person; SESSION__SUBJECT.npy) or folders of them; each array
+    (frames, joints, 3), NaN where no one is seen, absolute or root-relative. The output is
+    the detections contract of score-events: session, subject, start_s, end_s, angle_deg,
+    direction, speed_deg_s, score. For Turn-REMAP, whose smallest label is the 90° bin, use
+    --min-turn-deg 67.5.
+
+    \b
+    Example:
+      turn-eval detect streams/ --layout h36m17 --up-axis -y --fps 30 \\
+          --min-turn-deg 67.5 --out detections.csv
+      turn-eval detect streams/ --layout h36m17 --up-axis -y --fps 30 --workers 4 --out d.csv
+      turn-eval detect skeletons/ --from turnbench --fps 30 --out d.csv   (estimate's npz)
+      turn-eval score-events detections.csv --reference labels.csv --context context.csv
+    """
+    miner_names = {f.name for f in fields(MinerParams)}
+    miner = MinerParams(**{k: v for k, v in values.items() if k in miner_names})
+    params = DetectParams(
+        joints=joints.split(","),
+        miner=miner,
+        **{k: v for k, v in values.items() if k not in miner_names},
+    )
+    detector = _load_detector(detector_spec, params)
+    files = stream_files(skeletons)  # first: an AlphaPose JSON is refused with its reason
+    if source_format == "arrays" and (layout_name is None or up_axis is None):
+        raise TurnbenchError(
+            "generic arrays need --layout and --up-axis",
+            hint="or name the estimator that wrote them with --from",
+        )
+    layout = get_layout(layout_name or "h36m17")
+    check_not_input(out, files)
+    mpath = manifest_path(out)
+    check_not_input(mpath, files)
+    where = f"on {scheduler}" if scheduler else (f"on {workers} local workers" if workers else "")
+    with click.progressbar(
+        length=len(files),
+        label=f"detecting {where}".strip(),
+        file=sys.stderr,
+        show_pos=True,
+    ) as bar:
+        run = detect_files(
+            files,
+            detector=detector,
+            layout=layout,
+            up_axis=up_axis,
+            fps_hz=fps_hz,
+            source_format=source_format,
+            workers=workers,
+            scheduler=scheduler,
+            skip_bad=skip_bad,
+            on_file_done=lambda: bar.update(1),
+        )
+    for s in run.skipped:
+        info(f"skipped {s['file']}{', ' + s['item'] if s['item'] else ''}: {s['error']}")
+    manifest = build_manifest(
+        run,
+        detector=detector,
+        params=params.as_dict() if detector_spec is None else {},
+        layout=layout,
+        up_axis=up_axis,
+        fps_hz=fps_hz,
+        source_format=source_format,
+    )
+    try:
+        with atomic_path(out) as tmp_csv, atomic_path(mpath) as tmp_manifest:
+            run.detections.to_csv(tmp_csv, index=False, lineterminator="\n")
+            tmp_manifest.write_text(to_json_text(manifest), encoding="utf-8", newline="\n")
+    except OSError as exc:
+        raise TurnbenchError(
+            f"cannot write the detections: {exc.strerror or exc}", file=str(out)
+        ) from None
+    c = manifest["counts"]
+    wrote(
+        out,
+        mpath,
+        what=f"{c['detections']} turns in {c['streams']} streams ({c['hours']:.2f} h) of {c['files']} files to",
+    )

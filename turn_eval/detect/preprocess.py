@@ -1,0 +1,169 @@
+"""What an estimator's stream needs before the miner's rule can read it: identity, swaps.
+
+Motion capture follows one body with labelled markers; a pose estimator guesses a skeleton
+per frame from video. Two of its errors would each look like a turn to the miner's rule
+(:mod:`turn_datasets.h36m.miner`), and are undone here, on positions, before it runs:
+
+Identity breaks (:func:`identity_pieces`)
+    The tracker jumps to another person for a few seconds, without a confidence drop
+    (seen on real home video). The skeleton then jumps: its position by more than a body can
+    move in one frame, or its size (the length of the trunk, pelvis to thorax to head, and of
+    the upper arms: bones that sitting, bending or depth error along the camera ray change
+    least). The stream is split at such jumps; each piece gets its median size, and pieces
+    whose size differs from the size of most of the stream's frames by more than
+    ``identity_size_tolerance`` are someone else's and dropped. Root-relative streams (the
+    pelvis at the origin) have no position, so only their size is used.
+Left/right swaps (:func:`repair_swaps`)
+    For a few frames the estimator exchanges the left and right joints, mostly when the
+    person faces away: the hip vector jumps by about 180° in one frame, which no body does
+    (a fast turn, 225° in 1.3 s, peaks near 6° per frame at 30 fps). Within each run of
+    frames without a gap longer than ``max_gap_s``, every jump of the hip vector by more than
+    90° between consecutive usable frames toggles a parity; the parity held by fewer frames
+    is the swapped one (swaps are brief) and its frames get their left and right joints
+    exchanged back.
+
+Gaps (dropouts, absences) are the miner's: bridged by interpolation when at most
+``max_gap_s`` long, cut otherwise, so a turn is never followed through a long absence.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.ndimage import median_filter
+
+from turn_datasets.geometry import usable_frames
+from turn_datasets.skeleton import JOINT_PAIRS, Layout
+
+__all__ = ["body_size", "identity_pieces", "repair_swaps", "runs"]
+
+# Bones whose length is the body's size: trunk and upper arms (see the module docstring).
+_SIZE_BONES = (
+    ("pelvis", "thorax"),
+    ("thorax", "head"),
+    ("left_shoulder", "left_elbow"),
+    ("right_shoulder", "right_elbow"),
+)
+# Limbs whose sides a swap exchanges.
+_SIDES = ("hip", "knee", "foot", "shoulder", "elbow", "wrist")
+
+
+def runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Start and (exclusive) end indices of the runs of True in a boolean array."""
+    edges = np.diff(np.concatenate(([0], np.asarray(mask, dtype=np.int8), [0])))
+    return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+
+
+def body_size(positions: np.ndarray, layout: Layout) -> np.ndarray:
+    """Per-frame size of the body: the summed length of the trunk and upper-arm bones (NaN
+    where one is missing), in the positions' own unit."""
+    total = np.zeros(positions.shape[0])
+    for a, b in _SIZE_BONES:
+        d = positions[:, layout.index(a), :] - positions[:, layout.index(b), :]
+        total += np.sqrt(np.einsum("ij,ij->i", d, d))
+    return total
+
+
+def identity_pieces(
+    positions: np.ndarray,
+    layout: Layout,
+    usable: np.ndarray,
+    *,
+    fps_hz: float,
+    jump_sizes: float,
+    size_change: float,
+    size_tolerance: float,
+    window_s: float = 1.0,
+) -> list[tuple[int, int]]:
+    """Spans ``[a, b)`` of frames that show the stream's own person (module docstring).
+
+    Parameters
+    ----------
+    positions, layout
+        The stream, z up.
+    usable
+        Frames with a usable hip vector.
+    fps_hz
+        Frame rate.
+    jump_sizes
+        A move of the mid-hip point by more than this many body sizes between two consecutive
+        usable frames (plus what walking at 2 m/s covers over a gap) is a jump to someone else.
+    size_change
+        A change of the median size over ``window_s`` before and after a frame by more than
+        this fraction is a jump to someone else.
+    size_tolerance
+        Pieces whose median size differs from the stream's by more than this fraction are
+        someone else's and left out.
+    """
+    n = positions.shape[0]
+    idx = np.flatnonzero(usable)
+    if idx.size < 2:
+        return []
+    size = body_size(positions[idx], layout)
+    ok = np.isfinite(size) & (size > 0)
+    if ok.sum() < 2:
+        return [(int(idx[0]), int(idx[-1]) + 1)]
+    size = np.interp(np.arange(idx.size), np.flatnonzero(ok), size[ok])
+    cuts = set()
+    hips = positions[idx][:, [layout.index("left_hip"), layout.index("right_hip")], :2].mean(axis=1)
+    step = np.hypot(*np.diff(hips, axis=0).T)
+    # a body covers at most ~2 m/s; a body size (trunk + arms) is ~1.1 m: 2 sizes per second
+    allowed = jump_sizes + 2.0 * np.diff(idx) / fps_hz
+    cuts.update((np.flatnonzero(step > allowed * size[1:]) + 1).tolist())
+    w = max(int(round(window_s * fps_hz)), 3) | 1  # odd
+    if idx.size > 3 * w:
+        # median of the w frames before frame i against the w frames from frame i on: a
+        # sustained change of size, not the flicker of one frame
+        centred = median_filter(size, size=w, mode="nearest")
+        half = w // 2
+        before = np.concatenate((np.full(half + 1, centred[0]), centred[: -half - 1]))
+        after = np.concatenate((centred[half:], np.full(half, centred[-1])))
+        change = np.abs(np.log(after / before))
+        # one cut per excursion above the threshold, in its middle: the medians turn a step
+        # of size into a plateau of change centred on it, about one window wide
+        for a, b in zip(*runs(change > np.log1p(size_change)), strict=True):
+            cuts.add(int((a + b) // 2))
+    bounds = [0, *sorted(cuts), idx.size]
+    spans = [
+        (bounds[i], bounds[i + 1]) for i in range(len(bounds) - 1) if bounds[i + 1] > bounds[i]
+    ]
+    sizes = np.array([np.median(size[a:b]) for a, b in spans])
+    weights = np.array([b - a for a, b in spans], dtype=float)
+    order = np.argsort(sizes)
+    own = sizes[order][np.searchsorted(np.cumsum(weights[order]), 0.5 * weights.sum())]
+    keep = np.abs(sizes / own - 1.0) <= size_tolerance
+    out = []
+    for (a, b), k in zip(spans, keep, strict=True):
+        if k:
+            out.append((int(idx[a]), int(idx[b - 1]) + 1 if b < idx.size else n))
+    return out
+
+
+def repair_swaps(
+    positions: np.ndarray, layout: Layout, *, fps_hz: float, max_gap_s: float
+) -> tuple[np.ndarray, int]:
+    """Undo left/right swaps (module docstring); returns the repaired copy and the number of
+    frames whose sides were exchanged back."""
+    p = np.array(positions, dtype=float, copy=True)
+    usable = usable_frames(p, layout, ("hip",))
+    idx = np.flatnonzero(usable)
+    if idx.size < 2:
+        return p, 0
+    left, right = JOINT_PAIRS["hip"]
+    v = p[idx, layout.index(left), :2] - p[idx, layout.index(right), :2]
+    flip = np.einsum("ij,ij->i", v[1:], v[:-1]) < 0
+    linked = np.diff(idx) <= max(int(round(max_gap_s * fps_hz)), 1)
+    parity = np.concatenate(([0], np.cumsum(flip & linked) % 2))
+    # each run of linked frames decides alone which parity is the person's own
+    piece = np.concatenate(([0], np.cumsum(~linked)))
+    swapped = np.zeros(idx.size, dtype=bool)
+    for k in range(int(piece[-1]) + 1):
+        sel = piece == k
+        ones = int(parity[sel].sum())
+        swapped[sel] = parity[sel] == (1 if ones * 2 < int(sel.sum()) else 0)
+    frames = idx[swapped]
+    for side in _SIDES:
+        a, b = f"left_{side}", f"right_{side}"
+        if a in layout.joints and b in layout.joints:
+            ia, ib = layout.index(a), layout.index(b)
+            p[frames, ia], p[frames, ib] = positions[frames, ib], positions[frames, ia]
+    return p, int(frames.size)

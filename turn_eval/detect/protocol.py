@@ -1,0 +1,95 @@
+"""The detector contract: any algorithm that finds turns in one person's skeleton stream.
+
+Modelled on mobgap's ``BaseTurnDetector.detect(data, sampling_rate_hz)``: one call per
+stream, plain arrays in, a DataFrame of turns out. The built-in rule
+(:class:`turn_eval.detect.rule.MinerRule`) implements it first; a learned detector or an
+IMU method implements the same method and runs through ``turn-eval detect --detector``,
+its manifest and ``score-events`` unchanged.
+
+A detector receives ``positions`` ``(frames, joints, 3)`` float64, **z up** (DESIGN.md's
+frame; the stream reader has converted the file's axes), in the file's own length unit,
+NaN where the person is not seen; ``fps_hz``; and the joint ``layout``. It returns one row
+per turn with the columns of :data:`TURN_DTYPES` (the detections contract without
+``session`` and ``subject``, which the caller adds): ``start_s`` and ``end_s`` from the
+stream's first frame, ``angle_deg`` (magnitude), ``direction`` (``left`` = counter-clockwise
+from above), ``speed_deg_s`` and ``score`` (higher = surer; NaN when the detector has none).
+"""
+
+from __future__ import annotations
+
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+import pandas as pd
+
+from turn_datasets.errors import TurnbenchError
+from turn_datasets.fileio import typed_frame
+from turn_datasets.skeleton import Layout
+from turn_eval.events.contract import DETECTION_DTYPES
+
+__all__ = ["TURN_DTYPES", "TurnDetector", "checked_turns", "empty_turns"]
+
+#: What :meth:`TurnDetector.detect` returns: the detections contract less session and subject.
+TURN_DTYPES = {k: v for k, v in DETECTION_DTYPES.items() if k not in ("session", "subject")}
+
+
+@runtime_checkable
+class TurnDetector(Protocol):
+    """Finds turns in one person's stream (module docstring)."""
+
+    #: A short name, recorded in the manifest.
+    name: str
+
+    def detect(self, positions: np.ndarray, fps_hz: float, layout: Layout) -> pd.DataFrame:
+        """The turns of one stream, :data:`TURN_DTYPES` columns, in time order."""
+        ...
+
+
+def empty_turns() -> pd.DataFrame:
+    """No turns, with the contract's columns and dtypes."""
+    return typed_frame(pd.DataFrame({c: [] for c in TURN_DTYPES}), TURN_DTYPES)
+
+
+def checked_turns(
+    table: pd.DataFrame, *, detector: str, n_frames: int, fps_hz: float
+) -> pd.DataFrame:
+    """A detector's result, checked against the contract and put in time order.
+
+    Raises
+    ------
+    TurnbenchError
+        A missing column, a time outside the stream or an interval that ends before it
+        starts, an angle that is not a positive finite number, a direction other than
+        left/right, or two turns that overlap: naming the detector.
+    """
+    missing = [c for c in ("start_s", "end_s", "angle_deg") if c not in table.columns]
+    if missing:
+        raise TurnbenchError(f"detector {detector!r} returned no {', '.join(missing)} column")
+    t = table.copy()
+    for col in TURN_DTYPES:
+        if col not in t.columns:
+            t[col] = "" if TURN_DTYPES[col] == "str" else np.nan
+    t = typed_frame(t[list(TURN_DTYPES)], TURN_DTYPES)
+    start, end, angle = (t[c].to_numpy(dtype=float) for c in ("start_s", "end_s", "angle_deg"))
+    length_s = n_frames / fps_hz
+    bad = ~(np.isfinite(start) & np.isfinite(end) & (start >= 0) & (end > start))
+    bad |= end > length_s + 1e-6
+    bad |= ~(np.isfinite(angle) & (angle > 0))
+    bad |= ~t["direction"].isin(["left", "right", ""]).to_numpy()
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise TurnbenchError(
+            f"detector {detector!r} returned an impossible turn (row {i}: start {start[i]}, "
+            f"end {end[i]}, angle {angle[i]}, direction {t['direction'].iloc[i]!r}; the "
+            f"stream lasts {length_s:.3f} s)"
+        )
+    t = t.sort_values(["start_s", "end_s"], kind="stable").reset_index(drop=True)
+    s = t["start_s"].to_numpy()
+    e = t["end_s"].to_numpy()
+    if (s[1:] < e[:-1] - 1e-9).any():
+        i = int(np.flatnonzero(s[1:] < e[:-1] - 1e-9)[0])
+        raise TurnbenchError(
+            f"detector {detector!r} returned overlapping turns ({s[i]:.3f}-{e[i]:.3f} s and "
+            f"{s[i + 1]:.3f}-{e[i + 1]:.3f} s)"
+        )
+    return t

@@ -1,0 +1,219 @@
+"""Skeleton streams: the one reader of pose estimators' array files for ``predict`` and ``detect``.
+
+A *stream* is the skeleton of one person over a whole recording: ``(frames, joints, 3)``
+positions, NaN on frames where the person is not seen. Files hold streams as
+:func:`turn_datasets.mocap.arrays.iter_arrays` reads them:
+
+``.npz``
+    One array per person; the file's stem is the **session**, each key a **subject**
+    (``P01_home.npz`` with keys ``P01`` and ``P01-partner``).
+``.h5`` / ``.hdf5``
+    One dataset per person; the stem is the session, the dataset path (nested groups
+    joined by ``/``) the subject.
+``.npy``
+    One person. The stem names both: ``SESSION__SUBJECT.npy`` (split at the first double
+    underscore); a stem without ``__`` is a session of one person, whose subject is the
+    stem itself.
+
+A folder given as input is walked (sorted, sub-folders included) for these suffixes.
+Positions may be absolute or root-relative (the pelvis at the origin, as most 2D-to-3D
+lifters write them); any length unit. They are turned to DESIGN.md's z-up frame here, once,
+with :func:`turn_datasets.skeleton.to_z_up`, so every consumer works on z-up float64.
+
+``turn-eval predict`` reads clips with :func:`iter_layout_arrays` (one array per clip id,
+named as stored); ``turn-eval detect`` reads streams with :func:`read_streams`.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from turn_datasets.errors import TurnbenchError
+from turn_datasets.mocap.arrays import ARRAY_SUFFIXES, iter_arrays
+from turn_datasets.render.order import natural_key
+from turn_datasets.skeleton import Layout, to_z_up
+
+__all__ = [
+    "STREAM_SUFFIXES",
+    "Stream",
+    "iter_layout_arrays",
+    "read_streams",
+    "stream_files",
+    "stream_names",
+]
+
+#: Suffixes of the files a stream is read from (a folder is walked for these).
+STREAM_SUFFIXES = ARRAY_SUFFIXES
+_NPY_SEPARATOR = "__"
+
+
+@dataclass(frozen=True)
+class Stream:
+    """One person's skeleton over one recording.
+
+    Attributes
+    ----------
+    session, subject
+        Names (see the module docstring for where they come from).
+    positions
+        ``(frames, joints, 3)`` float64, z up, in the file's own unit; NaN where unseen.
+    source
+        The file it was read from.
+    key
+        The array's name inside the file (the stem for ``.npy``).
+    """
+
+    session: str
+    subject: str
+    positions: np.ndarray
+    source: str
+    key: str
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.positions.shape[0])
+
+
+def stream_files(paths: Iterable[str | os.PathLike[str]]) -> list[Path]:
+    """The files to read: files as given, folders walked; sorted by path, each once.
+
+    Raises
+    ------
+    TurnbenchError
+        A path that does not exist, a file with another suffix, or a folder without any.
+    """
+    out: list[Path] = []
+    for raw in paths:
+        path = Path(raw)
+        if path.is_dir():
+            found = [
+                p for p in path.rglob("*") if p.is_file() and p.suffix.lower() in STREAM_SUFFIXES
+            ]
+            if not found:
+                raise TurnbenchError(
+                    f"the folder holds no skeleton stream ({', '.join(STREAM_SUFFIXES)})",
+                    file=path,
+                )
+            out.extend(found)
+        elif path.is_file():
+            if path.suffix.lower() == ".json":  # AlphaPose's 2D output: say why it cannot serve
+                from turn_eval.estimate.formats import read_estimator_output
+
+                read_estimator_output(path, "alphapose")
+            if path.suffix.lower() not in STREAM_SUFFIXES:
+                raise TurnbenchError(
+                    f"not a skeleton stream file (expected one of {', '.join(STREAM_SUFFIXES)})",
+                    file=path,
+                )
+            out.append(path)
+        else:
+            raise TurnbenchError("no such file or folder", file=path)
+    unique: dict[Path, Path] = {}
+    for p in sorted(out, key=lambda q: natural_key(str(q))):
+        unique.setdefault(p.resolve(), p)
+    return list(unique.values())
+
+
+def stream_names(path: str | os.PathLike[str], key: str) -> tuple[str, str]:
+    """``(session, subject)`` of the array ``key`` of file ``path`` (module docstring)."""
+    p = Path(path)
+    if p.suffix.lower() == ".npy":
+        session, sep, subject = p.stem.partition(_NPY_SEPARATOR)
+        return (session, subject) if sep and session and subject else (p.stem, p.stem)
+    return p.stem, key
+
+
+def iter_layout_arrays(
+    path: str | os.PathLike[str], layout: Layout
+) -> Iterator[tuple[str, np.ndarray]]:
+    """``(name, array)`` of each array of a file, refusing one whose joints do not fit ``layout``.
+
+    The arrays are as stored (dtype and axes unchanged), one at a time
+    (:func:`turn_datasets.mocap.arrays.iter_arrays`).
+
+    Raises
+    ------
+    TurnbenchError
+        What ``iter_arrays`` raises, or an array with another joint count, naming the file
+        and the array.
+    """
+    for key, array in iter_arrays(path):
+        if array.shape[1] != layout.n_joints:
+            raise TurnbenchError(
+                f"array has {array.shape[1]} joints but layout {layout.name!r} has "
+                f"{layout.n_joints}",
+                file=path,
+                item=key,
+                hint="choose the layout with --layout",
+            )
+        yield key, array
+
+
+def _named_streams(
+    path: str | os.PathLike[str], source_format: str, up_axis: str | None
+) -> Iterator[tuple[str, str, str, np.ndarray]]:
+    """``(session, subject, key, z-up positions)`` of another estimator's file, read by
+    :func:`turn_eval.estimate.formats.read_estimator_output` (the one reader of those)."""
+    from turn_eval.estimate.formats import read_estimator_output
+
+    spec, named = read_estimator_output(path, source_format)
+    for name, array in named:
+        # turnbench's npz: stem = session, key = track; the others: one clip per file
+        session, subject = stream_names(path, name) if spec.name == "turnbench" else (name, name)
+        yield session, subject, name, to_z_up(array, up_axis or spec.up_axis)
+
+
+def read_streams(
+    path: str | os.PathLike[str],
+    *,
+    layout: Layout,
+    up_axis: str | None,
+    source_format: str = "arrays",
+) -> Iterator[Stream]:
+    """The streams of one file, z up, float64, one at a time (memory: one array).
+
+    Parameters
+    ----------
+    path
+        A ``.npz``, ``.h5``/``.hdf5`` or ``.npy`` file.
+    layout
+        The joint layout every array must have (``h36m17`` for a named format).
+    up_axis
+        The files' vertical axis: ``z``, ``y`` or ``-y`` (camera axes, y down); for a named
+        format, None means the format's own.
+    source_format
+        ``arrays`` (generic files, named as in the module docstring) or an estimator's
+        name (:data:`turn_eval.estimate.formats.FORMAT_CHOICES`): ``turnbench`` for
+        ``turn-eval estimate``'s npz (stem = session, track key = subject), or
+        ``strided-transformer``, ``videopose3d``, ``motionbert`` (one person per file, the
+        clip's name as session and subject).
+
+    Raises
+    ------
+    TurnbenchError
+        An unreadable file, an array of the wrong shape or joint count, infinite values,
+        naming the file and the array.
+    """
+    if source_format != "arrays":
+        if layout.name != "h36m17":
+            raise TurnbenchError(f"--from {source_format} files are in the h36m17 layout")
+        for session, subject, key, positions in _named_streams(path, source_format, up_axis):
+            if np.isinf(positions).any():
+                raise TurnbenchError(
+                    "positions hold infinite values (corrupt?)", file=path, item=key
+                )
+            yield Stream(session, subject, np.ascontiguousarray(positions), str(path), key)
+        return
+    if up_axis is None:
+        raise TurnbenchError("generic arrays need --up-axis (z, y or -y)", file=path)
+    for key, array in iter_layout_arrays(path, layout):
+        positions = to_z_up(np.asarray(array, dtype=np.float64), up_axis)
+        if np.isinf(positions).any():
+            raise TurnbenchError("positions hold infinite values (corrupt?)", file=path, item=key)
+        session, subject = stream_names(path, key)
+        yield Stream(session, subject, np.ascontiguousarray(positions), str(path), key)
