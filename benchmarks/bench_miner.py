@@ -41,7 +41,7 @@ SUBJECTS = ("S1", "S5", "S6", "S7", "S8", "S9", "S11")
 ACTIONS = H36M_ACTIONS
 FRAMES_PER_SEQUENCE = 4000
 FPS_HZ = 50.0
-CACHE_VERSION = "v1"
+CACHE_VERSION = "v2"  # v2: issue 11 (pelvic rotation in turns in place, default sway)
 
 
 def _segments(rng: np.random.Generator) -> list[sm.Segment]:

@@ -526,6 +526,64 @@ def test_stats_csv_and_json(tmp_path, capsys) -> None:
     assert doc["subject"]["S11"]["mean_deg"] == 155.0
 
 
+# The same index with the hip rotation (issue 11) appended: 55, 70, 85, 95, 118, 206.
+HIP_VALUES = ("55.0", "70.0", "85.0", "95.0", "118.0", "206.0")
+# By hand: hip bins 55 -> 45; 70, 85, 95 -> 90; 118 -> 135; 206 -> 225.
+# bin 45: 1 clip, 55, 1.00 s; bin 90: 3 clips, 70-95, mean 250/3 = 83.3, (2+2+3)/3 = 2.33 s;
+# bin 135: 1 clip, 118, 1.00 s; bin 225: 1 clip, 206, 4.00 s;
+# Total: 6, 55-206, mean 629/6 = 104.8, 2.17 s.
+# hip - angle: 5, 10, 5, -5, 8, 6; sorted -5, 5, 5, 6, 8, 10: median 5.5, quartiles (linear,
+# positions 1.25 and 3.75) 5.0 and 6 + 0.75 * 2 = 7.5.
+
+
+def _hand_index_with_hip() -> str:
+    lines = HAND_INDEX.strip().splitlines()
+    head = lines[0].replace(",source", ",hip_rotation_deg,source")
+    rows = [
+        ",".join(r.split(",")[:-1] + [h, r.split(",")[-1]])
+        for r, h in zip(lines[1:], HIP_VALUES, strict=True)
+    ]
+    return "\n".join([head, *rows]) + "\n"
+
+
+def test_stats_print_both_columns_by_hand(tmp_path, capsys) -> None:
+    index = _write(tmp_path / "index.csv", _hand_index_with_hip())
+    code, stdout, stderr = run(["h36m", "stats", index], capsys)
+    assert code == 0, stderr
+    lines = stdout.splitlines()
+    # Table 3 by angle_deg is unchanged
+    assert "| 90 | 3 | 80.0 | 110.0 | 96.7 | 2.00 |" in lines
+    hip = lines[lines.index("## Table 3 by the hip rotation (hip_rotation_deg, binned by it)") :]
+    for row in (
+        "| 45 | 1 | 55.0 | 55.0 | 55.0 | 1.00 |",
+        "| 90 | 3 | 70.0 | 95.0 | 83.3 | 2.33 |",
+        "| 135 | 1 | 118.0 | 118.0 | 118.0 | 1.00 |",
+        "| 225 | 1 | 206.0 | 206.0 | 206.0 | 4.00 |",
+        "| **Total** | 6 | 55.0 | 206.0 | 104.8 | 2.17 |",
+    ):
+        assert row in hip, row
+    assert "median 5.5°, interquartile 5.0° to 7.5°" in stdout
+    code, stdout, _ = run(["h36m", "stats", index, "--format", "json"], capsys)
+    doc = json.loads(stdout)
+    assert doc["hip_minus_angle"] == {"median_deg": 5.5, "q25_deg": 5.0, "q75_deg": 7.5}
+    assert doc["table3_hip_rotation"]["90"]["mean_deg"] == pytest.approx(250 / 3)
+    code, stdout, _ = run(["h36m", "stats", index, "--csv"], capsys)
+    (tmp_path / "s.csv").write_text(stdout)
+    table = pd.read_csv(tmp_path / "s.csv", dtype={"group": str})
+    assert table[table.table == "hip_rotation_bin"].group.tolist() == [
+        "45",
+        "90",
+        "135",
+        "225",
+        "Total",
+    ]
+    # a negative hip rotation is refused with its line, like a negative angle
+    bad = _write(tmp_path / "bad.csv", _hand_index_with_hip().replace(",85.0,", ",-85.0,"))
+    code, _, stderr = run(["h36m", "stats", bad], capsys)
+    assert code == EXIT_BAD_INPUT
+    assert f"{bad}:4: hip_rotation_deg -85 is negative" in stderr
+
+
 def test_stats_refuses_a_bad_index(tmp_path, capsys) -> None:
     bad = _write(
         tmp_path / "bad.csv", HAND_INDEX.replace(",100.0,left,90,33.3", ",abc,left,90,33.3")

@@ -324,7 +324,8 @@ def corpus_scores(seeds, *, min_planted_deg: float = 60.0) -> dict:
             prev_end = p.end_frame
             if i in pairs:
                 m = mined.iloc[pairs[i]]
-                row["angle_error_deg"] = m.angle_deg - abs(p.angle_deg)
+                # (issue 11: the truth of angle_deg is the planted heading change)
+                row["angle_error_deg"] = m.angle_deg - abs(p.heading_deg)
                 row["start_error_s"] = (m.start_frame - p.start_frame) / seq.fps
                 row["end_error_s"] = (m.end_frame - p.end_frame) / seq.fps
             rows.append(row)

@@ -20,6 +20,7 @@ import click
 
 from turn_datasets import limits
 from turn_datasets.errors import GateFailed, TurnbenchError
+from turn_datasets.params import param_fields
 
 __all__ = [
     "EXIT_OK",
@@ -35,6 +36,8 @@ __all__ = [
     "LazyGroup",
     "Number",
     "warn_below",
+    "params_options",
+    "params_from",
 ]
 
 EXIT_OK = 0
@@ -240,6 +243,42 @@ BIN_WIDTH_DEG = Number(float, min=0, min_open=True, max=limits.MAX_BIN_WIDTH_DEG
 FRACTION = Number(float, min=0, min_open=True, max=1)
 KAPPA = Number(float, min=-1, max=1)
 SEED = Number(int, min=0, max=limits.MAX_SEED)
+
+
+def params_options(cls: type, *, prefix: str = ""):
+    """Decorator: one click option per field of a parameter dataclass, in field order.
+
+    Each option is ``--<prefix><field-name>`` (underscores as dashes), of the field's type
+    checked by :class:`Number` within the field's bounds, its default shown, its help the
+    field's (:func:`turn_datasets.params.param`). So a parameter is declared once, in its
+    dataclass; :func:`params_from` builds the dataclass back from the parsed options.
+    """
+
+    def decorator(f):
+        # click collects options bottom-up: apply the last field first so --help lists them
+        # in the order the dataclass declares them
+        for fld in reversed(param_fields(cls)):
+            meta = fld.metadata
+            kind = (
+                int if isinstance(fld.default, int) and not isinstance(fld.default, bool) else float
+            )
+            f = click.option(
+                f"--{prefix}{fld.name}".replace("_", "-"),
+                f"{prefix}{fld.name}",
+                type=Number(kind, min=meta["min"], max=meta["max"], min_open=meta["min_open"]),
+                default=fld.default,
+                show_default=True,
+                help=meta["help"],
+            )(f)
+        return f
+
+    return decorator
+
+
+def params_from(cls: type[T], options: dict, *, prefix: str = "") -> T:
+    """The dataclass of :func:`params_options`' options, removed from ``options`` (a command's
+    keyword arguments), so the command keeps only its own."""
+    return cls(**{f.name: options.pop(f"{prefix}{f.name}") for f in param_fields(cls)})
 
 
 def resamples(min_resamples: int = 0) -> Number:

@@ -23,7 +23,7 @@ from turn_datasets.mocap.h36m import parse_h36m_action
 __all__ = ["read_clip_index"]
 
 #: Checked as a column, all rows at once: finite numbers, then each rule in order.
-_NUMERIC = ("angle_deg", "duration_s", "bin_deg")
+_NUMERIC = ("angle_deg", "duration_s", "bin_deg", "hip_rotation_deg")
 
 
 def _read(p: Path, columns: Sequence[str]) -> pd.DataFrame:
@@ -124,6 +124,14 @@ def _check_angles(frame: pd.DataFrame, p: Path) -> pd.DataFrame:
         )
     if "duration_s" in cols:
         checks.append((frame["duration_s"] <= 0, "duration_s {} is not positive", "duration_s"))
+    if "hip_rotation_deg" in cols:
+        checks.append(
+            (
+                frame["hip_rotation_deg"] < 0,
+                "hip_rotation_deg {} is negative (it is a magnitude)",
+                "hip_rotation_deg",
+            )
+        )
     if {"angle_deg", "bin_deg"} <= set(cols):
         # a bin that is not the angle's nearest multiple of 45 (an angle edited by hand, a
         # column shifted) would put a clip in the wrong row of Table 3 unnoticed
@@ -142,7 +150,11 @@ def _check_angles(frame: pd.DataFrame, p: Path) -> pd.DataFrame:
 
 
 def read_clip_index(
-    path: str | os.PathLike[str], columns: Sequence[str], *, h36m_actions: bool = False
+    path: str | os.PathLike[str],
+    columns: Sequence[str],
+    *,
+    h36m_actions: bool = False,
+    optional: Sequence[str] = (),
 ) -> pd.DataFrame:
     """The ``columns`` of a clip index CSV, checked, plus ``row`` (its CSV line number).
 
@@ -158,6 +170,10 @@ def read_clip_index(
         negative (a magnitude) nor beyond :data:`turn_datasets.limits.MAX_ANGLE_DEG`, the duration positive and the bin
         :func:`turn_datasets.geometry.quantise_deg` of the angle. Other columns are text
         (an empty cell is ``""``).
+    optional
+        Columns read (after ``columns``) and checked the same way when the file has them,
+        such as ``hip_rotation_deg`` (finite, not negative), which indexes mined before
+        issue 11 lack.
     h36m_actions
         ``action`` must be a Human3.6M action (any spelling of
         :func:`turn_datasets.mocap.h36m.parse_h36m_action`) and is returned canonical;
@@ -170,7 +186,8 @@ def read_clip_index(
         line.
     """
     p = Path(path)
-    frame = _read(p, columns).loc[:, list(columns)]
+    frame = _read(p, columns)
+    frame = frame.loc[:, list(columns) + [c for c in optional if c in frame.columns]]
     frame = _check_rows(frame, p, h36m_actions=h36m_actions)
     frame = _check_angles(frame, p)
     frame["row"] = np.arange(2, len(frame) + 2, dtype=np.int64)

@@ -90,12 +90,14 @@ import re
 from collections.abc import Iterable, Iterator
 from dataclasses import asdict, dataclass, replace
 from functools import lru_cache
+from textwrap import indent
 from types import MappingProxyType
 
 import numpy as np
 import pandas as pd
 from scipy import signal
 
+from turn_datasets import limits
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import typed_frame
 from turn_datasets.geometry import (
@@ -107,6 +109,7 @@ from turn_datasets.geometry import (
     turning_angle,
     usable_frames,
 )
+from turn_datasets.params import check_params, describe_params, param
 from turn_datasets.render.order import natural_key
 from turn_datasets.skeleton import Layout, MocapSequence
 
@@ -193,66 +196,95 @@ _BUTTER_ORDER = 2  # applied forwards and backwards: squared magnitude, zero pha
 class MinerParams:
     """Every parameter of the miner, with its default (see the module docstring for the rule).
 
-    Attributes
-    ----------
-    min_turn_deg
-        Smallest heading change of a clip, degrees (the paper's 45).
-    max_gap_s
-        Longest dropout bridged by interpolation, seconds; longer ones cut the sequence.
-    smooth_s
-        Moving-mean window of the hip yaw against joint noise, seconds.
-    start_speed_deg_s
-        A turn's heading must somewhere change faster than this, degrees per second.
-    stop_speed_deg_s
-        A turn lasts while its heading changes faster than this, degrees per second.
-    merge_gap_s
-        Runs in the same direction this close (seconds) are one turn.
-    position_cutoff_hz
-        Low-pass cut-off of the hip positions, Hz (0 turns the filter off, as does a cut-off
-        at or above 0.45 times the frame rate, too near the Nyquist frequency to filter).
-    stride_s
-        Typical stride period, seconds: the first guess when looking for the sway's period.
-    min_stride_s
-        Shortest stride period looked for in the hip's sway, seconds.
-    max_stride_s
-        Longest stride period looked for in the hip's sway, seconds.
-    no_sway_window_s
-        Window of the heading rate where the hips show no stride (standing, turning in
-        place), seconds.
-    onset_deg
-        Departure of the heading, degrees, above which (to four times it) a turn's start
-        and end are fitted.
+    Each field is declared once, with its unit in its name and its help and bounds in its
+    metadata (:func:`turn_datasets.params.param`); ``turn-datasets h36m mine`` makes its
+    options from them. A ``position_cutoff_hz`` at or above 0.45 times the frame rate, too
+    near the Nyquist frequency to filter, leaves the hips unfiltered as 0 does.
     """
 
-    min_turn_deg: float = 45.0
-    max_gap_s: float = 0.25
-    smooth_s: float = 0.3
-    start_speed_deg_s: float = 20.0
-    stop_speed_deg_s: float = 10.0
-    merge_gap_s: float = 0.3
-    position_cutoff_hz: float = 6.0
-    stride_s: float = 1.1
-    min_stride_s: float = 0.8
-    max_stride_s: float = 1.6
-    no_sway_window_s: float = 0.6
-    onset_deg: float = 6.0
+    min_turn_deg: float = param(
+        45.0,
+        "Smallest heading change of a clip, in degrees (the paper's 45).",
+        min=0,
+        min_open=True,
+        max=limits.MAX_ANGLE_DEG,
+    )
+    max_gap_s: float = param(
+        0.25,
+        "Dropouts up to this long (seconds) are bridged; longer ones cut the sequence.",
+        min=0,
+        max=limits.MAX_DURATION_S,
+    )
+    smooth_s: float = param(
+        0.3,
+        "Moving-mean window of the hip yaw against joint noise, in seconds.",
+        min=0,
+        min_open=True,
+        max=limits.MAX_DURATION_S,
+    )
+    start_speed_deg_s: float = param(
+        20.0,
+        "A turn's heading must somewhere change faster than this, in degrees per second.",
+        min=0,
+        min_open=True,
+        max=limits.MAX_SPEED_DEG_S,
+    )
+    stop_speed_deg_s: float = param(
+        10.0,
+        "A turn lasts while its heading changes faster than this, in degrees per second.",
+        min=0,
+        max=limits.MAX_SPEED_DEG_S,
+    )
+    merge_gap_s: float = param(
+        0.3,
+        "Rotations in the same direction this close (seconds) are one turn.",
+        min=0,
+        max=limits.MAX_DURATION_S,
+    )
+    position_cutoff_hz: float = param(
+        6.0,
+        "Zero-phase low-pass of the hip positions against joint noise, in Hz (0: off).",
+        min=0,
+        max=limits.MAX_FPS_HZ,
+    )
+    stride_s: float = param(
+        1.1,
+        "Typical stride period, in seconds: the first guess when looking for the sway's period.",
+        min=0,
+        min_open=True,
+        max=limits.MAX_DURATION_S,
+    )
+    min_stride_s: float = param(
+        0.8,
+        "Shortest stride period looked for in the knees' swing or the hip's sway, in seconds.",
+        min=0,
+        min_open=True,
+        max=limits.MAX_DURATION_S,
+    )
+    max_stride_s: float = param(
+        1.6,
+        "Longest stride period looked for in the knees' swing or the hip's sway, in seconds.",
+        min=0,
+        min_open=True,
+        max=limits.MAX_DURATION_S,
+    )
+    no_sway_window_s: float = param(
+        0.6,
+        "Heading-rate window where no stride shows (standing, turning in place), in seconds.",
+        min=0,
+        min_open=True,
+        max=limits.MAX_DURATION_S,
+    )
+    onset_deg: float = param(
+        6.0,
+        "Heading departure (degrees) from which, to four times it, boundaries are fitted.",
+        min=0,
+        min_open=True,
+        max=limits.MAX_ANGLE_DEG,
+    )
 
     def __post_init__(self) -> None:
-        positive = (
-            "min_turn_deg",
-            "smooth_s",
-            "start_speed_deg_s",
-            "stride_s",
-            "min_stride_s",
-            "max_stride_s",
-            "no_sway_window_s",
-            "onset_deg",
-        )
-        for name, value in asdict(self).items():
-            ok = value > 0 if name in positive else value >= 0
-            if not (np.isfinite(value) and ok):
-                kind = "positive" if name in positive else "non-negative"
-                raise TurnbenchError(f"{name} must be a finite {kind} number, got {value}")
+        check_params(self)
         if self.stop_speed_deg_s > self.start_speed_deg_s:
             raise TurnbenchError(
                 f"stop_speed_deg_s ({self.stop_speed_deg_s}) must not exceed "
@@ -474,20 +506,23 @@ def _onset(departure: np.ndarray, onset_deg: float) -> float:
     a single threshold crossing does not.
     """
     n = departure.shape[0]
-    high = np.flatnonzero(departure >= 4.0 * onset_deg)
-    top = int(high[0]) if high.size else n
+    high = departure >= 4.0 * onset_deg
+    top = int(high.argmax()) if high.any() else n
     low = np.flatnonzero(departure[:top] < onset_deg)
     bottom = int(low[-1]) + 1 if low.size else 0
-    if top - bottom < 3:
+    m = top - bottom
+    if m < 3:
         return float(bottom)
-    u = np.arange(bottom, top, dtype=float)
     r = np.sqrt(np.maximum(departure[bottom:top], 0.0))
-    slope, intercept = np.polyfit(u, r, 1)
+    # least-squares line through (k, r[k]), k = 0..m-1, in closed form (cheaper than polyfit)
+    k = np.arange(m) - 0.5 * (m - 1)
+    slope = float(k @ r) * 12.0 / (m * (m * m - 1.0))
     if not slope > 0:
         return float(bottom)
+    root = bottom + 0.5 * (m - 1) - float(r.mean()) / slope
     # On an exact parabola the start lies 0.55 x (top - bottom) before the bottom; noise may
     # tilt the line, so the start is kept within one such span of the fitted frames.
-    return float(np.clip(-intercept / slope, bottom - (top - bottom), bottom))
+    return min(max(root, bottom - m), bottom)
 
 
 def _departure(mean_yaw: np.ndarray, frames: np.ndarray, ref_lo: int, ref_hi: int, stride: int):
@@ -504,7 +539,7 @@ def _departure(mean_yaw: np.ndarray, frames: np.ndarray, ref_lo: int, ref_hi: in
         ref = frames - stride * ((frames - ref_hi) // stride + 1)
     else:  # before it: step forward
         ref = frames + stride * ((ref_lo - frames - 1) // stride + 1)
-    return mean_yaw[frames] - mean_yaw[np.clip(ref, ref_lo, ref_hi - 1)]
+    return mean_yaw[frames] - mean_yaw[np.minimum(np.maximum(ref, ref_lo), ref_hi - 1)]
 
 
 def _refine(
@@ -577,8 +612,9 @@ def _piece_turns(
     # and the windows of the turns are then cut only at the neighbouring turns.
     net = _heading_changes(yaw, start, end, stride)
     keep = (np.abs(net) >= p.min_turn_deg) & (np.sign(net) == sign)
-    start, end, sign = start[keep], end[keep], sign[keep]
-    net = _heading_changes(yaw, start, end, stride)
+    if not keep.all():
+        start, end, sign = start[keep], end[keep], sign[keep]
+        net = _heading_changes(yaw, start, end, stride)
     hip = yaw[end - 1] - yaw[start]
     return start, end, sign, net, hip
 
@@ -654,18 +690,16 @@ def _zero_phase_lowpass(x: np.ndarray, cutoff_hz: float, fps_hz: float) -> np.nd
     return np.ascontiguousarray(y[:, ::-1][:, pad : ext.shape[1] - pad].T)
 
 
-def _knee_gait(p: np.ndarray, layout: Layout) -> np.ndarray | None:
+def _knee_gait(ground: np.ndarray) -> np.ndarray:
     """Fore-aft separation of the knees per frame, in hip widths (NaN where unknown).
 
-    Left knee minus right knee on the ground plane, along the direction the hips face
-    (the hip vector turned 90° clockwise seen from above). In walking it swings back and
-    forth once per stride by more than a hip width; standing, it stays near zero. None when
-    the layout has no knees.
+    ``ground`` holds the left and right hip and knee on the ground plane, ``(frames, 4, 2)``.
+    Left knee minus right knee, along the direction the hips face (the hip vector turned
+    90° clockwise seen from above). In walking it swings back and forth once per stride by
+    more than a hip width; standing, it stays near zero.
     """
-    if "left_knee" not in layout.joints or "right_knee" not in layout.joints:
-        return None
-    hip = p[:, layout.index("left_hip"), :2] - p[:, layout.index("right_hip"), :2]
-    knee = p[:, layout.index("left_knee"), :2] - p[:, layout.index("right_knee"), :2]
+    hip = ground[:, 0] - ground[:, 1]
+    knee = ground[:, 2] - ground[:, 3]
     with np.errstate(invalid="ignore", divide="ignore"):
         width2 = hip[:, 0] ** 2 + hip[:, 1] ** 2
         return (knee[:, 0] * hip[:, 1] - knee[:, 1] * hip[:, 0]) / width2
@@ -674,7 +708,10 @@ def _knee_gait(p: np.ndarray, layout: Layout) -> np.ndarray | None:
 def _prepared_pieces(
     positions: np.ndarray, layout: Layout, fps_hz: float, params: MinerParams
 ) -> Iterator[tuple[int, np.ndarray, np.ndarray | None]]:
-    """Steps 2 and 3 of the rule: ``(first frame, bridged and filtered hips, knee gait)``."""
+    """Steps 2 and 3 of the rule: ``(first frame, bridged and filtered hips, knee gait)``.
+
+    The knee gait (:func:`_knee_gait`) is None when the layout has no knees.
+    """
     if not (np.isfinite(fps_hz) and fps_hz > 0):
         raise TurnbenchError(f"fps must be positive, got {fps_hz}")
     p = np.asarray(positions)
@@ -683,14 +720,20 @@ def _prepared_pieces(
             f"positions must have shape (frames, {layout.n_joints}, 3) for layout "
             f"{layout.name!r}, got {p.shape}"
         )
+    names = ["left_hip", "right_hip"]
+    has_knees = "left_knee" in layout.joints and "right_knee" in layout.joints
+    if has_knees:
+        names += ["left_knee", "right_knee"]
+    # one gather of the few joints needed (a row of 32 joints is read once, not per joint)
+    ground = p[:, [layout.index(j) for j in names], :2].astype(float, copy=False)
     hips = np.zeros((p.shape[0], 2, 3))
-    hips[:, :, :2] = p[:, [layout.index("left_hip"), layout.index("right_hip")], :2]
+    hips[:, :, :2] = ground[:, :2]
     usable = usable_frames(hips, _HIPS)
     if int(usable.sum()) < 2:
         raise TurnbenchError(
             "fewer than two frames with a usable hip vector (hips missing or coinciding)"
         )
-    gait = _knee_gait(p, layout)
+    gait = _knee_gait(ground) if has_knees else None
     for a, b in _pieces(usable, _frames(params.max_gap_s, fps_hz)):
         piece = _prepare_piece(hips[a:b], usable[a:b], fps_hz, params.position_cutoff_hz)
         yield a, piece, None if gait is None else gait[a:b]
@@ -1043,3 +1086,8 @@ def mine(sequences: Iterable[MocapSequence], **params: float) -> pd.DataFrame:
     """
     p = MinerParams(**params)
     return build_index(clips for _, clips in iter_clips(sequences, p))
+
+
+MinerParams.__doc__ = (
+    (MinerParams.__doc__ or "") + "\n" + indent(describe_params(MinerParams), "    ")
+)

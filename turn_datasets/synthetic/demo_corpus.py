@@ -11,9 +11,10 @@ Turn-H3.6M-like motion capture (:func:`write_h36m_corpus`)
     sway, standing, pivot and walking turns, joint noise and a few capture dropouts. Turns
     are planted with heading changes from 48° to 233°, drawn per 45° bin with the shares of
     :data:`H36M_BIN_MIX` (most turns small, as in the paper's Table 3), more of them in the
-    walking actions than in the standing ones; the hips' own rotation over a planted turn
-    (``planted.csv``'s ``angle_deg``) differs from the heading change by the pelvic sway at
-    its ends, a few degrees (43° to 229° with the default seed). The files are written in all three layouts
+    walking actions than in the standing ones. ``planted.csv``'s ``angle_deg`` is the
+    heading change (what the clip index's ``angle_deg`` measures, issue 11); its
+    ``hip_rotation_deg``, the hips' own rotation over the planted frames, differs from it by
+    the pelvic sway at the turn's ends, a few degrees. The files are written in all three layouts
     Human3.6M is distributed in: S1 as the original release's CDF (with S1's own spellings
     ``TakingPhoto`` and ``WalkingDog``), S5 as 3d-pose-baseline's h5, the other subjects in
     one VideoPose3D ``data_3d_h36m.npz``. ``planted.csv`` lists every planted turn.
@@ -111,6 +112,7 @@ PLANTED_COLUMNS = {
     "angle_deg": "float64",
     "direction": "str",
     "bin_deg": "int64",
+    "hip_rotation_deg": "float64",
     "kind": "str",
     "duration_s": "float64",
 }
@@ -287,9 +289,12 @@ def write_h36m_corpus(
                             "file": str(path.relative_to(root)),
                             "start_frame": p["start_frame"],
                             "end_frame": p["end_frame"],
-                            "angle_deg": p["angle_deg"].abs().round(3),
-                            "direction": [direction_of(a) for a in p["angle_deg"]],
-                            "bin_deg": quantise_deg(p["angle_deg"].abs().to_numpy()).astype(int),
+                            # the clip index's angle_deg is the heading change (issue 11),
+                            # its hip_rotation_deg the hips' own rotation over the frames
+                            "angle_deg": p["heading_deg"].abs().round(3),
+                            "direction": [direction_of(a) for a in p["heading_deg"]],
+                            "bin_deg": quantise_deg(p["heading_deg"].abs().to_numpy()).astype(int),
+                            "hip_rotation_deg": p["angle_deg"].abs().round(3),
                             "kind": p["kind"],
                             "duration_s": p["duration_s"],
                         }

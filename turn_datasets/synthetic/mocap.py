@@ -23,10 +23,11 @@ counter-clockwise seen from above, so a positive (left) turn increases the yaw o
 left-minus-right hip vector.
 
 The planted truth is computed by this module from its own noise-free pelvis yaw, never by
-the miner: each turn's ``angle_deg`` is the signed rotation of the noise-free hip vector
-from the turn's first frame to its last (``end_frame - 1``), which is DESIGN.md's
-definition of a clip's angle; ``heading_deg`` is the heading change asked for (the two
-differ by the pelvic sway at the two ends, a few degrees at most).
+the miner: each turn's ``heading_deg`` is the heading change asked for, what the clip
+index's ``angle_deg`` measures (DESIGN.md, issue 11); its ``angle_deg`` is the signed rotation
+of the noise-free hip vector from the turn's first frame to its last (``end_frame - 1``),
+what the index's ``hip_rotation_deg`` measures. The two differ by the pelvic sway at the
+two ends and the postural wander, a few degrees at most.
 
 Everything is drawn from one :class:`numpy.random.Generator` seeded by ``seed``: the same
 seed and segments give the same array, bit for bit.
@@ -110,6 +111,11 @@ PIVOT_STEP_FREQUENCY_HZ = 0.8
 #: Speed, gait amplitude and sway change over this time at a segment boundary.
 TRANSITION_S = 0.4
 POSTURAL_WANDER_DEG = 0.5
+#: Default peak-to-peak transverse pelvic rotation per stride, degrees (±4°). Measured on the
+#: real CMU walks in ``../shared/data/cmu-mocap`` (root joint's yaw about its stride mean,
+#: half the peak to peak per stride): ±3.4° and ±4.1° (69_01), ±6.3° (16_21); Saunders,
+#: Inman & Eberhart (1953) and Perry & Burnfield (2010) give ±4° to ±8°.
+SWAY_DEG = 8.0
 
 
 @dataclass(frozen=True)
@@ -194,8 +200,9 @@ class SyntheticSequence:
     planted
         One row per planted turn: ``start_frame``, ``end_frame`` (exclusive), ``angle_deg``
         (signed noise-free hip rotation from ``start_frame`` to ``end_frame - 1``; positive
-        = left), ``kind`` (``pivot_turn`` or ``walking_turn``), ``heading_deg`` (the heading
-        change asked for), ``duration_s``.
+        = left: the truth of ``hip_rotation_deg``), ``kind`` (``pivot_turn`` or
+        ``walking_turn``), ``heading_deg`` (the heading change asked for: the truth of the
+        clip index's ``angle_deg``), ``duration_s``.
     segments
         Every segment with its frames: ``start_frame``, ``end_frame``, ``kind``,
         ``heading_deg``, ``speed_m_s``.
@@ -262,7 +269,7 @@ def generate_sequence(
     segments: Sequence[Segment],
     fps_hz: float = 50.0,
     noise_mm: float = 10.0,
-    sway_deg: float = 4.5,
+    sway_deg: float = SWAY_DEG,
     dropouts: Sequence[Dropout] = (),
     wander_deg: float = POSTURAL_WANDER_DEG,
     start_heading_deg: float | None = None,
@@ -284,7 +291,10 @@ def generate_sequence(
     sway_deg
         Peak-to-peak transverse pelvic rotation per stride while walking, in degrees: the
         pelvis (and with it the hip vector) swings from ``-sway_deg/2`` to ``+sway_deg/2``
-        about the heading once per stride. Healthy adults show about 3° to 10°.
+        about the heading once per stride, phase-locked to the legs (and, scaled by
+        ``PIVOT_STEP_AMPLITUDE``, to the steps of a turn in place); the thorax and shoulders
+        counter-rotate. Healthy adults show about ±4° to ±8° (8° to 16° here); the default
+        8° is the middle of what CMU's real walks show (:data:`SWAY_DEG`).
     dropouts
         Frame runs to set to NaN (all joints), as capture dropouts.
     wander_deg
@@ -332,7 +342,11 @@ def generate_sequence(
         np.where(walking, 1.0, np.where(kinds == "pivot_turn", PIVOT_STEP_AMPLITUDE, 0.0))[seg_of],
         ramp,
     )
-    sway_amp = _smooth(walking.astype(float)[seg_of], ramp)
+    # the pelvis rotates with every step, walking or stepping round in a turn in place
+    sway_amp = _smooth(
+        np.where(walking, 1.0, np.where(kinds == "pivot_turn", PIVOT_STEP_AMPLITUDE, 0.0))[seg_of],
+        ramp,
+    )
     stride_hz = np.where(
         walking,
         stride_frequency_hz(np.maximum(speed, 1e-9)),
