@@ -3,8 +3,9 @@
 numpy 2 has variable-width strings (``np.dtypes.StringDType``) and the ``np.strings``
 functions; the readers use them so that one long line does not widen every other one in
 memory. The optional ``video`` extra (mediapipe 0.10.21) pins numpy < 2, so the core also
-runs on numpy 1.26, where the same operations fall back to fixed-width unicode arrays and
-``np.char`` (element by element ``str.strip``/``str.count``: the same results, more memory).
+runs on numpy 1.26, where the same operations fall back to object arrays of Python ``str``
+and ``str.strip``/``str.count`` element by element: the same results (not numpy 1.26's
+fixed-width ``<U`` arrays, which silently drop trailing NUL characters).
 """
 
 from __future__ import annotations
@@ -20,21 +21,29 @@ HAS_STRING_DTYPE = hasattr(np, "strings") and hasattr(np.dtypes, "StringDType")
 
 
 def text_array(values: Iterable[str] | np.ndarray) -> np.ndarray:
-    """``values`` as a numpy array of text: variable-width on numpy 2, ``<U`` on 1.26."""
+    """``values`` as a numpy array of text: variable-width on numpy 2, ``str`` objects on 1.26."""
     if HAS_STRING_DTYPE:
         return np.asarray(values, dtype=np.dtypes.StringDType())
-    values = values if isinstance(values, np.ndarray) else list(values)
-    return np.asarray(values, dtype=str)
+    items = [str(v) for v in values]
+    out = np.empty(len(items), dtype=object)
+    out[:] = items
+    return out
 
 
 def strip(text: np.ndarray) -> np.ndarray:
     """Leading and trailing white space removed from every element (``str.strip``)."""
-    return np.strings.strip(text) if HAS_STRING_DTYPE else np.char.strip(text)
+    if HAS_STRING_DTYPE:
+        return np.strings.strip(text)
+    out = np.empty(len(text), dtype=object)
+    out[:] = [str(v).strip() for v in text]
+    return out
 
 
 def count(text: np.ndarray, sub: str) -> np.ndarray:
     """Non-overlapping occurrences of ``sub`` in every element (``str.count``)."""
-    return np.strings.count(text, sub) if HAS_STRING_DTYPE else np.char.count(text, sub)
+    if HAS_STRING_DTYPE:
+        return np.strings.count(text, sub)
+    return np.fromiter((str(v).count(sub) for v in text), dtype=np.int64, count=len(text))
 
 
 def stripped_objects(values: Iterable[str] | np.ndarray) -> np.ndarray:
