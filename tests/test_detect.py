@@ -185,7 +185,11 @@ def test_identity_break_to_a_bystander_is_cut_out(root_relative: bool) -> None:
     if root_relative:
         p = p - p[:, :1]  # no position left: only the size tells the bystander apart
     raw = raw_miner(p)
-    assert len(raw) >= 1 and raw.start_frame.between(270, 420).all()  # the bystander's turn
+    # the bystander's turn. (Issue 11: the miner's yaw is a 0.3 s moving mean, so a clip
+    # that starts at a jump starts up to that window, 9 frames at 30 fps, before it: 263
+    # here, since the stream's 5 s walks now give the stride the heading rate spans.)
+    smoothing = round(MinerParams().smooth_s * FPS)
+    assert len(raw) >= 1 and raw.start_frame.between(270 - smoothing, 420).all()
     assert len(RULE.detect(p, FPS, H36M17)) == 0
     usable = np.isfinite(p).all(axis=(1, 2))
     pieces = identity_pieces(

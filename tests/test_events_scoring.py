@@ -303,3 +303,27 @@ def test_the_callers_frames_are_left_as_they_were():
     score_events(det, ref, n_resamples=10)
     pd.testing.assert_frame_equal(det, before[0])
     pd.testing.assert_frame_equal(ref, before[1])
+
+
+def test_a_participant_annotated_without_turns_counts_and_takes_its_subjects_cohort():
+    # sessions.csv lists (s3, P1), a session where P1 made no turn: a detection there is
+    # not unknown but a false positive, of P1's cohort (PD, constant over P1's turns).
+    sessions = pd.DataFrame(
+        {
+            "session": ["s1", "s2", "s3"],
+            "subject": ["P1", "P2", "P1"],
+            "duration_s": [3600.0, 3600.0, 1800.0],
+        }
+    )
+    extra = pd.DataFrame(
+        [{"session": "s3", "subject": "P1", "start_s": 1.0, "end_s": 2.0, "angle_deg": 90.0}]
+    )
+    det = pd.concat([DET.drop(columns="score"), extra], ignore_index=True)
+    result = score_events(det, REF, sessions=sessions, n_resamples=0)
+    doc = result.doc
+    assert doc["counts"]["units"] == 3
+    assert doc["by"]["cohort"]["groups"]["PD"]["fp"] == 2
+    assert doc["by"]["subject"]["groups"]["P1"]["fp"] == 2
+    # Turns per hour of (s3, P1): 0 reference, 2 detected per hour.
+    row = result.rates.set_index(["session", "subject"]).loc[("s3", "P1")]
+    assert (row["reference_per_hour"], row["detected_per_hour"]) == (0.0, 2.0)

@@ -3,6 +3,7 @@ module states, every artefact where planted.csv says, same seed same bytes."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -10,6 +11,7 @@ import pandas as pd
 import pytest
 
 from turn_datasets.geometry import frame_yaw_deg
+from turn_datasets.remap.context import CONTEXT_COLUMNS
 from turn_datasets.remap.labels import LABEL_COLUMNS
 from turn_datasets.skeleton import H36M17, to_z_up
 from turn_datasets.synthetic.untrimmed import (
@@ -17,8 +19,12 @@ from turn_datasets.synthetic.untrimmed import (
     TURN_SPEED_DEG_S,
     camera_frame_m,
     draw_turn_labels,
+    write_streams_for_labels,
     write_untrimmed_corpus,
 )
+from turn_eval.detect import DetectParams, MinerRule, detect_files
+from turn_eval.detect.rule import DETECT_MINER_DEFAULTS
+from turn_eval.events import score_events
 
 FPS = 30.0
 
@@ -55,7 +61,10 @@ def test_labels_are_remap_labels_of_the_planted_turns(corpus: Path) -> None:
     for row in labels.itertuples():
         mid = 0.5 * (row.start_s + row.end_s)
         ctx = context[
-            (context.session == row.session) & (context.start_s <= mid) & (mid < context.end_s)
+            (context.session == row.session)
+            & (context.subject == row.subject)
+            & (context.start_s <= mid)
+            & (mid < context.end_s)
         ]
         assert ctx[["scenario", "location"]].values.tolist() == [[row.scenario, row.location]]
 
@@ -73,7 +82,8 @@ def test_turn_speeds_are_the_stated_ones() -> None:
 
 def test_context_and_sessions_cover_each_session(corpus: Path) -> None:
     context = pd.read_csv(corpus / "context.csv")
-    for _, c in context.groupby("session"):
+    assert list(context.columns) == list(CONTEXT_COLUMNS)
+    for _, c in context.groupby(["session", "subject"]):
         assert c.start_s.iloc[0] == 0.0 and c.end_s.iloc[-1] == 120.0
         np.testing.assert_allclose(c.start_s.iloc[1:], c.end_s.iloc[:-1])
         assert list(dict.fromkeys(c.scenario)) == ["scripted", "clinical", "free-living"]
@@ -127,3 +137,22 @@ def test_camera_frame_keeps_the_sense_of_a_turn() -> None:
         # metres, and y down: the hips (0.9 m up) are below the camera's axis at 1.5-2.2 m
         cam_axes = camera_frame_m(p, camera)
         assert (cam_axes[:, H36M17.index("left_hip"), 1] > 0).all()
+
+
+def test_streams_for_a_label_table_plant_its_turns(corpus: Path, tmp_path: Path) -> None:
+    # the demo's path: streams around given labels (here the corpus's own, 270° added)
+    labels = pd.read_csv(corpus / "labels.csv", keep_default_na=False)
+    extra = labels.iloc[[0]].assign(start_s=100.0, end_s=105.0, angle_deg=270.0)
+    labels = pd.concat([labels[labels.start_s < 95.0], extra], ignore_index=True)
+    context = pd.read_csv(corpus / "context.csv", keep_default_na=False)
+    written = write_streams_for_labels(labels, tmp_path, seed=5, context=context)
+    assert [p.name for p in written] == ["home01.npz", "home02.npz"]
+    with np.load(written[0]) as archive:
+        # 10 s after each person's last turn
+        ends = labels[labels.session == "home01"].groupby("subject").end_s.max()
+        for subject, end in ends.items():
+            assert archive[subject].shape[0] == round((end + 10.0) * FPS)
+    rule = MinerRule(DetectParams(miner=replace(DETECT_MINER_DEFAULTS, min_turn_deg=67.5)))
+    run = detect_files(written, detector=rule, layout=H36M17, up_axis="-y", fps_hz=FPS)
+    doc = score_events(run.detections, labels, n_resamples=0, by=["cohort"]).doc
+    assert doc["overall"]["f1"] >= 0.9

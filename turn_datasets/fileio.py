@@ -13,7 +13,7 @@ import json
 import os
 import shutil
 import tempfile
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -32,6 +32,7 @@ __all__ = [
     "check_not_input",
     "sha256_file",
     "typed_frame",
+    "walk_files",
 ]
 
 
@@ -217,6 +218,50 @@ def check_not_input(
             raise TurnbenchError(
                 f"{out} would overwrite this input; choose another {option}", file=str(item)
             )
+
+
+def walk_files(
+    root: str | os.PathLike[str],
+    *,
+    on_unreadable: Callable[[Path, OSError], None] | None = None,
+) -> list[Path]:
+    """Every non-hidden file under ``root``, subfolders included, in a reproducible order.
+
+    Folders reached through a symbolic link are walked too (a dataset assembled from links,
+    ``ROOT/S5 -> /mnt/disk2/S5``, is one dataset), each real folder once, so a link back up
+    the tree ends instead of looping. Hidden folders and files (``.git``, macOS's
+    ``._name`` forks) are skipped. A folder that cannot be read is passed to
+    ``on_unreadable`` with the error, or, without one, raised as :class:`TurnbenchError`
+    naming it: never dropped in silence.
+
+    Returns
+    -------
+    list of Path
+        Sorted by their path relative to ``root`` (code points), so the same tree gives the
+        same list on every machine.
+    """
+    top = Path(root)
+    found: list[Path] = []
+    seen: set[tuple[int, int]] = set()
+
+    def failed(exc: OSError) -> None:
+        where = Path(exc.filename) if exc.filename else top
+        if on_unreadable is None:
+            raise TurnbenchError(
+                f"cannot read this folder: {exc.strerror or exc}", file=where
+            ) from None
+        on_unreadable(where, exc)
+
+    for dirpath, dirnames, filenames in os.walk(top, onerror=failed, followlinks=True):
+        here = os.stat(dirpath)
+        key = (here.st_dev, here.st_ino)
+        if key in seen:  # a link to a folder already walked (or to an ancestor): a loop
+            dirnames[:] = []
+            continue
+        seen.add(key)
+        dirnames[:] = sorted(d for d in dirnames if not d.startswith("."))
+        found.extend(Path(dirpath) / f for f in filenames if not f.startswith("."))
+    return sorted(found, key=lambda p: p.relative_to(top).parts)
 
 
 def sha256_file(path: str | os.PathLike[str], chunk_size: int = 1 << 20) -> str:

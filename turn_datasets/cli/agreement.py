@@ -15,6 +15,7 @@ from turn_datasets.cli import CONTEXT_SETTINGS, remap
 from turn_datasets.cli.common import (
     KAPPA,
     SEED,
+    counted,
     format_option,
     info,
     progress,
@@ -153,6 +154,7 @@ def agreement(
         n_bootstrap=bootstrap,
         seed=seed,
     )
+    info(f"read {counted(len(paths), 'ELAN file')}")
     if not len(audit.items):
         warn(
             f"no session and participant was labelled by both {audit.raters[0]!r} and "

@@ -36,6 +36,7 @@ __all__ = [
     "LazyGroup",
     "Number",
     "warn_below",
+    "counted",
     "params_options",
     "params_from",
 ]
@@ -134,6 +135,11 @@ def wrote(*paths: str | Path, what: str = "") -> None:
     """The one-line summary of what a command wrote, on stderr."""
     names = ", ".join(str(p) for p in paths)
     info(f"wrote {what + ' ' if what else ''}{names}")
+
+
+def counted(n: int, noun: str) -> str:
+    """``1 clip``, ``2 clips``: a count with its noun, in the singular for one."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"
 
 
 def progress(items: Iterable[T], *, label: str, length: int | None = None) -> Iterator[T]:
@@ -245,13 +251,15 @@ KAPPA = Number(float, min=-1, max=1)
 SEED = Number(int, min=0, max=limits.MAX_SEED)
 
 
-def params_options(cls: type, *, prefix: str = ""):
+def params_options(cls: type, *, prefix: str = "", defaults: object | None = None):
     """Decorator: one click option per field of a parameter dataclass, in field order.
 
     Each option is ``--<prefix><field-name>`` (underscores as dashes), of the field's type
     checked by :class:`Number` within the field's bounds, its default shown, its help the
     field's (:func:`turn_datasets.params.param`). So a parameter is declared once, in its
     dataclass; :func:`params_from` builds the dataclass back from the parsed options.
+    ``defaults``, an instance of ``cls``, gives other defaults than the fields' (a command
+    that runs the rule with its own settings, as ``turn-eval detect`` runs the miner's).
     """
 
     def decorator(f):
@@ -266,7 +274,7 @@ def params_options(cls: type, *, prefix: str = ""):
                 f"--{prefix}{fld.name}".replace("_", "-"),
                 f"{prefix}{fld.name}",
                 type=Number(kind, min=meta["min"], max=meta["max"], min_open=meta["min_open"]),
-                default=fld.default,
+                default=fld.default if defaults is None else getattr(defaults, fld.name),
                 show_default=True,
                 help=meta["help"],
             )(f)

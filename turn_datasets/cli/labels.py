@@ -11,7 +11,16 @@ import click
 import pandas as pd
 
 from turn_datasets.cli import CONTEXT_SETTINGS, remap
-from turn_datasets.cli.common import FRACTION, emit, format_option, info, progress, warn, wrote
+from turn_datasets.cli.common import (
+    FRACTION,
+    counted,
+    emit,
+    format_option,
+    info,
+    progress,
+    warn,
+    wrote,
+)
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, staged_dir, to_json_text, write_csv
 from turn_datasets.remap.context import context_table, sessions_table
@@ -108,6 +117,7 @@ def inspect_cmd(
         inspect_eaf(p, schema=schema, keep_media_paths=keep_media_paths)
         for p in progress(paths, label="reading ELAN files")
     ]
+    info(f"read {counted(len(paths), 'ELAN file')}")
     if fmt == "json":
         emit(to_json_text({"schema": schema.source, "files": results}))
     else:
@@ -219,7 +229,7 @@ def labels_cmd(
         out,
         *beside,
         what=f"{len(labels)} turns ({n_double} double-annotated) from {len(annotations)} "
-        "annotations:",
+        f"annotations in {counted(len(paths), 'ELAN file')}:",
     )
 
 

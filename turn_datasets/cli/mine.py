@@ -15,6 +15,7 @@ import pandas as pd
 from turn_datasets.cli import h36m
 from turn_datasets.cli.common import (
     FPS_HZ,
+    counted,
     emit,
     format_option,
     info,
@@ -141,7 +142,13 @@ def mine_cmd(
     miner's documentation for the rule); hip_rotation_deg keeps the paper's net hip
     rotation. By default any unreadable file, or unusable sequence in a file of many, fails
     the run (exit 2, nothing written) after all are listed; --skip-bad writes the index
-    without them and lists them in the manifest.
+    without them and lists them in the manifest. Folders reached through symbolic links are
+    walked; a folder that cannot be read is listed like a bad file.
+
+    VideoPose3D's npz holds a pickle, and unpickling can run code: it is read only when
+    named, or as data_3d_h36m.npz at the top of a dataset root, after its header is checked,
+    with an unpickler that builds NumPy arrays only. Any other npz is read as an array
+    without unpickling (--format array), never because a walk met it.
 
     \b
     Example:
@@ -189,9 +196,11 @@ def mine_cmd(
         if corpus.bad_sequences:
             what.append(f"{len(corpus.bad_sequences)} unusable sequence(s)")
         warn(f"skipped {' and '.join(what)}, listed in {mpath}")
+    n_read = sum(1 for r in corpus.records if r.error is None)
     info(
-        f"wrote {len(corpus.index)} clips from {corpus.manifest['counts']['sequences']} "
-        f"sequences to {out}, manifest {mpath}"
+        f"wrote {counted(len(corpus.index), 'clip')} from "
+        f"{counted(corpus.manifest['counts']['sequences'], 'sequence')} to {out}, manifest "
+        f"{mpath} ({counted(n_read, 'file')} read)"
     )
 
 

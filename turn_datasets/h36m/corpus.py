@@ -53,14 +53,20 @@ def find_sources(paths: Iterable[str | os.PathLike[str]], *, fmt: str | None = N
     """Every source file under ``paths`` (:func:`turn_datasets.mocap.readers.discover`).
 
     A named file that cannot even be opened is kept, as unreadable (listed or skipped like
-    any unreadable file) instead of stopping the search; a missing path or a folder with
-    nothing to read is a mistake in the command and raises.
+    any unreadable file) instead of stopping the search, and so is a subfolder that cannot be
+    read (format ``folder``); a missing path or a folder with nothing to read is a mistake in
+    the command and raises.
     """
     found: list[SourceFile] = []
     unreadable: dict[Path, TurnbenchError] = {}
+
+    def folder_unreadable(folder: Path, exc: TurnbenchError) -> None:
+        unreadable[folder] = exc
+        found.append(SourceFile(folder, "folder"))
+
     for item in map(Path, paths):
         try:
-            found.extend(discover([item], fmt=fmt))
+            found.extend(discover([item], fmt=fmt, on_unreadable=folder_unreadable))
         except TurnbenchError as exc:
             if not item.is_file():
                 raise
@@ -277,7 +283,8 @@ def write_corpus(corpus: MinedCorpus, out: str | os.PathLike[str]) -> Path:
             corpus.index.to_csv(tmp_index, index=False, lineterminator="\n")
             tmp_manifest.write_text(to_json_text(corpus.manifest), encoding="utf-8", newline="\n")
     except OSError as exc:
+        # the file that failed (the manifest, if a folder of its name is in the way)
         raise TurnbenchError(
-            f"cannot write the clip index: {exc.strerror or exc}", file=out
+            f"cannot write the clip index: {exc.strerror or exc}", file=exc.filename or out
         ) from None
     return mpath

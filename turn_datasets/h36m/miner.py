@@ -186,8 +186,8 @@ TEST_SUBJECTS = ("S9", "S11")
 _HIPS = Layout("hips", 2, MappingProxyType({"left_hip": 0, "right_hip": 1}))
 #: An autocorrelation at least this high at one lag is a stride period worth believing.
 _MIN_STRIDE_CORRELATION = 0.3
-#: Walking swings the knees fore and aft by more than this (standard deviation, hip widths);
-#: measured 1.1 to 1.4 in CMU's walks, 0.2 turning in place (69_17).
+#: Walking swings the knees fore and aft by more than this (r.m.s., hip widths); measured
+#: 1.1 to 1.4 in CMU's walks, 0.2 turning in place (69_17).
 _MIN_KNEE_SWING = 0.5
 _BUTTER_ORDER = 2  # applied forwards and backwards: squared magnitude, zero phase
 
@@ -402,9 +402,10 @@ def _stride_rate(mean_yaw: np.ndarray, stride: int, fps_hz: float) -> np.ndarray
     return (mean_yaw[hi] - mean_yaw[lo]) * fps_hz / span
 
 
-def _period(signal_: np.ndarray, valid: np.ndarray, lo: int, hi: int) -> tuple[int, float]:
+def _period(signal_: np.ndarray, valid: np.ndarray, lo: int, hi: int) -> tuple[int, float, float]:
     """Lag in ``[lo, hi]`` of the highest autocorrelation of ``signal_`` over its ``valid``
-    frames (normalised by the number of valid pairs at each lag), and that correlation."""
+    frames (normalised by the number of valid pairs at each lag), that correlation, and the
+    correlation at half that lag."""
     n = signal_.shape[0]
     x = np.where(valid, signal_, 0.0)
     size = 1 << int(np.ceil(np.log2(2 * n)))
@@ -413,11 +414,11 @@ def _period(signal_: np.ndarray, valid: np.ndarray, lo: int, hi: int) -> tuple[i
     vspec = np.fft.rfft(valid.astype(float), size)
     pairs = np.fft.irfft(vspec * vspec.conj(), size)[: hi + 1]
     if not ac[0] > 0:
-        return lo, 0.0
+        return lo, 0.0, 0.0
     corr = (ac / np.maximum(pairs, 1.0)) / (ac[0] / pairs[0])
     corr[pairs < 0.5 * hi] = -np.inf
     lag = lo + int(np.argmax(corr[lo : hi + 1]))
-    return lag, float(corr[lag])
+    return lag, float(corr[lag]), float(corr[lag // 2])
 
 
 def _stride_frames(
@@ -427,9 +428,11 @@ def _stride_frames(
 
     With knees in the layout the stride is read from their fore-aft swing (:func:`_knee_gait`,
     once per stride, larger than the hips' width when walking; Perry & Burnfield 2010): the
-    lag of its highest autocorrelation between ``min_stride_s`` and ``max_stride_s``, if the
-    piece walks (a swing of at least half a hip width, standard deviation) and the
-    correlation is clear (at least 0.3). Without knees, the hip's own yaw is used the same
+    lag of its highest autocorrelation between ``min_stride_s`` and ``max_stride_s`` over
+    the frames that walk (a running r.m.s. swing of at least half a hip width over a
+    stride), if there are two strides' worth of them, the correlation is clear (at least
+    0.3) and the swing is anti-correlated at half that lag (the legs swap every half stride;
+    a jump of the signal, such as an identity switch, is not). Without knees, the hip's own yaw is used the same
     way: the pelvis rotates once per stride, so the yaw's deviation from its running mean
     repeats with the stride, over the frames that are not turning. A piece that shows no
     stride (standing, turning in place, too little walking to tell) has no sway to remove
@@ -447,17 +450,22 @@ def _stride_frames(
         valid = np.isfinite(gait)
         g = np.where(valid, gait, 0.0)
         dev = g - _moving_mean(g, guess)
-        if not valid.sum() >= 2 * hi or np.std(dev[valid]) < _MIN_KNEE_SWING:
+        # walking frames: the swing's running r.m.s. over a stride is large; a sequence that
+        # mostly stands and walks a few strides still has its stride read from those
+        walking = valid & (np.sqrt(_moving_mean(dev * dev, guess)) >= _MIN_KNEE_SWING)
+        if int(walking.sum()) < 2 * hi:
             return default
-        lag, corr = _period(dev, valid, lo, hi)
-        return lag if corr >= _MIN_STRIDE_CORRELATION else default
+        lag, corr, half = _period(dev, walking, lo, hi)
+        # the legs swap every half stride: a gait's swing is anti-correlated there, which a
+        # jump of the signal (an identity switch, a dropout's edge) is not
+        return lag if corr >= _MIN_STRIDE_CORRELATION and half < 0.0 else default
     quiet = np.abs(_stride_rate(mean_yaw, guess, fps_hz)) < p.stop_speed_deg_s
     # a turn leaves its curvature in the deviation for half a stride around it
     quiet = _moving_mean(quiet.astype(float), guess) > 1.0 - 1e-9
     if int(quiet.sum()) < 1.5 * hi:
         return default
-    lag, corr = _period(mean_yaw - _moving_mean(mean_yaw, guess), quiet, lo, hi)
-    return lag if corr >= _MIN_STRIDE_CORRELATION else default
+    lag, corr, half = _period(mean_yaw - _moving_mean(mean_yaw, guess), quiet, lo, hi)
+    return lag if corr >= _MIN_STRIDE_CORRELATION and half < 0.0 else default
 
 
 def _hysteresis_runs(

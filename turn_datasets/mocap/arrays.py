@@ -135,6 +135,25 @@ def _h5_dataset_names(group: h5py.Group) -> list[str]:
     return sorted(names)
 
 
+def _check_numpy_container(path: Path, suffix: str) -> None:
+    """Refuse a file that is not what its suffix says before NumPy guesses: np.load takes
+    anything that is neither a zip nor an .npy for a pickle, and a text file named .npz was
+    "pickled (object) data"."""
+    if not path.is_file() or suffix not in (".npy", ".npz"):
+        return
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(8)
+    except OSError:
+        return  # reported by the reader with its own message
+    expected = b"PK" if suffix == ".npz" else b"\x93NUMPY"
+    if not head.startswith(expected):
+        what = "an .npz archive (a zip of .npy arrays)" if suffix == ".npz" else "an .npy array"
+        raise TurnbenchError(
+            f"cannot open this {suffix}: it is not {what} (it starts with {head!r})", file=path
+        )
+
+
 def iter_arrays(
     path: str | os.PathLike[str], *, on_bad_array: OnBadSequence | None = None
 ) -> Iterator[tuple[str, np.ndarray]]:
@@ -172,6 +191,7 @@ def iter_arrays(
         )
     if not p.is_file():
         raise TurnbenchError("no such file", file=p)
+    _check_numpy_container(p, suffix)
     if suffix == ".npy":
         try:
             array = np.load(p, allow_pickle=False)

@@ -9,7 +9,11 @@
 ``videopose-npz``
     VideoPose3D's ``data_3d_h36m.npz``: ``positions_3d``, a *pickled* dict subject -> action
     -> float32 ``(N, 32, 3)`` in metres. Unpickling can run code, so such a file is only
-    loaded because the user named it (or the folder holding it); it is loaded once and its
+    read when the user named it, or when it is exactly ``data_3d_h36m.npz`` at a dataset
+    root the user named (:mod:`turn_datasets.mocap.readers`); its member's header is checked
+    first (a 0-d object array), and the pickle is read by an unpickler that builds NumPy
+    arrays, dtypes and plain containers only, so a file whose pickle would import anything
+    else (``os.system``) is refused before any of it runs. It is loaded once and its
     sequences yielded one by one.
 
 The subject comes from the ``S<n>`` folder (or the npz key) and the action and trial from
@@ -19,8 +23,11 @@ rate, so they live together.
 
 from __future__ import annotations
 
+import importlib
 import os
+import pickle
 import re
+import zipfile
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from types import MappingProxyType
@@ -245,23 +252,85 @@ def _action_of(name: str, path: Path, item: str | None = None) -> tuple[str, str
         raise TurnbenchError(exc.message, file=path, item=item) from None
 
 
-def read_videopose_npz(path: Path, on_bad: OnBadSequence | None) -> Iterator[MocapSequence]:
-    # allow_pickle: positions_3d is a pickled dict; only loaded from a file the user named
-    data, members = None, []
+#: What a pickled dict of NumPy arrays needs, and nothing else: numpy 1 and 2 names.
+_PICKLE_ALLOWED = frozenset(
+    {
+        ("numpy.core.multiarray", "_reconstruct"),
+        ("numpy._core.multiarray", "_reconstruct"),
+        ("numpy.core.multiarray", "scalar"),
+        ("numpy._core.multiarray", "scalar"),
+        ("numpy", "ndarray"),
+        ("numpy", "dtype"),
+    }
+)
+
+
+class _ArraysOnly(pickle.Unpickler):
+    """An unpickler that builds NumPy arrays and plain containers, and refuses any other
+    global: a pickle that names ``os.system`` (or anything else) fails before it runs."""
+
+    def find_class(self, module: str, name: str):
+        if (module, name) not in _PICKLE_ALLOWED:
+            raise pickle.UnpicklingError(f"refused to load {module}.{name}")
+        try:
+            return getattr(
+                importlib.import_module(module.replace("numpy.core", "numpy._core")), name
+            )
+        except ImportError:  # numpy 1 has no numpy._core
+            return getattr(importlib.import_module(module), name)
+
+
+def load_videopose_dict(path: Path) -> object:
+    """VideoPose3D's ``positions_3d`` member, without NumPy's unrestricted unpickling.
+
+    The member's ``.npy`` header is read first and must describe what VideoPose3D writes, a
+    0-d object array (a pickled dict); the pickle is then read by :class:`_ArraysOnly`.
+
+    Raises
+    ------
+    TurnbenchError
+        No ``positions_3d`` member, another header, a corrupt archive, or a pickle that
+        needs anything but NumPy arrays.
+    """
+    member = f"{VIDEOPOSE_KEY}.npy"
     try:
-        with np.load(path, allow_pickle=True) as archive:
-            if VIDEOPOSE_KEY in archive.files:
-                data = archive[VIDEOPOSE_KEY]
-            else:
-                members = sorted(archive.files)
+        with zipfile.ZipFile(path) as zf:
+            names = zf.namelist()
+            if member not in names:
+                held = sorted(n.removesuffix(".npy") for n in names)
+                raise TurnbenchError(
+                    f"no {VIDEOPOSE_KEY!r} in this npz (it holds {held})", file=path
+                )
+            with zf.open(member) as fh:
+                version = np.lib.format.read_magic(fh)
+                read_header = (
+                    np.lib.format.read_array_header_1_0
+                    if version == (1, 0)
+                    else np.lib.format.read_array_header_2_0
+                )
+                shape, _, dtype = read_header(fh)
+                if dtype != np.dtype(object) or shape != ():
+                    raise TurnbenchError(
+                        f"{VIDEOPOSE_KEY!r} is a {dtype} array of shape {shape}, not "
+                        "a dict subject -> action -> array (VideoPose3D's pickled dict)",
+                        file=path,
+                    )
+                array = _ArraysOnly(fh).load()
+    except TurnbenchError:
+        raise
+    except pickle.UnpicklingError as exc:
+        raise TurnbenchError(
+            f"refused: {VIDEOPOSE_KEY!r} is a pickle that would run code ({exc})", file=path
+        ) from None
     except CORRUPT as exc:
         raise TurnbenchError(
             f"cannot read this npz (truncated or corrupt?): {exc}", file=path
         ) from None
-    if data is None:
-        raise TurnbenchError(f"no {VIDEOPOSE_KEY!r} in this npz (it holds {members})", file=path)
-    if data.dtype == object and data.shape == ():
-        data = data.item()
+    return array.item() if isinstance(array, np.ndarray) and array.shape == () else array
+
+
+def read_videopose_npz(path: Path, on_bad: OnBadSequence | None) -> Iterator[MocapSequence]:
+    data = load_videopose_dict(path)
     if not isinstance(data, dict) or not all(isinstance(v, dict) for v in data.values()):
         raise TurnbenchError(
             f"{VIDEOPOSE_KEY!r} is not a dict subject -> action -> array", file=path

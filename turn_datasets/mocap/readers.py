@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import os
 import zipfile
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
@@ -38,6 +38,7 @@ from types import MappingProxyType
 import h5py
 
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.fileio import walk_files
 from turn_datasets.mocap.arrays import read_arrays
 from turn_datasets.mocap.bvh import read_bvh_source
 from turn_datasets.mocap.checks import CORRUPT, OnBadSequence
@@ -128,13 +129,20 @@ def _sniff_file(path: Path) -> str | None:
     return None
 
 
-def _detect_in_folder(path: Path) -> str | None:
-    """The format of a file met while walking a dataset root, by the releases' layouts.
+#: The one npz a walk takes: VideoPose3D's file, at a dataset root. Its data is a pickle,
+#: and unpickling can run code, so an npz met deeper in a tree is never read as one.
+VIDEOPOSE_FILE = "data_3d_h36m.npz"
+
+
+def _detect_in_folder(path: Path, root: Path) -> str | None:
+    """The format of a file met while walking the dataset root ``root``, by the releases'
+    layouts.
 
     Only world-coordinate 3-D positions are taken: ``D3_Positions`` (not ``D3_Positions_mono``,
     which is in camera coordinates, nor ``D2_Positions`` or ``D3_Angles``), 3d-pose-baseline's
-    ``3D_positions``, an npz holding ``positions_3d`` (VideoPose3D's 2-D files hold
-    ``positions_2d`` and are left alone), and any BVH.
+    ``3D_positions``, :data:`VIDEOPOSE_FILE` directly in ``root`` (VideoPose3D's 2-D files are
+    left alone, and so is any other npz: a ``cache.npz`` deep in a tree is not a file the
+    user meant to unpickle), and any BVH.
     """
     suffix = path.suffix.lower()
     if suffix == ".bvh":
@@ -143,26 +151,17 @@ def _detect_in_folder(path: Path) -> str | None:
         return "cdf"
     if suffix in (".h5", ".hdf5") and path.absolute().parent.name == "3D_positions":
         return "h36m-h5"
-    if suffix == ".npz":
-        members = _npz_members(path)
-        if members is None:
-            # an unreadable VideoPose3D file is reported when read, not skipped unseen
-            return "videopose-npz" if path.name.startswith("data_3d") else None
-        return "videopose-npz" if VIDEOPOSE_KEY in members else None
+    if suffix == ".npz" and path.name == VIDEOPOSE_FILE and path.parent == root:
+        # an unreadable or foreign one is reported when read, not skipped unseen
+        return "videopose-npz"
     return None
 
 
-def _walk_files(root: Path) -> list[Path]:
-    out: list[Path] = []
-    for dirpath, dirnames, filenames in os.walk(root):
-        # hidden folders and files (.git, macOS's ._Walking.cdf) are never data
-        dirnames[:] = [d for d in dirnames if not d.startswith(".")]
-        out.extend(Path(dirpath) / f for f in filenames if not f.startswith("."))
-    return out
-
-
 def discover(
-    sources: str | os.PathLike[str] | Iterable[str | os.PathLike[str]], *, fmt: str | None = None
+    sources: str | os.PathLike[str] | Iterable[str | os.PathLike[str]],
+    *,
+    fmt: str | None = None,
+    on_unreadable: Callable[[Path, TurnbenchError], None] | None = None,
 ) -> list[SourceFile]:
     """The motion-capture files in the given dataset roots and files, each with its format.
 
@@ -172,8 +171,12 @@ def discover(
         Dataset roots (folders, walked recursively), files, or a mix.
     fmt
         Force one format (one of :data:`FORMATS`). A named file is then read as that format
-        (its suffix must fit); in a folder only files of that format are taken, found as
+        unless its suffix is another format's (``walking.dat`` is read as forced, an ``.npz``
+        forced as ``cdf`` is refused); in a folder only files of that format are taken, found as
         below, except ``array``, which takes every ``.npy``/``.npz``/``.h5``/``.hdf5``.
+    on_unreadable
+        Called with a subfolder that cannot be read and the error naming it; without it,
+        that error is raised (a folder is never dropped in silence).
 
     Returns
     -------
@@ -184,11 +187,13 @@ def discover(
     -----
     Without ``fmt``, a folder is searched for the layouts of the releases: ``.cdf`` files in
     a ``D3_Positions`` folder (``S*/MyPoseFeatures/D3_Positions``), ``.h5`` files in a
-    ``3D_positions`` folder (``S*/MyPoses/3D_positions``), ``.npz`` files holding
-    ``positions_3d`` (``data_3d_h36m.npz``), and ``.bvh`` files anywhere. Generic arrays in a
-    folder are taken only with ``fmt="array"``: a dataset root holds many arrays that are not
-    skeletons. A file named directly is recognised by its suffix and, for ``.npz`` and
-    ``.h5``, by whether it holds ``positions_3d`` or ``3D_positions`` (else it is an array).
+    ``3D_positions`` folder (``S*/MyPoses/3D_positions``), ``data_3d_h36m.npz`` directly in
+    the root (VideoPose3D's pickle: no other npz met in a walk is ever unpickled), and
+    ``.bvh`` files anywhere; subfolders reached through symbolic links included. Generic
+    arrays in a folder are taken only with ``fmt="array"`` (read without unpickling): a
+    dataset root holds many arrays that are not skeletons. A file named directly is
+    recognised by its suffix and, for ``.npz`` and ``.h5``, by whether it holds
+    ``positions_3d`` or ``3D_positions`` (else it is an array).
 
     Raises
     ------
@@ -206,20 +211,31 @@ def discover(
     found: list[SourceFile] = []
     for item in items:
         if item.is_dir():
-            files = _walk_files(item)
-            if not files:
+            unreadable: list[tuple[Path, TurnbenchError]] = []
+
+            def report(folder: Path, exc: OSError, unreadable=unreadable) -> None:
+                error = TurnbenchError(
+                    f"cannot read this folder: {exc.strerror or exc}", file=folder
+                )
+                if on_unreadable is None:
+                    raise error
+                unreadable.append((folder, error))
+                on_unreadable(folder, error)
+
+            files = walk_files(item, on_unreadable=report)
+            if not files and not unreadable:
                 raise TurnbenchError("the folder is empty", file=item)
             hits = []
             for f in files:
                 if fmt == "array":
                     kind = "array" if f.suffix.lower() in _FORMAT_SUFFIXES["array"] else None
                 else:
-                    kind = _detect_in_folder(f)
+                    kind = _detect_in_folder(f, item)
                     if fmt is not None and kind != fmt:
                         kind = None
                 if kind is not None:
                     hits.append(SourceFile(f, kind))
-            if not hits:
+            if not hits and not unreadable:
                 wanted = f"no {fmt} file" if fmt else "no motion-capture file"
                 raise TurnbenchError(
                     f"{wanted} recognised in this folder ({len(files)} files)",
@@ -231,7 +247,11 @@ def discover(
             found.extend(hits)
         elif item.is_file():
             if fmt is not None:
-                if item.suffix.lower() not in _FORMAT_SUFFIXES[fmt]:
+                suffix = item.suffix.lower()
+                known = {x for xs in _FORMAT_SUFFIXES.values() for x in xs}
+                # Forced: a suffix no format uses (walking.dat) is the user's to vouch for;
+                # another format's suffix (an .npz forced as cdf) is more likely a slip.
+                if suffix in known and suffix not in _FORMAT_SUFFIXES[fmt]:
                     raise TurnbenchError(
                         f"a {fmt} file should end in {' or '.join(_FORMAT_SUFFIXES[fmt])}",
                         file=item,

@@ -32,7 +32,7 @@ import pympi.Elan
 from defusedxml.common import DTDForbidden, EntitiesForbidden, ExternalReferenceForbidden
 
 from turn_datasets.errors import TurnbenchError, Where
-from turn_datasets.fileio import typed_frame
+from turn_datasets.fileio import typed_frame, walk_files
 from turn_datasets.remap.schema import Schema, Vocabulary, load_schema
 from turn_datasets.render.markdown import markdown_table
 from turn_datasets.render.numbers import MISSING, fixed
@@ -202,15 +202,18 @@ def load_eaf(path: str | PathLike[str]) -> pympi.Elan.Eaf:
 def expand_eaf_paths(
     paths_or_dirs: str | PathLike[str] | Iterable[str | PathLike[str]],
 ) -> list[Path]:
-    """Files given, and the ``.eaf`` files directly inside folders given (sorted by name).
+    """Files given, and the ``.eaf`` files in folders given and their subfolders.
 
-    Hidden files in a folder (names starting with ``.``) are skipped; a file named on its own
-    is always taken.
+    A folder's files are sorted by their path inside it (``day1/s1.eaf`` before
+    ``day2/s2.eaf``), subfolders reached through symbolic links included, as ``h36m mine``
+    walks a dataset. Hidden files and folders (names starting with ``.``) are skipped; a file
+    named on its own is always taken.
 
     Raises
     ------
     TurnbenchError
-        A path does not exist, a folder holds no ``.eaf`` file, or nothing was given.
+        A path does not exist, a folder (or a subfolder) cannot be read, a folder holds no
+        ``.eaf`` file, or nothing was given.
     """
     if isinstance(paths_or_dirs, (str, os.PathLike)):
         items: list[str | PathLike[str]] = [paths_or_dirs]
@@ -224,14 +227,7 @@ def expand_eaf_paths(
         if p.is_dir():
             # Hidden files are skipped: macOS leaves "._name.eaf" resource forks (binary, not
             # ELAN) beside every file copied to a shared drive.
-            found = sorted(
-                (
-                    c
-                    for c in p.iterdir()
-                    if c.is_file() and c.suffix.lower() == ".eaf" and not c.name.startswith(".")
-                ),
-                key=lambda c: c.name,
-            )
+            found = [c for c in walk_files(p) if c.suffix.lower() == ".eaf" and c.is_file()]
             if not found:
                 raise TurnbenchError("folder holds no .eaf file", file=str(p))
             out.extend(found)

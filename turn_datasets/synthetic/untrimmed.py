@@ -64,6 +64,7 @@ import numpy as np
 import pandas as pd
 
 from turn_datasets.fileio import typed_frame, write_csv
+from turn_datasets.remap.context import CONTEXT_COLUMNS, SESSIONS_COLUMNS
 from turn_datasets.remap.labels import LABEL_COLUMNS, clip_id_for
 from turn_datasets.skeleton import H36M17, H36M17_FROM_32
 from turn_datasets.synthetic.degrade import degrade_skeleton
@@ -76,14 +77,13 @@ __all__ = [
     "LABEL_ROUNDING_SD_DEG",
     "DECOY_KINDS",
     "EVENT_DTYPES",
-    "CONTEXT_DTYPES",
-    "SESSION_DTYPES",
     "ArtefactParams",
     "UntrimmedStream",
     "draw_turn_labels",
     "timeline_segments",
     "synthesize_stream",
     "write_untrimmed_corpus",
+    "write_streams_for_labels",
     "SCENARIO_DEGRADE",
     "camera_frame_m",
     "plant_sitting",
@@ -118,22 +118,26 @@ DECOY_KINDS: Mapping[str, float] = MappingProxyType(
         "bystander": 0.12,
     }
 )
-#: Degradation per scenario (home videos get more depth error and occlusion).
+#: Degradation per scenario (home videos get more depth error and occlusion), calibrated
+#: so that the miner's rule run raw on these streams scores about what issue 13 measured on
+#: its hidden sessions (precision 0.41, recall 0.90, F1 0.57, matched accuracy 81%): here
+#: 0.39, 0.88, 0.54 and 79% (seed 1; the notes of issue 13). The demo corpus's depth errors
+#: (20-110 mm) on top of these swaps gave 0.35 and 67%, harsher than the hidden sessions.
 SCENARIO_DEGRADE: Mapping[str, Mapping[str, float]] = MappingProxyType(
     {
         "scripted": {
-            "depth_sd_facing_mm": 15.0,
-            "depth_sd_away_mm": 60.0,
+            "depth_sd_facing_mm": 13.0,
+            "depth_sd_away_mm": 55.0,
             "dropout_rate_per_s": 0.05,
         },
         "clinical": {
-            "depth_sd_facing_mm": 18.0,
-            "depth_sd_away_mm": 70.0,
+            "depth_sd_facing_mm": 16.0,
+            "depth_sd_away_mm": 64.0,
             "dropout_rate_per_s": 0.1,
         },
         "free-living": {
-            "depth_sd_facing_mm": 22.0,
-            "depth_sd_away_mm": 85.0,
+            "depth_sd_facing_mm": 20.0,
+            "depth_sd_away_mm": 76.0,
             "dropout_rate_per_s": 0.3,
         },
     }
@@ -156,16 +160,6 @@ EVENT_DTYPES = MappingProxyType(
         "label_deg": "float64",
     }
 )
-CONTEXT_DTYPES = MappingProxyType(
-    {
-        "session": "str",
-        "start_s": "float64",
-        "end_s": "float64",
-        "scenario": "str",
-        "location": "str",
-    }
-)
-SESSION_DTYPES = MappingProxyType({"session": "str", "subject": "str", "duration_s": "float64"})
 # Left/right joint pairs of the 17-joint layout, exchanged by a swap.
 _LR_PAIRS = tuple(
     (H36M17.index(f"left_{j}"), H36M17.index(f"right_{j}"))
@@ -182,7 +176,7 @@ class ArtefactParams:
     :data:`SCENARIO_DEGRADE`.
     """
 
-    swaps_per_min: float = 2.0
+    swaps_per_min: float = 3.0
     swap_frames: tuple[int, int] = (2, 8)
     joint_noise_mm: float = 8.0
     depth_smooth_s: float = 0.3
@@ -492,18 +486,18 @@ def draw_swaps(
 
 
 def _context(rng: np.random.Generator, session: str, duration_s: float) -> pd.DataFrame:
-    """Scenario blocks (scripted, clinical, free-living) and rooms changing every 1-3 min."""
+    """Scenario blocks (scripted, clinical, free-living) and rooms changing every 1-3 min
+    (``context.csv``'s columns; ``subject`` empty: the caller writes one copy per person)."""
     rows = []
     t = 0.0
     for i, (scenario, share) in enumerate(_SCENARIO_SHARE):
         end = duration_s if i == len(_SCENARIO_SHARE) - 1 else t + share * duration_s
         while t < end - 1e-9:
             stop = min(end, t + float(rng.uniform(60.0, 180.0)))
-            rows.append(
-                (session, round(t, 3), round(stop, 3), scenario, str(rng.choice(_LOCATIONS)))
-            )
+            place = str(rng.choice(_LOCATIONS))
+            rows.append((session, "", round(t, 3), round(stop, 3), scenario, place))
             t = stop
-    return typed_frame(pd.DataFrame(rows, columns=list(CONTEXT_DTYPES)), CONTEXT_DTYPES)
+    return typed_frame(pd.DataFrame(rows, columns=list(CONTEXT_COLUMNS)), CONTEXT_COLUMNS)
 
 
 def synthesize_stream(
@@ -530,7 +524,7 @@ def synthesize_stream(
     duration_s, cohort, fps_hz
         Length, ``PD``/``HC``, frame rate.
     context
-        The session's scenario intervals (:data:`CONTEXT_DTYPES`): each gets the degradation
+        The person's scenario intervals (``context.csv``'s columns): each gets the degradation
         of :data:`SCENARIO_DEGRADE`.
     camera_mm
         The camera's position (world, z up, millimetres; the room's centre is the origin).
@@ -577,7 +571,9 @@ def synthesize_stream(
             joint_noise_mm=artefacts.joint_noise_mm,
             depth_smooth_s=artefacts.depth_smooth_s,
             dropout_mean_s=artefacts.dropout_mean_s,
-            **SCENARIO_DEGRADE[row.scenario],
+            depth_sd_facing_mm=SCENARIO_DEGRADE[row.scenario]["depth_sd_facing_mm"],
+            depth_sd_away_mm=SCENARIO_DEGRADE[row.scenario]["depth_sd_away_mm"],
+            dropout_rate_per_s=SCENARIO_DEGRADE[row.scenario]["dropout_rate_per_s"],
         )
         out[a:b] = deg.positions
         facing[a:b] = deg.facing_to_camera_deg
@@ -588,29 +584,8 @@ def synthesize_stream(
     swaps = draw_swaps(rng, facing, fps_hz, artefacts)
     for a, b in swaps:
         swap_sides(out, a, b)
-    rows.append(
-        pd.DataFrame(
-            {
-                "kind": "swap",
-                "start_frame": [a for a, _ in swaps],
-                "end_frame": [b for _, b in swaps],
-                "heading_deg": 0.0,
-                "label_deg": np.nan,
-            }
-        )
-    )
-    lost = _runs_of(np.isnan(out).any(axis=(1, 2)))
-    rows.append(
-        pd.DataFrame(
-            {
-                "kind": "dropout",
-                "start_frame": [a for a, _ in lost],
-                "end_frame": [b for _, b in lost],
-                "heading_deg": 0.0,
-                "label_deg": np.nan,
-            }
-        )
-    )
+    rows.append(_spans("swap", swaps))
+    rows.append(_spans("dropout", _runs_of(np.isnan(out).any(axis=(1, 2)))))
     ev_all = pd.concat(rows, ignore_index=True).sort_values(["start_frame", "kind"], kind="stable")
     ev_all["start_s"] = ev_all["start_frame"] / fps_hz
     ev_all["end_s"] = ev_all["end_frame"] / fps_hz
@@ -643,6 +618,19 @@ def camera_frame_m(positions_mm: np.ndarray, camera_mm: tuple[float, float, floa
     x = d[..., 0] * f[1] - d[..., 1] * f[0]  # right = forward turned 90° clockwise
     z = d[..., 0] * f[0] + d[..., 1] * f[1]
     return (np.stack([x, -d[..., 2], z], axis=-1) / 1000.0).astype(np.float32)
+
+
+def _spans(kind: str, spans: list[tuple[int, int]]) -> pd.DataFrame:
+    """Event rows of one artefact kind (no heading, no label)."""
+    return pd.DataFrame(
+        {
+            "kind": kind,
+            "start_frame": [a for a, _ in spans],
+            "end_frame": [b for _, b in spans],
+            "heading_deg": 0.0,
+            "label_deg": np.nan,
+        }
+    )
 
 
 def _runs_of(mask: np.ndarray) -> list[tuple[int, int]]:
@@ -713,14 +701,14 @@ def write_untrimmed_corpus(
             events.append(stream.events.assign(session=session, subject=subject))
             sessions.append((session, subject, duration_s))
             people.append((subject, cohort))
+            contexts.append(context.assign(subject=subject))
         write_clip_npz(out / "streams" / f"{session}.npz", arrays)
-        contexts.append(context)
     paths = {"streams": out / "streams"}
     tables = {
         "labels.csv": typed_frame(pd.concat(labels, ignore_index=True), LABEL_COLUMNS),
-        "context.csv": typed_frame(pd.concat(contexts, ignore_index=True), CONTEXT_DTYPES),
+        "context.csv": typed_frame(pd.concat(contexts, ignore_index=True), CONTEXT_COLUMNS),
         "sessions.csv": typed_frame(
-            pd.DataFrame(sessions, columns=list(SESSION_DTYPES)), SESSION_DTYPES
+            pd.DataFrame(sessions, columns=list(SESSIONS_COLUMNS)), SESSIONS_COLUMNS
         ),
         "participants.csv": pd.DataFrame(people, columns=["subject", "cohort"]),
         "planted.csv": typed_frame(
@@ -761,3 +749,94 @@ def _label_rows(
             "source": source,
         }
     )
+
+
+def write_streams_for_labels(
+    labels: pd.DataFrame,
+    out_dir: str | os.PathLike[str],
+    *,
+    seed: int,
+    context: pd.DataFrame | None = None,
+    sessions: pd.DataFrame | None = None,
+    fps_hz: float = 30.0,
+    artefacts: ArtefactParams = ArtefactParams(),
+) -> list[Path]:
+    """Untrimmed streams around the turns of a ``remap labels`` table (the demo's sessions).
+
+    For each session, one ``<session>.npz`` in ``out_dir`` with one stream per subject whose
+    labelled turns are planted at the labels' times with the labels' angles (the bin plus
+    the rounding of :data:`LABEL_ROUNDING_SD_DEG`), everything between filled as
+    :func:`timeline_segments` does, degraded per the scenario in ``context`` (else all
+    ``scripted``), as long as ``sessions`` says (else 10 s after the last turn). Each
+    session's camera and each person's timeline are seeded from ``seed`` and their names.
+
+    Parameters
+    ----------
+    labels
+        ``session, subject, cohort, start_s, end_s, angle_deg`` per turn.
+    out_dir
+        Folder of the ``.npz`` files (created).
+    seed, fps_hz, artefacts
+        See :func:`synthesize_stream`.
+    context, sessions
+        ``context.csv`` and ``sessions.csv`` as ``remap labels`` writes them, or None.
+
+    Returns
+    -------
+    list of Path
+        The files written, by session.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    for session, turns in labels.groupby("session", sort=True):
+        srng = _seed(seed, str(session))
+        camera = _camera(srng)
+        arrays = {}
+        for subject, mine in turns.groupby("subject", sort=True):
+            duration = float(mine["end_s"].max()) + 10.0
+            if sessions is not None:
+                row = sessions[(sessions["session"] == session) & (sessions["subject"] == subject)]
+                duration = max(duration, float(row["duration_s"].max()) if len(row) else 0.0)
+            ctx = _context_of(context, str(session), str(subject), duration)
+            stream = synthesize_stream(
+                _seed(seed, str(session), str(subject)),
+                mine[["start_s", "end_s", "angle_deg"]],
+                duration_s=duration,
+                cohort=str(mine["cohort"].iloc[0]),
+                context=ctx,
+                camera_mm=camera,
+                fps_hz=fps_hz,
+                artefacts=artefacts,
+            )
+            arrays[str(subject)] = stream.positions
+        written.append(write_clip_npz(out / f"{session}.npz", arrays))
+    return written
+
+
+def _context_of(
+    context: pd.DataFrame | None, session: str, subject: str, duration_s: float
+) -> pd.DataFrame:
+    """One person's scenario intervals covering ``[0, duration_s]``: theirs from
+    ``context.csv`` (rows without a subject are shared), gaps and the rest ``scripted``."""
+    rows = []
+    if context is not None:
+        mine = context[context["session"] == session]
+        if "subject" in mine.columns:
+            mine = mine[mine["subject"].fillna("").astype(str).isin([subject, ""])]
+        rows = [
+            (session, subject, float(r.start_s), float(r.end_s), str(r.scenario), "")
+            for r in mine.sort_values("start_s").itertuples(index=False)
+            if str(r.scenario) in SCENARIO_DEGRADE
+        ]
+    t = 0.0
+    filled = []
+    for row in rows:
+        if row[2] > t:
+            filled.append((session, subject, t, row[2], "scripted", ""))
+        if row[3] > max(t, row[2]):
+            filled.append((session, subject, max(t, row[2]), row[3], row[4], ""))
+            t = row[3]
+    if t < duration_s:
+        filled.append((session, subject, t, duration_s, "scripted", ""))
+    return pd.DataFrame(filled, columns=list(CONTEXT_COLUMNS))

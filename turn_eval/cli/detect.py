@@ -4,21 +4,18 @@ from __future__ import annotations
 
 import importlib
 import inspect
-import re
 import sys
-from dataclasses import fields
+from dataclasses import replace
 from pathlib import Path
 
 import click
 
-from turn_datasets import limits
 from turn_datasets.cli.common import (
-    ANGLE_DEG,
-    DURATION_S,
     FPS_HZ,
-    SPEED_DEG_S,
     Number,
     info,
+    params_from,
+    params_options,
     wrote,
 )
 from turn_datasets.errors import TurnbenchError
@@ -32,56 +29,6 @@ from turn_eval.detect.protocol import TurnDetector
 from turn_eval.detect.rule import DETECT_MINER_DEFAULTS, DetectParams, MinerRule
 from turn_eval.detect.streams import stream_files
 from turn_eval.estimate.formats import FORMAT_CHOICES
-
-
-def _attribute_docs(cls: type) -> dict[str, str]:
-    """``name -> first sentence`` from a dataclass's NumPy "Attributes" section, so each
-    parameter's help is written once, in its dataclass."""
-    doc = inspect.getdoc(cls) or ""
-    section = doc.split("Attributes\n----------\n", 1)[-1]
-    out: dict[str, str] = {}
-    for name, text in re.findall(r"^(\w+)\n((?:    .*\n?)+)", section, flags=re.M):
-        out[name] = " ".join(text.split())
-    return out
-
-
-def _option_type(name: str) -> Number:
-    """The checked option type for a parameter, by the unit its name ends in."""
-    if name.endswith("_deg_s"):
-        return SPEED_DEG_S
-    if name.endswith("_deg"):
-        return ANGLE_DEG
-    if name.endswith("_s"):
-        return DURATION_S
-    if name.endswith("_hz"):
-        return Number(float, min=0, max=limits.MAX_FPS_HZ)
-    return Number(float, min=0, min_open=True, max=100.0)  # sizes and fractions
-
-
-def _param_options(func):
-    """One option per float parameter of DetectParams and of the miner (units in the names)."""
-    detect_docs = _attribute_docs(DetectParams)
-    miner_docs = _attribute_docs(MinerParams)
-    defaults = DetectParams()
-    specs = [
-        (f.name, getattr(defaults, f.name), detect_docs.get(f.name, ""))
-        for f in fields(DetectParams)
-        if isinstance(getattr(defaults, f.name), float)
-    ]
-    specs += [
-        (f.name, getattr(DETECT_MINER_DEFAULTS, f.name), miner_docs.get(f.name, ""))
-        for f in fields(MinerParams)
-    ]
-    for name, default, text in reversed(specs):
-        func = click.option(
-            f"--{name.replace('_', '-')}",
-            name,
-            type=_option_type(name),
-            default=default,
-            show_default=True,
-            help=text,
-        )(func)
-    return func
 
 
 def _load_detector(spec: str | None, params: DetectParams) -> TurnDetector:
@@ -150,7 +97,8 @@ def _load_detector(spec: str | None, params: DetectParams) -> TurnDetector:
     show_default=True,
     help="Joint pairs whose frontal vectors are combined: any of hip, knee, shoulder.",
 )
-@_param_options
+@params_options(DetectParams)
+@params_options(MinerParams, defaults=DETECT_MINER_DEFAULTS)
 @click.option(
     "--detector",
     "detector_spec",
@@ -206,12 +154,9 @@ def detect_command(
       turn-eval detect skeletons/ --from turnbench --fps 30 --out d.csv   (estimate's npz)
       turn-eval score-events detections.csv --reference labels.csv --context context.csv
     """
-    miner_names = {f.name for f in fields(MinerParams)}
-    miner = MinerParams(**{k: v for k, v in values.items() if k in miner_names})
-    params = DetectParams(
-        joints=joints.split(","),
-        miner=miner,
-        **{k: v for k, v in values.items() if k not in miner_names},
+    miner = params_from(MinerParams, values)
+    params = replace(
+        params_from(DetectParams, values), joints=tuple(joints.split(",")), miner=miner
     )
     detector = _load_detector(detector_spec, params)
     files = stream_files(skeletons)  # first: an AlphaPose JSON is refused with its reason

@@ -212,8 +212,10 @@ def read_streams(
     if up_axis is None:
         raise TurnbenchError("generic arrays need --up-axis (z, y or -y)", file=path)
     for key, array in iter_layout_arrays(path, layout):
-        positions = to_z_up(np.asarray(array, dtype=np.float64), up_axis)
+        # axes first, on the stored dtype (often float32: half the bytes to move), then one
+        # float64 copy
+        positions = np.ascontiguousarray(to_z_up(array, up_axis), dtype=np.float64)
         if np.isinf(positions).any():
             raise TurnbenchError("positions hold infinite values (corrupt?)", file=path, item=key)
         session, subject = stream_names(path, key)
-        yield Stream(session, subject, np.ascontiguousarray(positions), str(path), key)
+        yield Stream(session, subject, positions, str(path), key)

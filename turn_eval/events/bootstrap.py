@@ -58,10 +58,9 @@ def unit_sums(
     components (``(events, components)``).
     """
     k = values.shape[1]
-    out = np.zeros((n_units * n_groups, k))
-    cell = unit * n_groups + group
-    for j in range(k):
-        out[:, j] = np.bincount(cell, weights=values[:, j], minlength=n_units * n_groups)
+    # One bincount for every component: event e's component j goes to cell (unit, group, j).
+    cell = ((unit * n_groups + group) * k)[:, None] + np.arange(k)
+    out = np.bincount(cell.ravel(), weights=values.ravel(), minlength=n_units * n_groups * k)
     return out.reshape(n_units, n_groups, k)
 
 

@@ -52,6 +52,7 @@ __all__ = [
     "check_sessions",
     "Units",
     "known_units",
+    "units_of",
     "pair_codes",
 ]
 
@@ -454,18 +455,27 @@ class Units:
 def known_units(reference: pd.DataFrame, sessions: pd.DataFrame | None = None) -> Units:
     """Every (session, subject) the reference annotates: its rows' and ``sessions``'s units
     (a participant annotated without a turn is in ``sessions.csv`` only)."""
-    parts = [reference.loc[:, list(_UNIT)]]
-    if sessions is not None:
-        parts.append(sessions.loc[:, list(_UNIT)])
+    return units_of(reference, sessions)[0]
+
+
+def units_of(
+    reference: pd.DataFrame, sessions: pd.DataFrame | None = None
+) -> tuple[Units, np.ndarray]:
+    """:func:`known_units` and each reference row's unit number, from one factorisation."""
+    parts = [reference] if sessions is None else [reference, sessions]
     sessions_all = np.concatenate([p["session"].to_numpy(dtype=object) for p in parts])
     subjects_all = np.concatenate([p["subject"].to_numpy(dtype=object) for p in parts])
     (code,) = pair_codes(sessions_all, subjects_all)
-    _, first = np.unique(code, return_index=True)
-    pairs = sorted(zip(sessions_all[first], subjects_all[first], strict=True))
-    return Units(
-        sessions=np.array([p[0] for p in pairs], dtype=object),
-        subjects=np.array([p[1] for p in pairs], dtype=object),
+    _, first, inverse = np.unique(code, return_index=True, return_inverse=True)
+    # Units in sorted (session, subject) order: rank the distinct pairs by their names.
+    order = sorted(
+        range(first.shape[0]), key=lambda i: (sessions_all[first[i]], subjects_all[first[i]])
     )
+    rank = np.empty(first.shape[0], dtype=np.int64)
+    rank[order] = np.arange(first.shape[0])
+    chosen = first[order]
+    units = Units(sessions=sessions_all[chosen], subjects=subjects_all[chosen])
+    return units, rank[inverse.reshape(-1)][: reference.shape[0]]
 
 
 def drop_unknown(

@@ -60,11 +60,11 @@ from turn_eval.events.reading import (
     check_event_reference,
     check_sessions,
     drop_unknown,
-    known_units,
     read_context,
     read_detections,
     read_event_reference,
     read_sessions,
+    units_of,
 )
 from turn_eval.metrics import (
     CONFIDENCE,
@@ -210,28 +210,43 @@ def _constant_per(key: np.ndarray, codes: np.ndarray, n_keys: int) -> np.ndarray
     return np.where(low == high, high, -1)
 
 
-def _unit_values(reference: pd.DataFrame, ref_unit: np.ndarray, col: str, units: Units):
-    """Each unit's value of ``col`` where it is constant over the unit's turns (else by the
-    subject, where constant over the subject's turns), else None."""
-    codes, uniq = pd.factorize(reference[col].to_numpy(dtype=object))
-    codes = codes.astype(np.int64)
-    per_unit = _constant_per(np.asarray(ref_unit, dtype=np.int64), codes, len(units))
-    subject, subjects = pd.factorize(reference["subject"].to_numpy(dtype=object))
-    per_subject = _constant_per(subject.astype(np.int64), codes, len(subjects))
-    # A unit without turns (in sessions.csv only) takes its subject's value.
-    unit_subject = pd.Index(subjects).get_indexer(units.subjects)
+def _unit_codes(
+    codes: np.ndarray, ref_unit: np.ndarray, subject: np.ndarray, unit_subject: np.ndarray
+) -> np.ndarray:
+    """Each unit's code of a reference column where the column is constant over the unit's
+    turns, else over its subject's turns (a unit without turns, in sessions.csv only), else
+    -1 (not known).
+
+    ``codes`` and ``subject`` are the reference rows' codes of the column and of the
+    subject; ``unit_subject`` each unit's subject code (-1 for a subject without turns).
+    """
+    per_unit = _constant_per(np.asarray(ref_unit, dtype=np.int64), codes, unit_subject.shape[0])
+    per_subject = _constant_per(subject, codes, int(subject.max(initial=-1)) + 1)
     from_subject = np.where(unit_subject >= 0, per_subject[np.maximum(unit_subject, 0)], -1)
-    chosen = np.where(per_unit >= 0, per_unit, from_subject)
-    values = np.asarray(uniq, dtype=object)
-    out = np.full(len(units), None, dtype=object)
-    out[chosen >= 0] = values[chosen[chosen >= 0]]
-    return out
+    return np.where(per_unit >= 0, per_unit, from_subject)
 
 
-def _labels(values: np.ndarray, empty: str = BLANK_GROUP) -> np.ndarray:
-    """Group labels of text values: ``empty`` for an empty one."""
-    values = np.asarray(values, dtype=object)
-    return np.where(values == "", empty, values).astype(object)
+def _named(values: np.ndarray, empty: str) -> tuple[np.ndarray, list[str]]:
+    """Codes and names of text values (a factorisation), ``empty`` naming the empty text."""
+    codes, uniq = pd.factorize(np.asarray(values, dtype=object))
+    return codes, [empty if u == "" else str(u) for u in uniq]
+
+
+def _partition(name: str, parts: Sequence[tuple[np.ndarray, list[str]]]) -> Partition:
+    """One grouping from codes and names of several sets of events (the names merged, in
+    natural order: S2 before S11)."""
+    index: dict[str, int] = {}
+    codes = []
+    for part_codes, names in parts:
+        mapping = np.array([index.setdefault(n, len(index)) for n in names], dtype=np.int64)
+        codes.append(mapping[part_codes] if mapping.size else part_codes.astype(np.int64))
+    # Only the names some event has: a group with no event is no group.
+    used, merged = np.unique(np.concatenate(codes), return_inverse=True)
+    names = [list(index)[i] for i in used]
+    order = sorted(range(len(names)), key=lambda i: natural_key(names[i]))
+    rank = np.empty(len(names), dtype=np.int64)
+    rank[order] = np.arange(len(names))
+    return Partition(name, tuple(names[i] for i in order), rank[merged.reshape(-1)])
 
 
 def _event_groups(
@@ -242,11 +257,19 @@ def _event_groups(
     units: Units,
     context: pd.DataFrame | None,
     groupings: Sequence[str],
-) -> dict[str, np.ndarray]:
-    """Each event's group label per grouping (module docstring)."""
+) -> list[Partition]:
+    """Each event's group per grouping, as partitions of the events (module docstring).
+
+    Works on codes, not labels: the reference column is factorised once and the false
+    detections' few values on their own.
+    """
     ref_row = events["ref_row"].to_numpy()
     det_row = events["det_row"].to_numpy()
     is_fp = ref_row < 0
+    # The events are split into those with a reference row and the FPs, then put back.
+    order = np.concatenate([np.flatnonzero(~is_fp), np.flatnonzero(is_fp)])
+    back = np.empty_like(order)
+    back[order] = np.arange(order.shape[0])
     fp_det = det_row[is_fp]
     ds = detections["start_s"].to_numpy(dtype=np.float64)[fp_det]
     de = detections["end_s"].to_numpy(dtype=np.float64)[fp_det]
@@ -254,30 +277,22 @@ def _event_groups(
     ctx = None
     if context is not None:
         ctx = _context_at(context, units.sessions[fp_unit], units.subjects[fp_unit], (ds + de) / 2)
-    out: dict[str, np.ndarray] = {}
+    subject, subjects = pd.factorize(reference["subject"].to_numpy(dtype=object))
+    unit_subject = pd.Index(subjects).get_indexer(units.subjects)
+    out: list[Partition] = []
     for col in groupings:
-        labels = np.empty(events.shape[0], dtype=object)
-        ref_values = reference[col].to_numpy(dtype=object)
-        labels[~is_fp] = _labels(ref_values[ref_row[~is_fp]])
+        ref_codes, ref_names = _named(reference[col].to_numpy(dtype=object), BLANK_GROUP)
         if col in CONTEXT_GROUPS:
             fp_values = ctx[col] if ctx is not None else np.full(fp_det.shape[0], "", dtype=object)
-            labels[is_fp] = _labels(fp_values, UNKNOWN_GROUP)
+            fp_codes, fp_names = _named(fp_values, UNKNOWN_GROUP)
         else:
-            per_unit = _unit_values(reference, ref_unit, col, units)
-            known = _labels(np.where(pd.isna(per_unit), "", per_unit))
-            known[pd.isna(per_unit)] = UNKNOWN_GROUP
-            labels[is_fp] = known[fp_unit]
-        out[col] = labels
+            unit_codes = _unit_codes(ref_codes, ref_unit, subject, unit_subject)
+            # An unknown unit value is its own name, whatever an empty one is called.
+            fp_codes = np.where(unit_codes >= 0, unit_codes, len(ref_names))[fp_unit]
+            fp_names = [*ref_names, UNKNOWN_GROUP]
+        p = _partition(col, [(ref_codes[ref_row[~is_fp]], ref_names), (fp_codes, fp_names)])
+        out.append(Partition(col, p.labels, p.codes[back]))
     return out
-
-
-def _partition(name: str, labels: np.ndarray) -> Partition:
-    codes, uniq = pd.factorize(labels)
-    names = [str(u) for u in uniq]
-    order = sorted(range(len(names)), key=lambda i: natural_key(names[i]))
-    rank = np.empty(len(names), dtype=np.int64)
-    rank[order] = np.arange(len(names))
-    return Partition(name, tuple(names[i] for i in order), rank[codes])
 
 
 def _float(value) -> float | None:
@@ -333,7 +348,9 @@ def _matched_entry(values: Mapping[str, np.ndarray], g: int, extra: Mapping[str,
 def _pair_stats(codes: np.ndarray, n_groups: int, agree, dstart, dend) -> list[dict[str, Any]]:
     """Per group of matched pairs: direction agreement and the medians of |Δstart|, |Δend|
     (one sort per grouping, not a pass over every pair per group)."""
-    order = np.argsort(codes, kind="stable")
+    # Small integer codes sort by radix (numpy's stable sort of 16-bit keys): linear time.
+    small = codes.astype(np.int16) if n_groups < 2**15 else codes
+    order = np.argsort(small, kind="stable")
     cuts = np.searchsorted(codes[order], np.arange(1, n_groups))
     out = []
     for rows in np.split(order, cuts):
@@ -470,6 +487,69 @@ def _average(groups: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
     return out
 
 
+def _event_components(events: pd.DataFrame, tp: np.ndarray, outcomes) -> np.ndarray:
+    """Each event's additive components (:data:`COMPONENTS`): TP, FP, FN, matched-right,
+    matched absolute angle error."""
+    kind = events["kind"].to_numpy()
+    correct = np.zeros(events.shape[0])
+    error = np.zeros(events.shape[0])
+    correct[tp] = outcomes.correct
+    error[tp] = outcomes.abs_error_deg
+    return np.stack([tp, kind == "FP", kind == "FN", correct, error], axis=1).astype(np.float64)
+
+
+class _Entries:
+    """The document's entries of each group of each partition (the first is ``overall``)."""
+
+    def __init__(self, partitions, sums, matched, pair_stats, distributions) -> None:
+        self.partitions = partitions
+        self.totals = [sums[p.name].sum(axis=0) for p in partitions]
+        self.matched = matched
+        self.pair_stats = pair_stats
+        self.distributions = distributions
+
+    def __call__(self, part: int, g: int) -> dict[str, Any]:
+        values = _detection_entry(self.totals[part][g])
+        values["matched"] = _matched_entry(self.matched[part], g, self.pair_stats[part][g])
+        if self.distributions is not None:
+            values["ci95"] = _ci(self.distributions[self.partitions[part].name][0], g)
+        return values
+
+    def grouping(self, part: int, *, fp_groups: str) -> dict[str, Any]:
+        """``by.<column>``: its groups, their unweighted average, and how FPs were grouped."""
+        p = self.partitions[part]
+        groups = {label: self(part, g) for g, label in enumerate(p.labels)}
+        avg = _average(groups)
+        if self.distributions is not None:
+            avg["ci95"] = _ci(self.distributions[p.name][1], None)
+        return {"groups": groups, "avg": avg, "fp_groups": fp_groups}
+
+
+def _fp_rule(column: str, has_context: bool) -> str:
+    """How false detections got their group of ``column`` (said in the JSON)."""
+    if column in CONTEXT_GROUPS:
+        return "context at the midpoint" if has_context else UNKNOWN_GROUP
+    return "the (session, subject)'s"
+
+
+def _settings(
+    iou: float, bin_width_deg: float, n_resamples: int, seed: int, *, ap: bool, context: bool
+) -> dict[str, Any]:
+    """What a reader needs to reproduce a number (as sacrebleu's signature)."""
+    return {
+        "iou": iou,
+        "matching": MATCHING_RULE.format(iou=iou),
+        "bin_width_deg": int(bin_width_deg) if float(bin_width_deg).is_integer() else bin_width_deg,
+        "resamples": n_resamples,
+        "seed": seed,
+        "confidence": CONFIDENCE,
+        "ci_method": "percentile, cluster bootstrap over (session, subject)",
+        "ap_ious": list(AP_IOUS) if ap else None,
+        "context": context,
+        "version": __version__,
+    }
+
+
 def score_events(
     detections: Frame,
     reference: Frame,
@@ -527,56 +607,34 @@ def score_events(
     ctx = _load(context, read_context, check_context)
     ses = _load(sessions, read_sessions, check_sessions)
     groupings = _groupings(ref, by)
-    units = known_units(ref, ses)
-    ref_unit = units.codes(ref)
+    units, ref_unit = units_of(ref, ses)
     det, det_unit, n_dropped = drop_unknown(det, units, ignore_unknown=ignore_unknown, warn=warn)
 
     overlaps = overlapping_pairs(det, det_unit, ref, ref_unit)
     events = categorize_events(det, det_unit, ref, ref_unit, iou=iou, overlaps=overlaps)
-    labels = _event_groups(events, ref, ref_unit, det, units, ctx, groupings)
+    grouped = _event_groups(events, ref, ref_unit, det, units, ctx, groupings)
     tp, outcomes, agree, dstart, dend = _matched_block(events, det, ref, bin_width_deg)
-    kind = events["kind"].to_numpy()
-    correct = np.zeros(events.shape[0])
-    error = np.zeros(events.shape[0])
-    correct[tp] = outcomes.correct
-    error[tp] = outcomes.abs_error_deg
-    components = np.stack([tp, kind == "FP", kind == "FN", correct, error], axis=1).astype(
-        np.float64
-    )
+    components = _event_components(events, tp, outcomes)
     unit = events["unit"].to_numpy(dtype=np.int64)
 
     partitions = [Partition.whole(events.shape[0])]
-    partitions += [_partition(col, labels[col]) for col in groupings]
+    partitions += grouped
     sums = {
         p.name: unit_sums(unit, p.codes, components, len(units), len(p.labels)) for p in partitions
     }
-    distributions = (
-        {
-            name: _intervals(d)
-            for name, d in cluster_bootstrap(
-                sums, n_resamples=n_resamples, seed=seed, progress=progress
-            ).items()
-        }
-        if n_resamples > 0 and len(units) > 0
-        else None
-    )
-    matched = (
-        grouped_metrics(outcomes, [Partition(p.name, p.labels, p.codes[tp]) for p in partitions])
-        if outcomes.n > 0
-        else [{} for _ in partitions]
-    )
+    distributions = None
+    if n_resamples > 0 and len(units) > 0:
+        resampled = cluster_bootstrap(sums, n_resamples=n_resamples, seed=seed, progress=progress)
+        distributions = {name: _intervals(d) for name, d in resampled.items()}
+    # The harness's own metrics of the matched pairs of every group (as `score` computes).
+    matched = [{} for _ in partitions]
+    if outcomes.n > 0:
+        matched = grouped_metrics(
+            outcomes, [Partition(p.name, p.labels, p.codes[tp]) for p in partitions]
+        )
 
     pair_stats = [_pair_stats(p.codes[tp], len(p.labels), agree, dstart, dend) for p in partitions]
-    totals = [sums[p.name].sum(axis=0) for p in partitions]
-
-    def entry(part: int, g: int) -> dict[str, Any]:
-        p = partitions[part]
-        values = _detection_entry(totals[part][g])
-        values["matched"] = _matched_entry(matched[part], g, pair_stats[part][g])
-        if distributions is not None:
-            values["ci95"] = _ci(distributions[p.name][0], g)
-        return values
-
+    entry = _Entries(partitions, sums, matched, pair_stats, distributions)
     overall = entry(0, 0)
     rates = None
     if ses is not None:
@@ -586,21 +644,10 @@ def score_events(
         ap = average_precision(det, det_unit, ref, ref_unit, ious=AP_IOUS, overlaps=overlaps)
         overall["ap"] = {"by_iou": ap["by_iou"], "mean": ap["mean"]}
         curves = ap["curves"]
-    by_doc: dict[str, Any] = {}
-    for part, p in enumerate(partitions[1:], start=1):
-        groups = {label: entry(part, g) for g, label in enumerate(p.labels)}
-        avg = _average(groups)
-        if distributions is not None:
-            avg["ci95"] = _ci(distributions[p.name][1], None)
-        by_doc[p.name] = {
-            "groups": groups,
-            "avg": avg,
-            "fp_groups": (
-                ("context at the midpoint" if ctx is not None else UNKNOWN_GROUP)
-                if p.name in CONTEXT_GROUPS
-                else "the (session, subject)'s"
-            ),
-        }
+    by_doc = {
+        p.name: entry.grouping(part, fp_groups=_fp_rule(p.name, ctx is not None))
+        for part, p in enumerate(partitions[1:], start=1)
+    }
     doc = {
         "overall": overall,
         "by": by_doc,
@@ -610,20 +657,9 @@ def score_events(
             "detections": int(det.shape[0]),
             "dropped_unknown": n_dropped,
         },
-        "settings": {
-            "iou": iou,
-            "matching": MATCHING_RULE.format(iou=iou),
-            "bin_width_deg": int(bin_width_deg)
-            if float(bin_width_deg).is_integer()
-            else bin_width_deg,
-            "resamples": n_resamples,
-            "seed": seed,
-            "confidence": CONFIDENCE,
-            "ci_method": "percentile, cluster bootstrap over (session, subject)",
-            "ap_ious": list(AP_IOUS) if curves is not None else None,
-            "context": ctx is not None,
-            "version": __version__,
-        },
+        "settings": _settings(
+            iou, bin_width_deg, n_resamples, seed, ap=curves is not None, context=ctx is not None
+        ),
     }
     return EventScores(
         doc=doc,
@@ -631,7 +667,7 @@ def score_events(
         pr_curves=curves,
         detections=det,
         reference=ref,
-        _parts=(events, det, ref, units, labels),
+        _parts=(events, det, ref, units, grouped),
     )
 
 
@@ -640,7 +676,7 @@ def _events_table(
     det: pd.DataFrame,
     ref: pd.DataFrame,
     units: Units,
-    labels: Mapping[str, np.ndarray],
+    groups: Sequence[Partition],
 ) -> pd.DataFrame:
     """The categorised events with names, both sides' times and angles, and their groups."""
     out = events.copy()
@@ -655,6 +691,6 @@ def _events_table(
             column = np.full(rows.shape[0], np.nan)
             column[rows >= 0] = values[rows[rows >= 0]]
             out[f"{side}_{col}"] = column
-    for col, values in labels.items():
-        out[f"group_{col}"] = values
+    for p in groups:
+        out[f"group_{p.name}"] = np.asarray(p.labels, dtype=object)[p.codes]
     return out

@@ -4,36 +4,39 @@ percentages with one decimal in Markdown, rounded by :func:`turn_datasets.render
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
 from turn_datasets.fileio import typed_frame
+from turn_datasets.render.labels import METRIC_LABELS
 from turn_datasets.render.markdown import metric_table
-from turn_datasets.render.numbers import fixed, one_decimal
+from turn_datasets.render.numbers import MISSING, fixed, is_missing, one_decimal
 from turn_eval.events.bootstrap import CI_METRICS
 from turn_eval.events.scoring import UNKNOWN_GROUP
 
 __all__ = ["EVENT_LABELS", "EVENTS_CSV_COLUMNS", "events_markdown", "events_frame"]
 
-#: Row label and kind of every number of the tables (percent: a fraction printed x 100).
-EVENT_LABELS: Mapping[str, tuple[str, str]] = {
-    "tp": ("# TP", "count"),
-    "fp": ("# FP", "count"),
-    "fn": ("# FN", "count"),
-    "precision": ("Precision (%)", "percent"),
-    "recall": ("Recall (%)", "percent"),
-    "f1": ("F1 (%)", "percent"),
-    "n": ("# Matched", "count"),
-    "accuracy": ("Acc. (%)", "percent"),
-    "mae_deg": ("MAE (°)", "decimal"),
-    "wprec": ("WPrec (%)", "percent"),
-    "mae_speed_deg_s": ("MAE speed (°/s)", "decimal"),
-    "direction_agreement": ("Direction agreement (%)", "percent"),
-    "median_abs_dstart_s": ("Median |Δstart| (s)", "seconds"),
-    "median_abs_dend_s": ("Median |Δend| (s)", "seconds"),
-}
+#: Row label and kind of every number of the tables (percent: a fraction printed x 100). The
+#: harness's angle metrics keep their one label (:data:`METRIC_LABELS`); the rest are the
+#: detection counts and rates, and the matched pairs' extras.
+EVENT_LABELS: Mapping[str, tuple[str, str]] = MappingProxyType(
+    {
+        "tp": ("# TP", "count"),
+        "fp": ("# FP", "count"),
+        "fn": ("# FN", "count"),
+        "precision": ("Precision (%)", "percent"),
+        "recall": ("Recall (%)", "percent"),
+        "f1": ("F1 (%)", "percent"),
+        "n": ("# Matched", "count"),
+        **{key: (label.short, label.kind) for key, label in METRIC_LABELS.items()},
+        "direction_agreement": ("Direction agreement (%)", "percent"),
+        "median_abs_dstart_s": ("Median |Δstart| (s)", "seconds"),
+        "median_abs_dend_s": ("Median |Δend| (s)", "seconds"),
+    }
+)
 _DETECTION = ("precision", "recall", "f1")
 _MATCHED = (
     "accuracy",
@@ -61,8 +64,8 @@ EVENTS_CSV_COLUMNS: Mapping[str, str] = {
 
 
 def _format(metric: str, value: Any) -> str:
-    if value is None or (isinstance(value, float) and not np.isfinite(value)):
-        return "–"
+    if is_missing(value):
+        return MISSING
     kind = EVENT_LABELS[metric][1]
     if kind == "count":
         return f"{int(value)}" if float(value).is_integer() else one_decimal(value)
@@ -82,7 +85,11 @@ def _interval(entry: Mapping[str, Any], metric: str) -> str:
     if ci is None or metric not in ci:
         return ""
     bounds = ci[metric]
-    return "–" if bounds is None else f"{_format(metric, bounds[0])} – {_format(metric, bounds[1])}"
+    return (
+        MISSING
+        if bounds is None
+        else f"{_format(metric, bounds[0])} – {_format(metric, bounds[1])}"
+    )
 
 
 def _present(entries: Sequence[Mapping[str, Any]], metrics: Sequence[str]) -> list[str]:
