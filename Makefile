@@ -31,7 +31,9 @@ $(VSTAMP): pyproject.toml
 demo: $(STAMP)
 	$(BIN)/python -m turn_eval.demo --out-dir demo-output
 
-test: test-core test-video
+# The habits a maintainer relies on gate the tests: lint first, then the suite in .venv
+# (numpy 2.x), then the whole suite again in .venv-video (numpy 1.26, the video tests).
+test: lint test-core test-video
 
 test-core: $(STAMP)
 	$(BIN)/python -m pytest -q
@@ -45,8 +47,12 @@ bench: $(STAMP) $(VSTAMP)
 	$(BIN)/python benchmarks/run.py
 	$(VBIN)/python benchmarks/run.py --only estimate
 
+# ruff's rules, its formatting (checked, never rewritten here), and the packages' types
+# (they ship py.typed; mypy's settings are in pyproject.toml).
 lint: $(STAMP)
 	$(BIN)/ruff check turn_datasets turn_eval tests benchmarks
+	$(BIN)/ruff format --check turn_datasets turn_eval tests benchmarks
+	$(BIN)/mypy
 
 clean:
 	rm -rf $(VENV) $(VENV_VIDEO) demo-output .pytest_cache

@@ -165,3 +165,18 @@ def test_json_scores_never_null_an_angle_metric_from_a_huge_prediction(tmp_path,
     )
     assert code == 0, err
     assert json.loads(out)["overall"]["mae_deg"] == pytest.approx((2.5 + 3420 + 5 + 35) / 4)
+
+
+def test_the_readme_error_section_states_the_declared_bounds():
+    from turn_datasets import limits
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    section = readme.split("## Errors, exit codes and plausible bounds", 1)[1].split("\n## ", 1)[0]
+    assert f"at most {limits.MAX_ANGLE_DEG:g}°" in section
+    assert f"at most {limits.MAX_SPEED_DEG_S:g} °/s" in section
+    assert f"at most {limits.MAX_FPS_HZ:g} Hz" in section
+    assert f"{limits.MIN_FPS_HZ:g}-{limits.MAX_FPS_HZ:g} Hz" in section
+    assert f"at most {limits.MAX_DURATION_S:g} s" in section
+    assert f"at most {limits.MAX_BIN_WIDTH_DEG:g}°" in section
+    assert f"at most {limits.MAX_RESAMPLES} resamples" in section
+    assert "turn_datasets/limits.py" in section

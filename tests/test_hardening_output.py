@@ -213,12 +213,13 @@ _SLOW_SCORE = textwrap.dedent(
     from turn_datasets.cli.common import run_group
     from turn_eval.cli import cli
 
-    real = mod.write_csv
-    def slow(frame, path):
-        real(frame, path)
-        print("staged", flush=True)
-        time.sleep(60)
-    mod.write_csv = slow
+    real = mod.write_text
+    def slow(path, text):
+        real(path, text)
+        if path.name == "scores.csv":
+            print("staged", flush=True)
+            time.sleep(60)
+    mod.write_text = slow
     sys.exit(run_group(cli, "turn-eval", sys.argv[1:]))
     """
 )

@@ -141,7 +141,7 @@ def frame_yaw_deg(
     out = np.full(mask.shape[0], np.nan)
     if not mask.any():
         return out
-    series = []
+    series: list[np.ndarray] = []
     for joint in names:
         yaw = _unwrapped_yaw_rad(frontal_vectors(positions, layout, joint)[mask])
         if series:
@@ -179,8 +179,8 @@ def window_means(values: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.n
 
 def heading_change_deg(
     yaw_deg: np.ndarray,
-    start: np.ndarray,
-    end: np.ndarray,
+    start: np.ndarray | int,
+    end: np.ndarray | int,
     *,
     before_frames: np.ndarray | int,
     after_frames: np.ndarray | int,

@@ -13,6 +13,7 @@ __all__ = [
     "MAX_ANGLE_DEG",
     "MAX_SPEED_DEG_S",
     "MAX_FPS_HZ",
+    "MIN_FPS_HZ",
     "MAX_DURATION_S",
     "MAX_BIN_WIDTH_DEG",
     "MAX_RESAMPLES",
@@ -26,6 +27,9 @@ MAX_ANGLE_DEG = 3600.0
 MAX_SPEED_DEG_S = 10_000.0
 #: Frame rates of motion capture and video: 1000 Hz systems exist; ten times that is a typo.
 MAX_FPS_HZ = 10_000.0
+#: Slowest frame rate a motion capture plausibly has: a BVH's "Frame Time: 100" (0.01 Hz) is
+#: a unit mistake, and it mines nothing.
+MIN_FPS_HZ = 1.0
 #: Longest time span an option may take (a gap to bridge, a smoothing window): one hour.
 MAX_DURATION_S = 3600.0
 #: Widest angle bin: one revolution (every angle in one bin already).

@@ -30,7 +30,9 @@ import shutil
 import sys
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, TypedDict
 
 import click
 import numpy as np
@@ -54,7 +56,17 @@ from turn_datasets.synthetic.demo_corpus import (
 from turn_eval import cli as eval_cli
 from turn_eval.report import Report, load_json
 
-__all__ = ["DemoFailed", "run_demo", "prepare_out_dir", "match_planted", "write_report", "main"]
+__all__ = [
+    "DemoFailed",
+    "DemoResults",
+    "SetScores",
+    "load_results",
+    "run_demo",
+    "prepare_out_dir",
+    "match_planted",
+    "write_report",
+    "main",
+]
 
 METHODS = ("paper", "net")
 MIN_KAPPA = 0.8
@@ -237,35 +249,58 @@ def prepare_out_dir(out: Path) -> None:
 
 #: The corpus of ``--quick`` (and of the tests): three subjects (both splits), two actions, three
 #: pairs; every step still runs.
-QUICK = {
+class QuickCorpus(TypedDict):
+    """The size of a ``--quick`` demo corpus."""
+
+    subjects: tuple[str, ...]
+    actions: dict[str, tuple[int, int]]
+    n_pairs: int
+
+
+QUICK: QuickCorpus = {
     "subjects": ("S1", "S5", "S9"),
     "actions": {"Walking": (3, 4), "Phoning": (1, 2)},
     "n_pairs": 3,
 }
 
 
-def run_demo(
-    out_dir: str | Path,
-    *,
-    seed: int = DEMO_SEED,
-    bootstrap: int = 1000,
-    quick: bool = False,
-) -> dict[str, Path]:
-    """Run every step into ``out_dir`` and return the results' paths by description.
+@dataclass
+class SetScores:
+    """One benchmark's scores in the demo: per method, the scores document and its figures."""
 
-    ``out_dir`` is new, empty, or the folder of an earlier demo run, whose results are
-    replaced (:func:`prepare_out_dir`). ``quick`` writes a small corpus (:data:`QUICK`) so
-    that every step runs in seconds.
-    """
-    out = Path(out_dir)
-    prepare_out_dir(out)
-    t0 = time.perf_counter()
-    corpus = out / "corpus"
-    h36m_dir, remap_dir = out / "h36m", out / "remap"
-    results: dict[str, Path] = {}
+    title: str
+    groupings: tuple[str, ...]
+    scores: dict[str, dict]
+    figures: dict[str, list[Path]]
+    compare_md: str | None = None
 
-    _say(f"turnbench {__version__} demo, seed {seed}: everything goes to {out}/")
+
+@dataclass
+class DemoResults:
+    """What the demo computed, for the report (:func:`write_report`) and the listing."""
+
+    seed: int
+    table3_md: str
+    miner_md: str | None
+    tables12_md: str
+    audit: dict
+    agreement_md: str | None
+    confusion_pngs: list[Path]
+    disagreements: pd.DataFrame | None
+    sets: list[SetScores]
+    paths: dict[str, Path] = field(default_factory=dict)
+
+
+#: The benchmarks the demo scores: key, name, folder, groupings shown in the report.
+_SETS = (
+    ("h36m", "Turn-H3.6M", ("subject", "bin_deg", "action", "split")),
+    ("remap", "Turn-REMAP", ("scenario", "location", "cohort", "bin_deg", "subject")),
+)
+
+
+def _corpus_step(out: Path, *, seed: int, quick: bool, paths: dict[str, Path]):
     _say("\n# 1. The demo corpus (synthetic; no licensed data needed)")
+    corpus = out / "corpus"
     if quick:
         h36m = write_h36m_corpus(
             corpus / "h36m", seed=seed, subjects=QUICK["subjects"], actions=QUICK["actions"]
@@ -284,40 +319,48 @@ def run_demo(
         f"{len(remap.participants)} participants, {len(remap.truth)} planted turns, in "
         f"{corpus / 'remap'}"
     )
-    results["Demo motion capture (three H3.6M layouts)"] = corpus / "h36m"
-    results["Turns planted in the motion capture"] = h36m.planted_path
-    results["Demo ELAN sessions"] = corpus / "remap" / "eaf"
-    results["Participants table"] = remap.participants_path
+    paths["Demo motion capture (three H3.6M layouts)"] = corpus / "h36m"
+    paths["Turns planted in the motion capture"] = h36m.planted_path
+    paths["Demo ELAN sessions"] = corpus / "remap" / "eaf"
+    paths["Participants table"] = remap.participants_path
+    return h36m, remap
 
+
+def _h36m_step(out: Path, h36m, paths: dict[str, Path]) -> tuple[Path, str, str]:
     _say("\n# 2. Turn-H3.6M: mine the clip index, summarise it (Table 3)")
+    h36m_dir = out / "h36m"
     index_path = h36m_dir / "turn-h36m.csv"
-    _datasets(["h36m", "mine", str(corpus / "h36m"), "--out", str(index_path)])
+    _datasets(["h36m", "mine", str(out / "corpus" / "h36m"), "--out", str(index_path)])
     table3 = _datasets(["h36m", "stats", str(index_path)], show=True)
-    results["Turn-H3.6M clip index"] = index_path
-    results["Turn-H3.6M manifest"] = index_path.with_suffix(".manifest.json")
-    results["Table 3 (clips per bin)"] = write_text(h36m_dir / "table3.md", table3)
+    paths["Turn-H3.6M clip index"] = index_path
+    paths["Turn-H3.6M manifest"] = index_path.with_suffix(".manifest.json")
+    paths["Table 3 (clips per bin)"] = write_text(h36m_dir / "table3.md", table3)
     index = pd.read_csv(index_path, dtype={"subaction": str}, keep_default_na=False)
     matched, miner_md = _miner_check(h36m.planted, index)
     _say("\nThe miner against the turns the generator planted:")
     _say(miner_md.rstrip("\n"))
-    results["Miner vs planted turns"] = write_text(h36m_dir / "miner-check.md", miner_md)
-    results["Each planted turn and the clip that found it"] = write_csv(
+    paths["Miner vs planted turns"] = write_text(h36m_dir / "miner-check.md", miner_md)
+    paths["Each planted turn and the clip that found it"] = write_csv(
         matched, h36m_dir / "miner-check.csv"
     )
+    return index_path, table3, miner_md
 
+
+def _remap_step(out: Path, remap, paths: dict[str, Path]) -> tuple[Path, str, Path]:
     _say("\n# 3. Turn-REMAP: labels, Tables 1 and 2, the inter-rater agreement audit")
+    remap_dir = out / "remap"
     labels_path = remap_dir / "labels.csv"
     participants = str(remap.participants_path)
-    eaf_dir = str(corpus / "remap" / "eaf")
+    eaf_dir = str(out / "corpus" / "remap" / "eaf")
     _datasets(
         ["remap", "labels", eaf_dir, "--participants", participants, "--out", str(labels_path)]
     )
-    results["Turn-REMAP labels"] = labels_path
-    results["Turn-REMAP raw annotations"] = labels_path.with_name("annotations.csv")
+    paths["Turn-REMAP labels"] = labels_path
+    paths["Turn-REMAP raw annotations"] = labels_path.with_name("annotations.csv")
     tables12 = _datasets(
         ["remap", "stats", str(labels_path), "--participants", participants], show=True
     )
-    results["Tables 1 and 2 (cohorts, scenarios x angles)"] = write_text(
+    paths["Tables 1 and 2 (cohorts, scenarios x angles)"] = write_text(
         remap_dir / "tables1-2.md", tables12
     )
     audit_dir = remap_dir / "agreement"
@@ -335,27 +378,35 @@ def run_demo(
             "0",
         ]
     )
-    audit = load_json(audit_dir / "agreement.json")
-    _say(_agreement_line(audit))
-    results["Agreement audit (report, pairs, disagreements, confusion)"] = audit_dir
-    results["Review EAFs (open in ELAN)"] = audit_dir / "review"
+    _say(_agreement_line(load_json(audit_dir / "agreement.json")))
+    paths["Agreement audit (report, pairs, disagreements, confusion)"] = audit_dir
+    paths["Review EAFs (open in ELAN)"] = audit_dir / "review"
+    return labels_path, tables12, audit_dir
 
+
+def _predict_step(
+    out: Path, references: dict[str, Path], *, seed: int, paths: dict[str, Path]
+) -> None:
     _say("\n# 4. Skeletons as a monocular estimator gives them, and predictions from them")
-    skeletons = {"h36m": h36m_dir / "skeletons.npz", "remap": remap_dir / "skeletons.npz"}
+    skeletons = {key: out / key / "skeletons.npz" for key in references}
     write_h36m_estimates(
-        index_path, [corpus / "h36m"], skeletons["h36m"], degrade=degrade_skeleton, seed=seed
+        references["h36m"],
+        [out / "corpus" / "h36m"],
+        skeletons["h36m"],
+        degrade=degrade_skeleton,
+        seed=seed,
     )
-    write_remap_estimates(labels_path, skeletons["remap"], degrade=degrade_skeleton, seed=seed)
+    write_remap_estimates(
+        references["remap"], skeletons["remap"], degrade=degrade_skeleton, seed=seed
+    )
     _say(
         "Wrote 17-joint skeletons (camera axes, y down, metres) for every clip: "
         f"{skeletons['h36m']} and {skeletons['remap']}"
     )
-    references = {"h36m": index_path, "remap": labels_path}
-    names = {"h36m": "Turn-H3.6M", "remap": "Turn-REMAP"}
-    for key, folder in (("h36m", h36m_dir), ("remap", remap_dir)):
-        results[f"{names[key]} estimator skeletons"] = skeletons[key]
+    for key, name, _ in _SETS:
+        paths[f"{name} estimator skeletons"] = skeletons[key]
         for method in METHODS:
-            pred = folder / f"predictions-{method}.csv"
+            pred = out / key / f"predictions-{method}.csv"
             _eval(
                 [
                     "predict",
@@ -372,10 +423,17 @@ def run_demo(
                     str(pred),
                 ]
             )
-            results[f"{names[key]} predictions ({method})"] = pred
+            paths[f"{name} predictions ({method})"] = pred
 
+
+def _score_step(
+    out: Path, references: dict[str, Path], *, bootstrap: int, paths: dict[str, Path]
+) -> list[SetScores]:
     _say("\n# 5. Scores (Tables 4 and 5, Figure 5), per method and set")
-    for key, folder in (("h36m", h36m_dir), ("remap", remap_dir)):
+    sets = []
+    for key, name, groupings in _SETS:
+        folder = out / key
+        scored = SetScores(f"{name} scores", groupings, {}, {})
         for method in METHODS:
             score_dir = folder / f"scores-{method}"
             _eval(
@@ -393,12 +451,25 @@ def run_demo(
                     "0",
                 ],
             )
-            scores = load_json(score_dir / "scores.json")
-            _say(f"{names[key]}, method {method}: {_overall_line(scores)}")
-            results[f"{names[key]} scores ({method}): json, md, csv, figures"] = score_dir
+            scored.scores[method] = load_json(score_dir / "scores.json")
+            scored.figures[method] = sorted(score_dir.glob("*.png"), key=_figure_order)
+            _say(f"{name}, method {method}: {_overall_line(scored.scores[method])}")
+            paths[f"{name} scores ({method}): json, md, csv, figures"] = score_dir
+        sets.append(scored)
+    return sets
 
+
+def _compare_step(
+    out: Path,
+    references: dict[str, Path],
+    sets: list[SetScores],
+    *,
+    bootstrap: int,
+    paths: dict[str, Path],
+) -> None:
     _say("\n# 6. Is net better than paper? Paired bootstrap and McNemar")
-    for key, folder in (("h36m", h36m_dir), ("remap", remap_dir)):
+    for (key, name, _), scored in zip(_SETS, sets, strict=True):
+        folder = out / key
         args = [
             "compare",
             str(folder / "predictions-paper.csv"),
@@ -412,19 +483,66 @@ def run_demo(
         ]
         _eval([*args, "--out", str(folder / "compare.md")], show=True)
         _eval([*args, "--format", "json", "--out", str(folder / "compare.json")])
-        results[f"{names[key]}: paper vs net"] = folder / "compare.md"
-        results[f"{names[key]}: paper vs net (JSON)"] = folder / "compare.json"
+        scored.compare_md = (folder / "compare.md").read_text(encoding="utf-8")
+        paths[f"{name}: paper vs net"] = folder / "compare.md"
+        paths[f"{name}: paper vs net (JSON)"] = folder / "compare.json"
+
+
+def _audit_results(audit_dir: Path) -> dict[str, Any]:
+    """The agreement audit as the report shows it, from the folder the command wrote."""
+    disagreements = audit_dir / "disagreements.csv"
+    return {
+        "audit": load_json(audit_dir / "agreement.json"),
+        "agreement_md": (audit_dir / "agreement.md").read_text(encoding="utf-8"),
+        "confusion_pngs": sorted(audit_dir.glob("*.png")),
+        "disagreements": _disagreements_table(disagreements) if disagreements.exists() else None,
+    }
+
+
+def run_demo(
+    out_dir: str | Path,
+    *,
+    seed: int = DEMO_SEED,
+    bootstrap: int = 1000,
+    quick: bool = False,
+) -> dict[str, Path]:
+    """Run every step into ``out_dir`` and return the results' paths by description.
+
+    ``out_dir`` is new, empty, or the folder of an earlier demo run, whose results are
+    replaced (:func:`prepare_out_dir`). ``quick`` writes a small corpus (:data:`QUICK`) so
+    that every step runs in seconds.
+    """
+    out = Path(out_dir)
+    prepare_out_dir(out)
+    t0 = time.perf_counter()
+    paths: dict[str, Path] = {}
+    _say(f"turnbench {__version__} demo, seed {seed}: everything goes to {out}/")
+    h36m, remap = _corpus_step(out, seed=seed, quick=quick, paths=paths)
+    index_path, table3, miner_md = _h36m_step(out, h36m, paths)
+    labels_path, tables12, audit_dir = _remap_step(out, remap, paths)
+    references = {"h36m": index_path, "remap": labels_path}
+    _predict_step(out, references, seed=seed, paths=paths)
+    sets = _score_step(out, references, bootstrap=bootstrap, paths=paths)
+    _compare_step(out, references, sets, bootstrap=bootstrap, paths=paths)
 
     _say("\n# 7. The report")
-    report_path = write_report(out, seed=seed)
-    results["The report (open in a browser)"] = report_path
+    results = DemoResults(
+        seed=seed,
+        table3_md=table3,
+        miner_md=miner_md,
+        tables12_md=tables12,
+        sets=sets,
+        paths=paths,
+        **_audit_results(audit_dir),
+    )
+    paths["The report (open in a browser)"] = write_report(results, out / "report.html")
     elapsed = time.perf_counter() - t0
 
     _say(f"\nDone in {elapsed:.0f} s. Where each result is:")
-    width = max(len(k) for k in results)
-    for what, path in results.items():
+    width = max(len(k) for k in paths)
+    for what, path in paths.items():
         _say(f"  {what:<{width}}  {path}")
-    return results
+    return paths
 
 
 def _agreement_line(audit: dict) -> str:
@@ -463,27 +581,25 @@ def _caption(png: Path) -> str:
     return png.name
 
 
-def _scores_section(report: Report, title: str, folder: Path, groupings: Sequence[str]) -> None:
-    sec = report.section(title)
-    labelled = {m: load_json(folder / f"scores-{m}" / "scores.json") for m in METHODS}
+def _scores_section(report: Report, scored: SetScores) -> None:
+    sec = report.section(scored.title)
     sec.paragraph(
         "Overall, with percentile-bootstrap 95% confidence intervals over clips "
-        f"({labelled['net']['settings'].get('bootstrap')} resamples, seed "
-        f"{labelled['net']['settings'].get('seed')}). `paper` is equation 3 as printed "
+        f"({scored.scores['net']['settings'].get('bootstrap')} resamples, seed "
+        f"{scored.scores['net']['settings'].get('seed')}). `paper` is equation 3 as printed "
         "(every frame-to-frame rotation counted with its magnitude); `net` the signed net "
         "rotation of the hip vector."
     )
-    sec.summary(labelled, caption=f"{title}: overall")
-    for method, scores in labelled.items():
-        present = [g for g in groupings if g in scores.get("by", {})]
+    sec.summary(scored.scores, caption=f"{scored.title}: overall")
+    for method, scores in scored.scores.items():
+        present = [g for g in scored.groupings if g in scores.get("by", {})]
         sec.heading(f"Method {method}")
-        sec.scores(scores, groupings=present, caption=f"{title}, {method}")
-        pngs = sorted((folder / f"scores-{method}").glob("*.png"), key=_figure_order)
+        sec.scores(scores, groupings=present, caption=f"{scored.title}, {method}")
+        pngs = scored.figures[method]
         sec.figures(pngs, captions={p.name: _caption(p) for p in pngs})
-    compare_md = folder / "compare.md"
-    if compare_md.exists():
+    if scored.compare_md is not None:
         sec.heading("paper against net on the same clips")
-        sec.markdown_file(compare_md)
+        sec.markdown(scored.compare_md)
 
 
 def _disagreements_table(path: Path, *, max_rows: int = 60) -> pd.DataFrame:
@@ -498,14 +614,59 @@ def _disagreements_table(path: Path, *, max_rows: int = 60) -> pd.DataFrame:
     return df
 
 
-def write_report(out_dir: str | Path, *, seed: int = DEMO_SEED) -> Path:
-    """Build ``out_dir/report.html`` from the results the demo wrote into ``out_dir``."""
+def load_results(out_dir: str | Path, *, seed: int = DEMO_SEED) -> DemoResults:
+    """The results of a finished demo run, read back from ``out_dir`` (to rebuild its report
+    after a step was re-run by hand)."""
     out = Path(out_dir)
     h36m_dir, remap_dir = out / "h36m", out / "remap"
+    miner_md = h36m_dir / "miner-check.md"
+    sets = []
+    for key, name, groupings in _SETS:
+        folder = out / key
+        compare_md = folder / "compare.md"
+        sets.append(
+            SetScores(
+                f"{name} scores",
+                groupings,
+                {m: load_json(folder / f"scores-{m}" / "scores.json") for m in METHODS},
+                {
+                    m: sorted((folder / f"scores-{m}").glob("*.png"), key=_figure_order)
+                    for m in METHODS
+                },
+                compare_md.read_text(encoding="utf-8") if compare_md.exists() else None,
+            )
+        )
+    return DemoResults(
+        seed=seed,
+        table3_md=(h36m_dir / "table3.md").read_text(encoding="utf-8"),
+        miner_md=miner_md.read_text(encoding="utf-8") if miner_md.exists() else None,
+        tables12_md=(remap_dir / "tables1-2.md").read_text(encoding="utf-8"),
+        sets=sets,
+        **_audit_results(remap_dir / "agreement"),
+    )
+
+
+#: The report's closing list of where everything is, relative to the page.
+_FILES = {
+    "clip index": "h36m/turn-h36m.csv",
+    "Table 3": "h36m/table3.md",
+    "labels": "remap/labels.csv",
+    "agreement audit": "remap/agreement/",
+    "review EAFs": "remap/agreement/review/",
+    "predictions": "h36m/predictions-{paper,net}.csv, remap/predictions-{paper,net}.csv",
+    "scores": "h36m/scores-{paper,net}/, remap/scores-{paper,net}/",
+    "comparisons": "h36m/compare.md, remap/compare.md (and .json)",
+    "corpus": "corpus/h36m/ (planted.csv lists the planted turns), corpus/remap/",
+    "miner check": "h36m/miner-check.md, h36m/miner-check.csv",
+}
+
+
+def write_report(results: DemoResults, path: str | Path) -> Path:
+    """Write the demo's report page (one self-contained HTML file) from its results."""
     report = Report(
         "turnbench demo: Turn-H3.6M and Turn-REMAP, curated and scored",
         subtitle=(
-            f"turnbench {__version__}, on the bundled synthetic corpus (seed {seed}). "
+            f"turnbench {__version__}, on the bundled synthetic corpus (seed {results.seed}). "
             "Every number here comes from the command-line tools run by `make demo`; the "
             "data are generated, not recorded, so they show how the tools work, not how "
             "well any estimator does on real people."
@@ -517,57 +678,32 @@ def write_report(out_dir: str | Path, *, seed: int = DEMO_SEED) -> Path:
         "found by `turn-datasets h36m mine` in the demo motion capture (S1 as CDF, S5 as "
         "3d-pose-baseline h5, the other subjects in a VideoPose3D npz)."
     )
-    sec.markdown_file(h36m_dir / "table3.md")
-    if (h36m_dir / "miner-check.md").exists():
+    sec.markdown(results.table3_md)
+    if results.miner_md is not None:
         sec.heading("The miner against the planted turns")
-        sec.markdown_file(h36m_dir / "miner-check.md")
+        sec.markdown(results.miner_md)
 
     sec = report.section("Turn-REMAP: labels and their agreement audit")
     sec.paragraph(
         "Labels from the ELAN sessions by `turn-datasets remap labels` (one row per turn "
         "after adjudication: where the two clinicians disagree, the consensus tier decides)."
     )
-    sec.markdown_file(remap_dir / "tables1-2.md")
-    audit_dir = remap_dir / "agreement"
-    audit = load_json(audit_dir / "agreement.json")
+    sec.markdown(results.tables12_md)
     sec.heading("Inter-rater agreement")
-    sec.paragraph(_agreement_line(audit), kind="note")
-    if (audit_dir / "agreement.md").exists():
-        sec.markdown_file(audit_dir / "agreement.md")
-    for png in sorted(audit_dir.glob("*.png")):
+    sec.paragraph(_agreement_line(results.audit), kind="note")
+    if results.agreement_md is not None:
+        sec.markdown(results.agreement_md)
+    for png in results.confusion_pngs:
         sec.figure(png, caption=f"Agreement confusion matrix ({png.name})", width_px=480)
-    if (audit_dir / "disagreements.csv").exists():
+    if results.disagreements is not None:
         sec.heading("Disagreements to review (also marked in the review EAFs)")
-        sec.frame(_disagreements_table(audit_dir / "disagreements.csv"), float_digits=3)
+        sec.frame(results.disagreements, float_digits=3)
 
-    _scores_section(
-        report,
-        "Turn-H3.6M scores",
-        h36m_dir,
-        ("subject", "bin_deg", "action", "split"),
-    )
-    _scores_section(
-        report,
-        "Turn-REMAP scores",
-        remap_dir,
-        ("scenario", "location", "cohort", "bin_deg", "subject"),
-    )
+    for scored in results.sets:
+        _scores_section(report, scored)
 
-    sec = report.section("Files")
-    files = {
-        "clip index": "h36m/turn-h36m.csv",
-        "Table 3": "h36m/table3.md",
-        "labels": "remap/labels.csv",
-        "agreement audit": "remap/agreement/",
-        "review EAFs": "remap/agreement/review/",
-        "predictions": "h36m/predictions-{paper,net}.csv, remap/predictions-{paper,net}.csv",
-        "scores": "h36m/scores-{paper,net}/, remap/scores-{paper,net}/",
-        "comparisons": "h36m/compare.md, remap/compare.md (and .json)",
-        "corpus": "corpus/h36m/ (planted.csv lists the planted turns), corpus/remap/",
-        "miner check": "h36m/miner-check.md, h36m/miner-check.csv",
-    }
-    sec.files(files, caption="Where everything is, relative to this page")
-    return report.write(out / "report.html")
+    report.section("Files").files(_FILES, caption="Where everything is, relative to this page")
+    return report.write(path)
 
 
 def _int_at_least(low: int) -> Callable[[str], int]:

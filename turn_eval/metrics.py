@@ -509,9 +509,15 @@ class _Engine:
                 where[1:1] = [slice(0, 0)]
             if not own_speed_count:
                 where[2:2] = [slice(0, 0)]
+            at_abs, at_speed_sum, at_speed_count, at_true, at_true_right, at_predicted = where
             layout = _Rows(
                 p,
-                *where,
+                at_abs,
+                at_speed_sum,
+                at_speed_count,
+                at_true,
+                at_true_right,
+                at_predicted,
                 group_of_pairs=sparse.csr_array(
                     (np.ones(ref_keys.shape[0]), (ref_keys // k, np.arange(ref_keys.shape[0]))),
                     shape=(n_groups, ref_keys.shape[0]),

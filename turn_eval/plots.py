@@ -138,7 +138,7 @@ def _abs_error(error_deg: np.ndarray, bin_width_deg: float, path: Path) -> Path:
     top = max(step, float(np.ceil(largest / step) * step))
     fig = Figure(figsize=(5.5, 3.8))
     ax = fig.add_subplot()
-    ax.hist(error_deg, bins=np.arange(0.0, top + step, step), color="#4c78a8")
+    ax.hist(error_deg, bins=np.arange(0.0, top + step, step).tolist(), color="#4c78a8")
     mae = float(error_deg.mean())
     ax.axvline(mae, color="black", linewidth=1.2, label=f"MAE {fixed(mae, 1)}°")
     ax.axvline(
@@ -151,7 +151,8 @@ def _abs_error(error_deg: np.ndarray, bin_width_deg: float, path: Path) -> Path:
     ax.set_xlabel("absolute error (°)")
     ax.set_ylabel("clips")
     ax.set_title("Absolute angle error")
-    ax.legend(fontsize=8)
+    # a fixed place: "best" searches every bar (slow, and matplotlib warns about it)
+    ax.legend(loc="upper right", fontsize=8)
     fig.tight_layout()
     return _save(fig, path)
 
@@ -176,7 +177,7 @@ def _bland_altman(pred_deg: np.ndarray, ref_deg: np.ndarray, path: Path) -> Path
     ax.set_xlabel("mean of predicted and reference angle (°)")
     ax.set_ylabel("predicted − reference (°)")
     ax.set_title("Bland–Altman")
-    ax.legend(fontsize=8)
+    ax.legend(loc="lower right", fontsize=8)
     fig.tight_layout()
     return _save(fig, path)
 

@@ -27,7 +27,7 @@ decimal, as the paper does.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -37,7 +37,7 @@ from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import typed_frame
 from turn_datasets.render.labels import METRIC_LABELS
-from turn_datasets.render.markdown import metric_table
+from turn_datasets.render.markdown import markdown_cell, metric_table
 from turn_datasets.render.numbers import MISSING, fixed, format_metric
 from turn_datasets.render.order import natural_key
 from turn_eval.metrics import (
@@ -58,6 +58,7 @@ from turn_eval.submission import BIN_COLUMN, Joined, group_label
 
 __all__ = [
     "SCORES_CSV_COLUMNS",
+    "scores_csv",
     "BLANK_GROUP",
     "outcomes_of",
     "build_scores",
@@ -77,7 +78,7 @@ SCORES_CSV_COLUMNS: Mapping[str, str] = {
 }
 
 #: Wraps the iterator of resample chunks (and their number) to show progress.
-Progress = Callable[[Iterator[np.ndarray], int], Iterable[np.ndarray]]
+Progress = Callable[[Iterable[np.ndarray], int], Iterable[np.ndarray]]
 
 
 def outcomes_of(joined: Joined) -> ClipOutcomes:
@@ -188,7 +189,7 @@ def build_scores(
     partitions = [Partition.whole(outcomes.n)]
     partitions += [_partition(joined, col) for col in groupings]
 
-    distributions: list[Mapping[str, np.ndarray]] = [{} for _ in partitions]
+    distributions: list[dict[str, np.ndarray]] = [{} for _ in partitions]
     if n_resamples > 0:
         chunks: Iterable[np.ndarray] = resample_indices(
             outcomes.n, n_resamples=n_resamples, seed=seed
@@ -280,7 +281,7 @@ def scores_markdown(scores: Mapping[str, Any]) -> str:
         groups = block["groups"]
         avg = block["avg"]
         names = list(groups)
-        out += ["", f"## By {col}", ""]
+        out += ["", f"## By {markdown_cell(col)}", ""]
         rows = []
         for m in _present(groups.values()):
             rows.append(
@@ -341,6 +342,14 @@ def _csv_row(grouping: str, group: str, entry: Mapping[str, Any]) -> dict[str, A
         row[f"{m}_ci_low"] = np.nan if bounds is None else bounds[0]
         row[f"{m}_ci_high"] = np.nan if bounds is None else bounds[1]
     return row
+
+
+def scores_csv(frame: pd.DataFrame) -> str:
+    """``scores.csv``'s text: :func:`scores_frame` with each count printed as one (``235``,
+    not ``235.0``; only a grouping's ``avg`` row has a fractional ``n``)."""
+    out = frame.astype({"n": "object"})
+    out["n"] = [int(n) if float(n).is_integer() else n for n in frame["n"]]
+    return out.to_csv(index=False, lineterminator="\n")
 
 
 def scores_frame(scores: Mapping[str, Any]) -> pd.DataFrame:

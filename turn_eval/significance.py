@@ -245,16 +245,15 @@ def _summarise(
             continue
         observed = float(b) - float(a)
         interval = percentile_interval(d, confidence=CONFIDENCE)
-        defined = interval is not None
         result[name] = PairedDifference(
             metric=name,
             a=float(a),
             b=float(b),
             diff=observed,
             mean_diff=float(np.nanmean(d)) if np.isfinite(d).any() else float("nan"),
-            ci_low=interval[0] if defined else None,
-            ci_high=interval[1] if defined else None,
-            p_value=_shift_p_value(d, observed) if defined else None,
+            ci_low=None if interval is None else interval[0],
+            ci_high=None if interval is None else interval[1],
+            p_value=None if interval is None else _shift_p_value(d, observed),
         )
     return result
 

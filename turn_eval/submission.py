@@ -328,7 +328,9 @@ def _read_table(
     if not text.strip():
         raise TurnbenchError(f"empty {what} file: no header and no rows", file=name)
     # The first line with something on it, found without splitting the whole text.
-    start = re.search(r"\S", text).start()
+    first = re.search(r"\S", text)
+    assert first is not None  # the text is not blank (checked above)
+    start = first.start()
     end = text.find("\n", start)
     first_line = text[text.rfind("\n", 0, start) + 1 : end if end >= 0 else len(text)]
     delimiter = _sniff_delimiter(first_line)
@@ -580,6 +582,49 @@ class Joined:
         return int(self.table.shape[0])
 
 
+def _place_in_reference(
+    table: _Table,
+    ids: np.ndarray,
+    ref: pd.DataFrame,
+    *,
+    ref_path: str,
+    allow_missing: bool,
+    say: Callable[[str], None],
+) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
+    """Each prediction's row in the reference, which reference rows are covered, and the
+    ids of those that are not (refused unless ``allow_missing``; an unknown id always)."""
+    ref_ids = ref["clip_id"].to_numpy(dtype=object)
+    position = pd.Index(ref_ids).get_indexer(ids)
+    unknown = position < 0
+    if unknown.any():
+        _, line, count = _first_and_count(table, unknown)
+        listed = _list_ids(list(ids[unknown]))
+        raise TurnbenchError(
+            f"{count} clip id{'s are' if count > 1 else ' is'} not in the reference "
+            f"{ref_path}: {listed}",
+            file=table.path,
+            row=line,
+        )
+    covered = np.zeros(ref.shape[0], dtype=bool)
+    covered[position] = True
+    missing_ids = tuple(str(i) for i in ref_ids[~covered])
+    if missing_ids:
+        message = (
+            f"{len(missing_ids)} of the reference's {ref.shape[0]} clips "
+            f"{'are' if len(missing_ids) > 1 else 'is'} missing from the predictions: "
+            f"{_list_ids(missing_ids)}"
+        )
+        if not allow_missing:
+            raise TurnbenchError(
+                message,
+                file=table.path,
+                hint="pass --allow-missing to score the clips that are there",
+            )
+        say(f"{table.path}: {message}; scoring the other {int(covered.sum())}")
+
+    return position, covered, missing_ids
+
+
 def read_predictions(
     path: str | os.PathLike[str],
     reference: pd.DataFrame | str | os.PathLike[str],
@@ -643,35 +688,9 @@ def read_predictions(
         angle = np.abs(angle)
         speed = None if speed is None else np.abs(speed)
 
-    ref_ids = ref["clip_id"].to_numpy(dtype=object)
-    position = pd.Index(ref_ids).get_indexer(ids)
-    unknown = position < 0
-    if unknown.any():
-        _, line, count = _first_and_count(table, unknown)
-        listed = _list_ids(list(ids[unknown]))
-        raise TurnbenchError(
-            f"{count} clip id{'s are' if count > 1 else ' is'} not in the reference "
-            f"{ref_path}: {listed}",
-            file=table.path,
-            row=line,
-        )
-    covered = np.zeros(ref.shape[0], dtype=bool)
-    covered[position] = True
-    missing_ids = tuple(str(i) for i in ref_ids[~covered])
-    if missing_ids:
-        message = (
-            f"{len(missing_ids)} of the reference's {ref.shape[0]} clips "
-            f"{'are' if len(missing_ids) > 1 else 'is'} missing from the predictions: "
-            f"{_list_ids(missing_ids)}"
-        )
-        if not allow_missing:
-            raise TurnbenchError(
-                message,
-                file=table.path,
-                hint="pass --allow-missing to score the clips that are there",
-            )
-        say(f"{table.path}: {message}; scoring the other {int(covered.sum())}")
-
+    position, covered, missing_ids = _place_in_reference(
+        table, ids, ref, ref_path=ref_path, allow_missing=allow_missing, say=say
+    )
     ref_angle = ref["angle_deg"].to_numpy(dtype=np.float64)
     if angle.size and float(np.max(angle)) < _TWO_PI and float(np.max(ref_angle)) >= _TWO_PI:
         say(

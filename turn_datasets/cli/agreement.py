@@ -15,6 +15,7 @@ from turn_datasets.cli import CONTEXT_SETTINGS, remap
 from turn_datasets.cli.common import (
     KAPPA,
     SEED,
+    check_stdout,
     counted,
     format_option,
     info,
@@ -185,6 +186,7 @@ def agreement(
             participants_per_session=participants,
         )
 
+    check_stdout()
     click.echo(to_json_text(document) if fmt == "json" else markdown, nl=False)
 
     if passed is False:

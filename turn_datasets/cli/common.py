@@ -12,6 +12,7 @@ import math
 import signal
 import sys
 import threading
+import warnings
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import TypeVar
@@ -21,6 +22,7 @@ import click
 from turn_datasets import limits
 from turn_datasets.errors import GateFailed, TurnbenchError
 from turn_datasets.params import param_fields
+from turn_datasets.render.numbers import counted
 
 __all__ = [
     "EXIT_OK",
@@ -28,6 +30,7 @@ __all__ = [
     "EXIT_GATE",
     "run_group",
     "emit",
+    "check_stdout",
     "info",
     "warn",
     "wrote",
@@ -71,9 +74,20 @@ def _sigterm_unwinds() -> Iterator[None]:
         signal.signal(signal.SIGTERM, previous)
 
 
+@contextlib.contextmanager
+def _library_warnings_silenced() -> Iterator[None]:
+    # NumPy's arithmetic warnings (the mean of no values, 0/0) and matplotlib's note that a
+    # "best" legend is slow say nothing to the person at the terminal: where a value is
+    # undefined the result already says so (null, "–"). Our own warnings go through warn().
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        warnings.filterwarnings("ignore", message=r"Creating legend with loc=.best.")
+        yield
+
+
 def run_group(group: click.Group, prog_name: str, args: list[str] | None = None) -> int:
     """Run a click group, mapping turnbench errors to one line on stderr and an exit code."""
-    with _sigterm_unwinds():
+    with _sigterm_unwinds(), _library_warnings_silenced():
         return _run_group(group, prog_name, args)
 
 
@@ -116,8 +130,19 @@ def _run_group(group: click.Group, prog_name: str, args: list[str] | None) -> in
     return rv if isinstance(rv, int) else EXIT_OK
 
 
+def check_stdout() -> None:
+    """Refuse to "print" into a closed stdout: Python then has no sys.stdout and click would
+    print nothing and exit 0, as if the result had been shown (``cat`` fails there too)."""
+    if sys.stdout is None or sys.stdout.closed:
+        raise TurnbenchError(
+            "standard output is closed, so the result cannot be printed",
+            hint="redirect it to a file (> result.txt)",
+        )
+
+
 def emit(text: str) -> None:
     """Print the command's result on stdout (ends with exactly one newline)."""
+    check_stdout()
     click.echo(text.rstrip("\n"))
 
 
@@ -135,11 +160,6 @@ def wrote(*paths: str | Path, what: str = "") -> None:
     """The one-line summary of what a command wrote, on stderr."""
     names = ", ".join(str(p) for p in paths)
     info(f"wrote {what + ' ' if what else ''}{names}")
-
-
-def counted(n: int, noun: str) -> str:
-    """``1 clip``, ``2 clips``: a count with its noun, in the singular for one."""
-    return f"{n} {noun}{'' if n == 1 else 's'}"
 
 
 def progress(items: Iterable[T], *, label: str, length: int | None = None) -> Iterator[T]:
@@ -299,6 +319,35 @@ def resamples(min_resamples: int = 0) -> Number:
     )
 
 
+class _NonEmptyPath(click.Path):
+    """click's Path, refusing the empty string: ``--out-dir ''`` became ``Path('')``, the
+    working folder, and a command wrote its files there."""
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, str) and not value.strip():
+            self.fail("is empty; give a file or folder name", param, ctx)
+        return super().convert(value, param, ctx)
+
+
+def _refuse_empty_paths(command: click.Command) -> click.Command:
+    # Done here, where every command is loaded, so no command (nor a new one) can miss it.
+    for p in command.params:
+        if isinstance(p.type, click.Path) and not isinstance(p.type, _NonEmptyPath):
+            t = p.type
+            p.type = _NonEmptyPath(
+                exists=t.exists,
+                file_okay=t.file_okay,
+                dir_okay=t.dir_okay,
+                writable=t.writable,
+                readable=t.readable,
+                resolve_path=t.resolve_path,
+                allow_dash=t.allow_dash,
+                path_type=t.type,
+                executable=t.executable,
+            )
+    return command
+
+
 class LazyGroup(click.Group):
     """A click group whose commands are imported only when one is asked for.
 
@@ -318,4 +367,5 @@ class LazyGroup(click.Group):
     def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
         if cmd_name not in self.commands and cmd_name in self.lazy_commands:
             importlib.import_module(self.lazy_commands[cmd_name])
-        return super().get_command(ctx, cmd_name)
+        command = super().get_command(ctx, cmd_name)
+        return None if command is None else _refuse_empty_paths(command)

@@ -190,6 +190,8 @@ def mine_cmd(
     for u in corpus.unmatched:
         path = overrides.path if overrides is not None else ""
         warn(f"override {u['clip_id']} ({u['decision']}, {path}:{u['line']}) matches no mined clip")
+    for note in corpus.notes:
+        warn(note)
     write_corpus(corpus, out)
     if corpus.skipped:
         what = [f"{len(corpus.bad_files)} unreadable file(s)"] if corpus.bad_files else []

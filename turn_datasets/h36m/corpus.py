@@ -29,9 +29,18 @@ import pandas as pd
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import atomic_path, sha256_file, to_json_text
 from turn_datasets.h36m.manifest import build_manifest, manifest_path
-from turn_datasets.h36m.miner import MinerParams, SequenceClips, build_index, mine_clips
+from turn_datasets.h36m.miner import (
+    FILTER_MAX_FRACTION_OF_FPS,
+    MinerParams,
+    SequenceClips,
+    build_index,
+    mine_clips,
+    position_filter_applies,
+)
 from turn_datasets.h36m.overrides import Overrides, apply_overrides, unmatched_overrides
+from turn_datasets.limits import MAX_FPS_HZ, MIN_FPS_HZ
 from turn_datasets.mocap.readers import SourceFile, discover, read_source, sorted_sources
+from turn_datasets.render.numbers import counted
 from turn_datasets.skeleton import MocapSequence
 
 __all__ = ["FileRecord", "MinedCorpus", "Sources", "find_sources", "mine_corpus", "write_corpus"]
@@ -123,6 +132,9 @@ class MinedCorpus:
     manifest: dict[str, Any]
     records: list[FileRecord]
     unmatched: list[dict[str, Any]]
+    #: What the run did that its options do not say (an unfiltered sequence, an implausible
+    #: frame rate), one line each, also in the manifest's ``notes``.
+    notes: list[str] = field(default_factory=list)
 
     @property
     def bad_files(self) -> list[FileRecord]:
@@ -226,6 +238,8 @@ def mine_corpus(
     for rec in records:
         rec.error = sources.unreadable.get(rec.source.path)
     stream = _sequences(records, reader_options)
+    unfiltered: dict[float, list[str]] = {}
+    odd_rates: list[str] = []
     for rec, seq in iterate(stream) if iterate is not None else stream:
         try:
             clips = mine_clips(seq, params)
@@ -233,6 +247,19 @@ def mine_corpus(
             rec.bad_sequences.append(exc)
             continue
         rec.add(seq, *apply_overrides(seq, clips, overrides, params))
+        # what the options do not say: a cut-off the miner had to ignore, a frame rate that
+        # is no motion capture's (both mine silently otherwise: no filter, or no clip)
+        name = f"{rec.source.path} ({seq.subject} {seq.action})"
+        if params.position_cutoff_hz > 0 and not position_filter_applies(
+            params.position_cutoff_hz, seq.fps
+        ):
+            unfiltered.setdefault(float(seq.fps), []).append(name)
+        if not MIN_FPS_HZ <= seq.fps <= MAX_FPS_HZ:
+            odd_rates.append(
+                f"{name}: frame rate {seq.fps:g} Hz is outside the plausible "
+                f"{MIN_FPS_HZ:g}-{MAX_FPS_HZ:g} Hz (a BVH Frame Time in the wrong unit?): "
+                f"{counted(len(clips.start_frame), 'clip')} found"
+            )
     if not skip_bad:
         _refuse_bad(records, on_problem)
     good = [r for r in records if r.error is None]
@@ -251,6 +278,12 @@ def mine_corpus(
         for r in good
         for e in r.bad_sequences
     ]
+    notes = [
+        f"--position-cutoff-hz {params.position_cutoff_hz:g} is at or above "
+        f"{FILTER_MAX_FRACTION_OF_FPS:g} x {fps:g} Hz: the hip positions of "
+        f"{len(names)} sequence(s) at that rate were not filtered (first: {names[0]})"
+        for fps, names in sorted(unfiltered.items())
+    ] + odd_rates
     manifest = build_manifest(
         index=index,
         params=params,
@@ -264,7 +297,20 @@ def mine_corpus(
         n_frames=sum(r.frames for r in good),
         created_utc=created_utc,
     )
-    return MinedCorpus(index=index, manifest=manifest, records=records, unmatched=unmatched)
+    # what was actually done, beside the options as given
+    n_sequences = sum(r.sequences for r in good)
+    n_unfiltered = (
+        sum(len(v) for v in unfiltered.values()) if params.position_cutoff_hz > 0 else n_sequences
+    )
+    manifest["position_filter"] = {
+        "cutoff_hz": float(params.position_cutoff_hz),
+        "sequences_filtered": n_sequences - n_unfiltered,
+        "sequences_unfiltered": n_unfiltered,
+    }
+    manifest["notes"] = notes
+    return MinedCorpus(
+        index=index, manifest=manifest, records=records, unmatched=unmatched, notes=notes
+    )
 
 
 def write_corpus(corpus: MinedCorpus, out: str | os.PathLike[str]) -> Path:

@@ -22,8 +22,9 @@ mined clip that matches no planted turn and overlaps none below 60° is a false 
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from types import MappingProxyType
+from typing import TypedDict
 
 import numpy as np
 import pandas as pd
@@ -35,15 +36,22 @@ from turn_datasets.synthetic import mocap as sm
 
 __all__ = ["SETS", "LAYOUTS", "MIN_PLANTED_DEG", "synthetic", "in_layout", "match_turns", "score"]
 
+
+class SyntheticSet(TypedDict):
+    """A synthetic set: turn speed range (°/s), sway range (peak to peak, °), joint noise
+    (mm), and whether capture dropouts are planted."""
+
+    speed: tuple[float, float]
+    sway: tuple[float, float]
+    noise_mm: float
+    dropouts: bool
+
+
 #: Issue 11's synthetic sets: turn speed range (°/s), sway range (peak to peak, °), noise.
-SETS = MappingProxyType(
+SETS: Mapping[str, SyntheticSet] = MappingProxyType(
     {
-        "easy": MappingProxyType(
-            {"speed": (45.0, 160.0), "sway": (3.0, 5.0), "noise_mm": 10.0, "dropouts": False}
-        ),
-        "hard": MappingProxyType(
-            {"speed": (25.0, 60.0), "sway": (6.0, 8.0), "noise_mm": 20.0, "dropouts": True}
-        ),
+        "easy": {"speed": (45.0, 160.0), "sway": (3.0, 5.0), "noise_mm": 10.0, "dropouts": False},
+        "hard": {"speed": (25.0, 60.0), "sway": (6.0, 8.0), "noise_mm": 20.0, "dropouts": True},
     }
 )
 #: The three ways Human3.6M's poses are stored.

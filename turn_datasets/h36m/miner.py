@@ -649,6 +649,16 @@ def _pieces(usable: np.ndarray, max_gap_frames: int) -> list[tuple[int, int]]:
     return list(zip(piece_starts.tolist(), piece_ends.tolist(), strict=True))
 
 
+#: The hip low-pass is applied only below this fraction of the frame rate (nearer the Nyquist
+#: frequency a second-order Butterworth is not a filter); above it the hips go unfiltered.
+FILTER_MAX_FRACTION_OF_FPS = 0.45
+
+
+def position_filter_applies(cutoff_hz: float, fps_hz: float) -> bool:
+    """Whether ``position_cutoff_hz`` low-passes the hips of a sequence at ``fps_hz``."""
+    return 0 < cutoff_hz < FILTER_MAX_FRACTION_OF_FPS * fps_hz
+
+
 def _prepare_piece(
     hips: np.ndarray, usable: np.ndarray, fps_hz: float, cutoff_hz: float
 ) -> np.ndarray:
@@ -664,7 +674,7 @@ def _prepare_piece(
         idx = np.arange(n)
         for c in range(4):
             xy[bad, c] = np.interp(idx[bad], idx[usable], xy[usable, c])
-    if cutoff_hz > 0 and cutoff_hz < 0.45 * fps_hz and n > 3:
+    if position_filter_applies(cutoff_hz, fps_hz) and n > 3:
         xy = _zero_phase_lowpass(xy, cutoff_hz, fps_hz)
     out = np.zeros((n, 2, 3))
     out[:, :, :2] = xy.reshape(n, 2, 2)
@@ -863,10 +873,12 @@ def measure_clip(
     end_frame: int,
     lower_frame: int = 0,
     upper_frame: int | None = None,
-    **params: float,
+    params: MinerParams | None = None,
+    **overrides: float,
 ) -> ClipMeasure:
     """A clip's heading change and hip rotation over frames ``[start_frame, end_frame)``.
 
+    ``params`` (default :class:`MinerParams`), with any field given by keyword replaced.
     Used for a curator's ``adjust`` override: the hips are bridged and filtered exactly as in
     :func:`mine_sequence` (same ``max_gap_s`` and ``position_cutoff_hz``), the stride is
     estimated on the piece as the miner does, and the heading change is
@@ -881,7 +893,7 @@ def measure_clip(
         Frames outside the sequence, or not inside one piece (they cross a dropout longer
         than ``max_gap_s``, or reach frames without usable hips at either end).
     """
-    p = MinerParams(**params)
+    p = MinerParams(**overrides) if params is None else replace(params, **overrides)
     n = int(np.asarray(positions).shape[0])
     if not (0 <= start_frame and start_frame + 2 <= end_frame <= n):
         raise TurnbenchError(

@@ -65,6 +65,16 @@ class Override:
     note: str
     line: int
 
+    @property
+    def frames(self) -> tuple[int, int]:
+        """``(start_frame, end_frame)`` of an ``adjust`` (:func:`read_overrides` requires
+        both for it)."""
+        if self.start_frame is None or self.end_frame is None:
+            raise TurnbenchError(
+                f"{self.decision} of {self.clip_id} has no frames", row=self.line, item=self.clip_id
+            )
+        return self.start_frame, self.end_frame
+
     def as_dict(self) -> dict[str, Any]:
         return {
             "clip_id": self.clip_id,
@@ -251,19 +261,20 @@ def apply_overrides(
             record["result_clip_id"] = ov.clip_id
         else:
             try:
+                start_frame, end_frame = ov.frames
                 turn = measure_clip(
                     seq.positions,
                     layout=seq.layout,
                     fps_hz=seq.fps,
-                    start_frame=int(ov.start_frame),
-                    end_frame=int(ov.end_frame),
-                    **params.as_dict(),
+                    start_frame=start_frame,
+                    end_frame=end_frame,
+                    params=params,
                 )
             except TurnbenchError as exc:
                 raise TurnbenchError(
                     f"cannot adjust {ov.clip_id}: {exc.message}", file=overrides.path, row=ov.line
                 ) from None
-            start[i], end[i] = int(ov.start_frame), int(ov.end_frame)
+            start[i], end[i] = ov.frames
             angle[i], net[i] = turn.angle_deg, turn.net_deg
             hip[i] = turn.hip_rotation_deg
             record["result_clip_id"] = clip_id_of(
@@ -273,7 +284,7 @@ def apply_overrides(
     # An adjust onto the frames of another clip of the sequence would give two clips one id.
     pairs = list(zip(start[keep].tolist(), end[keep].tolist(), strict=True))
     for _, ov in hits:
-        if ov.decision == "adjust" and pairs.count((int(ov.start_frame), int(ov.end_frame))) > 1:
+        if ov.decision == "adjust" and pairs.count(ov.frames) > 1:
             raise TurnbenchError(
                 f"adjusting {ov.clip_id} to frames {ov.start_frame}-{ov.end_frame} makes it "
                 "the same clip as another one of its sequence; exclude one of them instead",

@@ -62,6 +62,7 @@ def read_arrays(
             hint=f"give {' '.join(missing)} (layout: h36m32 or h36m17; up axis: "
             f"{'/'.join(UP_AXES)}; units: {'/'.join(UNITS)})",
         )
+    assert fps is not None and up_axis is not None and units is not None  # all given (above)
     try:
         lay = layout if isinstance(layout, Layout) else get_layout(str(layout))
     except TurnbenchError as exc:

@@ -406,10 +406,20 @@ def audit_agreement(
     items, single = pair_items(
         annotations, rater_a=rater_a, rater_b=rater_b, min_overlap=min_overlap
     )
-    stats_kw = {"labels_deg": labels_deg, "n_bootstrap": n_bootstrap, "seed": seed}
-    overall = pair_stats(items, raters=(rater_a, rater_b), single_annotated=single, **stats_kw)
+
+    def stats(its: pd.DataFrame, raters: tuple[str, str], sing=None) -> PairStats:
+        return pair_stats(
+            its,
+            raters=raters,
+            single_annotated=sing,
+            labels_deg=labels_deg,
+            n_bootstrap=n_bootstrap,
+            seed=seed,
+        )
+
+    overall = stats(items, (rater_a, rater_b), single)
     by_session = {
-        str(session): pair_stats(group, raters=(rater_a, rater_b), **stats_kw)
+        str(session): stats(group, (rater_a, rater_b))
         for session, group in items.groupby("session", sort=True)
     }
     others = [r for r in present if r.casefold().strip() != consensus_annotator.casefold().strip()]
@@ -423,7 +433,7 @@ def audit_agreement(
             by_pair.append(overall)
             continue
         its, sing = pair_items(annotations, rater_a=ra, rater_b=rb, min_overlap=min_overlap)
-        by_pair.append(pair_stats(its, raters=(ra, rb), single_annotated=sing, **stats_kw))
+        by_pair.append(stats(its, (ra, rb), sing))
     return AgreementAudit(
         overall=overall,
         by_session=by_session,

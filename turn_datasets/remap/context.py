@@ -24,7 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from types import MappingProxyType
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -62,7 +62,7 @@ def _applicable(file: FileContext, participant: str, role: str):
     ]
 
 
-def _pieces(file: FileContext, participant: str) -> list[dict[str, object]]:
+def _pieces(file: FileContext, participant: str) -> list[dict[str, Any]]:
     """The participant's context time line, cut at every boundary, merged where equal."""
     per_role = {role: _applicable(file, participant, role) for role in _ROLES}
     bounds = np.unique(
@@ -83,7 +83,7 @@ def _pieces(file: FileContext, participant: str) -> list[dict[str, object]]:
             value[lo:hi][free] = c.value
             taken[lo:hi] = True
         values[role] = value
-    rows: list[dict[str, object]] = []
+    rows: list[dict[str, Any]] = []
     for k in range(bounds.size - 1):
         scenario, location = values["scenario"][k], values["location"][k]
         if not scenario and not location:

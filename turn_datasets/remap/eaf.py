@@ -162,9 +162,9 @@ def _load(path: str | PathLike[str]) -> _Document:
     cve_refs: dict[str, str] = {}
     for tag in ("ALIGNABLE_ANNOTATION", "REF_ANNOTATION"):
         for el in root.iter(tag):
-            ref = el.get("CVE_REF")
-            if ref and el.get("ANNOTATION_ID"):
-                cve_refs[el.get("ANNOTATION_ID")] = ref
+            ref, aid = el.get("CVE_REF"), el.get("ANNOTATION_ID")
+            if ref and aid:
+                cve_refs[aid] = ref
     version = str(root.get("VERSION", ""))
     try:
         eaf = _pympi_eaf(p, root)

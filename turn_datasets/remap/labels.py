@@ -202,6 +202,38 @@ def _without_overlaps(
     return kept
 
 
+def _group_turns(
+    group: pd.DataFrame, raters: list, consensus: pd.DataFrame, *, min_overlap: float
+) -> list[_Turn]:
+    """One participant's annotations in one session as turns (see :func:`adjudicate`'s
+    notes): the first rater's are turns, each further rater's are matched to them (or are
+    new turns), the consensus annotations last."""
+    turns: list[_Turn] = []
+    for rater in raters:
+        mine = group[group["annotator"] == rater]
+        if not turns:
+            turns = [_Turn(rep=i, members={rater: i}) for i in mine.index]
+            continue
+        by_rep = {t.rep: t for t in turns}
+        links = match_annotations(group.loc[list(by_rep)], mine, min_overlap=min_overlap)
+        for a, b in zip(links["index_a"], links["index_b"], strict=True):
+            by_rep[a].members[rater] = b
+        linked = set(links["index_b"])
+        turns += [_Turn(rep=i, members={rater: i}) for i in mine.index if i not in linked]
+    if len(consensus):
+        by_rep = {t.rep: t for t in turns}
+        links = (
+            match_annotations(group.loc[list(by_rep)], consensus, min_overlap=min_overlap)
+            if by_rep
+            else pd.DataFrame({"index_a": [], "index_b": []})
+        )
+        for a, b in zip(links["index_a"], links["index_b"], strict=True):
+            by_rep[a].consensus = b
+        linked = set(links["index_b"])
+        turns += [_Turn(rep=i, members={}, consensus=i) for i in consensus.index if i not in linked]
+    return turns
+
+
 def adjudicate(
     annotations: pd.DataFrame,
     *,
@@ -256,33 +288,7 @@ def adjudicate(
     for (session, participant), group in annotations.groupby(["session", "participant"], sort=True):
         is_consensus = group["annotator"].map(normalise_value) == consensus_key
         raters = list(dict.fromkeys(group.loc[~is_consensus, "annotator"]))
-        turns: list[_Turn] = []
-        for rater in raters:
-            mine = group[group["annotator"] == rater]
-            if not turns:
-                turns = [_Turn(rep=i, members={rater: i}) for i in mine.index]
-                continue
-            by_rep = {t.rep: t for t in turns}
-            links = match_annotations(group.loc[list(by_rep)], mine, min_overlap=min_overlap)
-            for a, b in zip(links["index_a"], links["index_b"], strict=True):
-                by_rep[a].members[rater] = b
-            linked = set(links["index_b"])
-            turns += [_Turn(rep=i, members={rater: i}) for i in mine.index if i not in linked]
-        consensus = group[is_consensus]
-        if len(consensus):
-            by_rep = {t.rep: t for t in turns}
-            links = (
-                match_annotations(group.loc[list(by_rep)], consensus, min_overlap=min_overlap)
-                if by_rep
-                else pd.DataFrame({"index_a": [], "index_b": []})
-            )
-            for a, b in zip(links["index_a"], links["index_b"], strict=True):
-                by_rep[a].consensus = b
-            linked = set(links["index_b"])
-            turns += [
-                _Turn(rep=i, members={}, consensus=i) for i in consensus.index if i not in linked
-            ]
-
+        turns = _group_turns(group, raters, group[is_consensus], min_overlap=min_overlap)
         rank = {rater: k for k, rater in enumerate(raters)}
         chosen: list[tuple[dict[str, Any], int, Any]] = []  # label row, rater rank, source
         for t in turns:

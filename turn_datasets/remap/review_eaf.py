@@ -77,6 +77,91 @@ def _max_numeric_id(values: Iterable[str | None], prefix: str) -> int:
     return best
 
 
+def _strip_header(root: ET.Element, header: ET.Element | None) -> None:
+    """What inspect shows only with --keep-media-paths goes: media and linked files, the
+    author, the date, and header properties other than ELAN's annotation counter."""
+    if header is not None:
+        for tag in ("MEDIA_DESCRIPTOR", "LINKED_FILE_DESCRIPTOR"):
+            for el in header.findall(tag):
+                header.remove(el)
+        for prop in header.findall("PROPERTY"):
+            if prop.get("NAME") not in _ID_PROPERTIES:
+                header.remove(prop)
+        if header.get("MEDIA_FILE"):
+            header.set("MEDIA_FILE", "")
+    if "AUTHOR" in root.attrib:
+        root.set("AUTHOR", "")
+    if "DATE" in root.attrib:
+        # ELAN requires a date; a fixed one says nothing about the recording.
+        root.set("DATE", _NEUTRAL_DATE)
+
+
+def _next_annotation_id(root: ET.Element, counters: list[ET.Element]) -> int:
+    """Past every id in the file and past ELAN's counter, so no id is ever given twice."""
+    ann_ids = [
+        el.get("ANNOTATION_ID")
+        for tag in ("ALIGNABLE_ANNOTATION", "REF_ANNOTATION")
+        for el in root.iter(tag)
+    ]
+    in_counters = [int(p.text.strip()) for p in counters if p.text and p.text.strip().isdigit()]
+    return max([_max_numeric_id(ann_ids, "a"), *in_counters]) + 1
+
+
+class _Ids:
+    """The next free time slot and annotation numbers of a file being extended."""
+
+    def __init__(self, time_slot: int, annotation: int) -> None:
+        self.time_slot, self.annotation = time_slot, annotation
+
+    def slot(self, time_order: ET.Element, t_ms: int) -> str:
+        slot_id = f"ts{self.time_slot}"
+        slot = ET.SubElement(
+            time_order, "TIME_SLOT", {"TIME_SLOT_ID": slot_id, "TIME_VALUE": str(t_ms)}
+        )
+        slot.tail = "\n\t\t"
+        self.time_slot += 1
+        return slot_id
+
+
+def _review_tier(
+    tier_id: str,
+    lt_id: str,
+    participant: str,
+    spans: list[tuple[int, int, str]],
+    time_order: ET.Element,
+    ids: _Ids,
+) -> ET.Element:
+    """One review tier: an annotation per disagreement, over new time slots."""
+    tier = ET.Element(
+        "TIER",
+        {
+            "TIER_ID": tier_id,
+            "LINGUISTIC_TYPE_REF": lt_id,
+            "PARTICIPANT": participant,
+            "ANNOTATOR": REVIEW_ANNOTATOR,
+        },
+    )
+    for s0, s1, text in spans:
+        ref1, ref2 = ids.slot(time_order, s0), ids.slot(time_order, s1)
+        ann = ET.SubElement(tier, "ANNOTATION")
+        al = ET.SubElement(
+            ann,
+            "ALIGNABLE_ANNOTATION",
+            {"ANNOTATION_ID": f"a{ids.annotation}", "TIME_SLOT_REF1": ref1, "TIME_SLOT_REF2": ref2},
+        )
+        ids.annotation += 1
+        ET.SubElement(al, "ANNOTATION_VALUE").text = text
+    return tier
+
+
+def _unique(name: str, taken: set) -> str:
+    candidate, k = name, 2
+    while candidate in taken:
+        candidate, k = f"{name} {k}", k + 1
+    taken.add(candidate)
+    return candidate
+
+
 def write_review_eaf(
     source: str | os.PathLike[str],
     target: str | os.PathLike[str],
@@ -128,45 +213,19 @@ def write_review_eaf(
 
     header = root.find("HEADER")
     if not keep_media_paths:
-        # What inspect shows only with --keep-media-paths goes: media and linked files, the
-        # author, the date, and header properties other than ELAN's annotation counter.
-        if header is not None:
-            for tag in ("MEDIA_DESCRIPTOR", "LINKED_FILE_DESCRIPTOR"):
-                for el in header.findall(tag):
-                    header.remove(el)
-            for prop in header.findall("PROPERTY"):
-                if prop.get("NAME") not in _ID_PROPERTIES:
-                    header.remove(prop)
-            if header.get("MEDIA_FILE"):
-                header.set("MEDIA_FILE", "")
-        if "AUTHOR" in root.attrib:
-            root.set("AUTHOR", "")
-        if "DATE" in root.attrib:
-            # ELAN requires a date; a fixed one says nothing about the recording.
-            root.set("DATE", _NEUTRAL_DATE)
-
+        _strip_header(root, header)
     time_order = root.find("TIME_ORDER")
     if time_order is None:
         time_order = ET.Element("TIME_ORDER")
         root.insert(1 if header is not None else 0, time_order)
-    ts_next = _max_numeric_id((el.get("TIME_SLOT_ID") for el in root.iter("TIME_SLOT")), "ts") + 1
-    ann_ids = [
-        el.get("ANNOTATION_ID")
-        for tag in ("ALIGNABLE_ANNOTATION", "REF_ANNOTATION")
-        for el in root.iter(tag)
-    ]
     counters = [
         prop
         for prop in (header.findall("PROPERTY") if header is not None else [])
         if prop.get("NAME") in _ID_PROPERTIES
     ]
-    # Past every id in the file and past ELAN's counter, so no id is ever given twice.
-    aid_next = (
-        max(
-            [_max_numeric_id(ann_ids, "a")]
-            + [int(p.text.strip()) for p in counters if p.text and p.text.strip().isdigit()]
-        )
-        + 1
+    ids = _Ids(
+        _max_numeric_id((el.get("TIME_SLOT_ID") for el in root.iter("TIME_SLOT")), "ts") + 1,
+        _next_annotation_id(root, counters),
     )
 
     children = list(root)
@@ -182,45 +241,11 @@ def write_review_eaf(
     several = tier_per_participant or len(participants) > 1
     new_tiers: list[ET.Element] = []
     for participant in participants:
-        name = f"{REVIEW_TIER} {participant}" if several else REVIEW_TIER
-        tier_id, k = name, 2
-        while tier_id in tier_ids:
-            tier_id, k = f"{name} {k}", k + 1
-        tier_ids.add(tier_id)
-        tier = ET.Element(
-            "TIER",
-            {
-                "TIER_ID": tier_id,
-                "LINGUISTIC_TYPE_REF": lt_id,
-                "PARTICIPANT": participant,
-                "ANNOTATOR": REVIEW_ANNOTATOR,
-            },
-        )
+        tier_id = _unique(f"{REVIEW_TIER} {participant}" if several else REVIEW_TIER, tier_ids)
         spans = _review_spans(
             rows[rows["participant"] == participant], rater_a=rater_a, rater_b=rater_b
         )
-        for s0, s1, text in spans:
-            ids = []
-            for t in (s0, s1):
-                slot = ET.SubElement(
-                    time_order, "TIME_SLOT", {"TIME_SLOT_ID": f"ts{ts_next}", "TIME_VALUE": str(t)}
-                )
-                slot.tail = "\n\t\t"
-                ids.append(f"ts{ts_next}")
-                ts_next += 1
-            ann = ET.SubElement(tier, "ANNOTATION")
-            al = ET.SubElement(
-                ann,
-                "ALIGNABLE_ANNOTATION",
-                {
-                    "ANNOTATION_ID": f"a{aid_next}",
-                    "TIME_SLOT_REF1": ids[0],
-                    "TIME_SLOT_REF2": ids[1],
-                },
-            )
-            aid_next += 1
-            ET.SubElement(al, "ANNOTATION_VALUE").text = text
-        new_tiers.append(tier)
+        new_tiers.append(_review_tier(tier_id, lt_id, participant, spans, time_order, ids))
     for offset, tier in enumerate(new_tiers):
         ET.indent(tier, space="\t", level=1)  # laid out like ELAN's own files
         tier.tail = "\n\t"
@@ -237,7 +262,7 @@ def write_review_eaf(
 
     for prop in counters:
         # ELAN numbers new annotations after this one.
-        prop.text = str(aid_next - 1)
+        prop.text = str(ids.annotation - 1)
 
     with atomic_path(target) as tmp:
         tree.write(str(tmp), encoding="UTF-8", xml_declaration=True)

@@ -176,7 +176,8 @@ def default_schema_text() -> str:
     """The text of the default schema shipped with the package."""
     return (
         resources.files("turn_datasets")
-        .joinpath("data", DEFAULT_SCHEMA_NAME)
+        .joinpath("data")
+        .joinpath(DEFAULT_SCHEMA_NAME)
         .read_text(encoding="utf-8")
     )
 
@@ -268,7 +269,7 @@ def _build_vocabulary(name: str, values: tuple[str, ...], aliases: Any, source: 
                 f"the vocabulary ({plain.describe()})",
                 file=source,
             )
-        canonical_text = _format_angle(canonical) if numeric else str(canonical)
+        canonical_text = _format_angle(float(canonical)) if numeric else str(canonical)
         clash = plain.parse(alias)
         if clash is not None and clash != canonical:
             raise TurnbenchError(

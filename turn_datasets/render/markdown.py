@@ -10,8 +10,10 @@ __all__ = ["markdown_cell", "markdown_table", "metric_table"]
 
 def markdown_cell(value: Any) -> str:
     """A value as the text of one cell: a ``|`` would end the cell and a line break the row
-    (names come from files), so the first is escaped and white space runs become one space."""
-    return " ".join(str(value).split()).replace("|", "\\|")
+    (names come from files), so the first is escaped and white space runs become one space;
+    a ``<`` is written as ``&lt;`` so that a name like ``<script>`` is shown, not run, by a
+    Markdown viewer that passes HTML through."""
+    return " ".join(str(value).split()).replace("|", "\\|").replace("<", "&lt;")
 
 
 def markdown_table(

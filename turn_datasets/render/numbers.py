@@ -17,6 +17,7 @@ from typing import Any
 from turn_datasets.render.labels import METRIC_LABELS
 
 __all__ = [
+    "counted",
     "MISSING",
     "fixed",
     "format_deg",
@@ -31,6 +32,11 @@ MISSING = "–"
 
 #: Enough digits for any finite float (the largest has 309 before the point).
 _DECIMALS = Context(prec=400, rounding=ROUND_HALF_UP)
+
+
+def counted(n: int, noun: str) -> str:
+    """``1 clip``, ``2 clips``: a count with its noun, in the singular for one."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"
 
 
 def is_missing(value: Any) -> bool:
@@ -77,15 +83,15 @@ def format_metric(key: str, value: Any) -> str:
         return MISSING
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         return str(value)
+    integral = isinstance(value, numbers.Integral)
+    x = float(value)
     if key == "n" or key.startswith("n_"):
-        if isinstance(value, numbers.Integral) or float(value).is_integer():
-            return f"{int(value)}"
-        return one_decimal(value)
+        return f"{int(x)}" if integral or x.is_integer() else one_decimal(x)
     label = METRIC_LABELS.get(key)
     if label is not None:
-        return one_decimal(100.0 * value) if label.kind == "percent" else one_decimal(value)
-    if isinstance(value, numbers.Integral):
+        return one_decimal(label.scale * x)
+    if integral:
         return str(value)
-    if abs(value) >= 1e6:
-        return f"{value:.4g}"
-    return fixed(value, 3).rstrip("0").rstrip(".")
+    if abs(x) >= 1e6:
+        return f"{x:.4g}"
+    return fixed(x, 3).rstrip("0").rstrip(".")

@@ -142,7 +142,7 @@ def _dropout_mask(
     fps: float,
     rate_per_s: float,
     mean_s: float,
-    keep_frames: Sequence[int],
+    keep_frames: Sequence[int] | np.ndarray,
 ) -> np.ndarray:
     mask = np.zeros(n_frames, dtype=bool)
     if rate_per_s <= 0 or n_frames < 3:

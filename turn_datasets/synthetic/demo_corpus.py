@@ -50,6 +50,7 @@ import zlib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 import pandas as pd
@@ -117,10 +118,16 @@ PLANTED_COLUMNS = {
     "duration_s": "float64",
 }
 
+
+class _Degraded(Protocol):
+    @property
+    def positions(self) -> np.ndarray: ...
+
+
 #: The degradation a writer of estimates applies:
 #: ``fn(positions, layout, *, seed, fps, camera_position_mm, mm_per_unit, **params)`` returning
 #: an object with ``.positions`` (as :func:`turn_datasets.synthetic.degrade.degrade_skeleton`).
-DegradeFn = Callable[..., object]
+DegradeFn = Callable[..., _Degraded]
 
 # Four cameras at the corners of the capture area, at head height, as Human3.6M's are.
 _H36M_CAMERAS_MM = (

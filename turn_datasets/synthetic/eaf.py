@@ -35,6 +35,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -273,6 +274,307 @@ def _write_eaf(eaf: pympi_elan.Eaf, path: Path) -> None:
         ET.ElementTree(root).write(str(tmp), xml_declaration=True, encoding="UTF-8")
 
 
+@dataclass(frozen=True)
+class _Raters:
+    """Who annotates and how they err (:func:`write_sessions`' parameters)."""
+
+    names: tuple[str, ...]
+    consensus: str | None
+    disagreement_rate: float
+    far_disagreement_fraction: float
+    missed_rate: float
+    shifted_rate: float
+    jitter_s: float
+
+
+def _check_session_args(
+    raters: _Raters, n_pairs: int, sessions_per_pair: int, turns_per_subject: int, angle_mix
+) -> None:
+    names, consensus = raters.names, raters.consensus
+    if len(names) != 2 or names[0] == names[1]:
+        raise TurnbenchError(f"need two different raters, got {names!r}", item="raters")
+    if consensus is not None and consensus in names:
+        raise TurnbenchError(
+            "the consensus rater must differ from the two raters", item="consensus"
+        )
+    if n_pairs < 1 or sessions_per_pair < 1 or turns_per_subject < 0:
+        raise TurnbenchError(
+            "n_pairs and sessions_per_pair must be >= 1, turns_per_subject >= 0",
+            item="n_pairs",
+        )
+    if raters.disagreement_rate + raters.missed_rate + raters.shifted_rate > 1.0:
+        raise TurnbenchError(
+            "disagreement, missed and shifted rates add up to more than 1",
+            item="disagreement_rate",
+        )
+    unknown = set(angle_mix) - set(ANGLES_DEG)
+    if unknown:
+        raise TurnbenchError(
+            f"angle_mix has angles outside the vocabulary: {sorted(unknown)}", item="angle_mix"
+        )
+
+
+def _kinds(rng: np.random.Generator, n: int, *, is_double: bool, raters: _Raters) -> list[str]:
+    """What happens to each of ``n`` turns: one rater only, both agree, or a planted error."""
+    kinds = []
+    for x in rng.random(n):
+        if not is_double:
+            kinds.append("single")
+        elif x < raters.disagreement_rate:
+            kinds.append("disagree")
+        elif x < raters.disagreement_rate + raters.missed_rate:
+            kinds.append("missed_a" if rng.random() < 0.5 else "missed_b")
+        elif x < raters.disagreement_rate + raters.missed_rate + raters.shifted_rate:
+            kinds.append("shifted")
+        else:
+            kinds.append("agree")
+    return kinds
+
+
+def _lay_out(
+    rng: np.random.Generator,
+    eaf: pympi_elan.Eaf,
+    per_subject: dict[str, list[dict]],
+    scenario_mix: Mapping[str, float],
+) -> tuple[dict[str, list[tuple[int, int, int, dict]]], int, int]:
+    """Times of every turn: the scenarios one after the other (annotated on ``Scenario``);
+    both subjects turn independently inside each (their turns may overlap in time: they are
+    different people). Returns (start, end, end of anything written for the turn, turn) per
+    subject, and the session's first and last time."""
+    t0_ms = _ms(float(rng.uniform(5.0, 30.0)))
+    segment_start_ms = t0_ms
+    timeline: dict[str, list[tuple[int, int, int, dict]]] = {s: [] for s in per_subject}
+    for scenario in scenario_mix:
+        segment_end_ms = segment_start_ms
+        for subject, turns in per_subject.items():
+            t_ms = segment_start_ms + _ms(float(rng.uniform(_MIN_GAP_S, _MAX_GAP_S)))
+            for turn in (t for t in turns if t["scenario"] == scenario):
+                # PD turns are slower; bigger turns take longer (about 1.6 s to 6 s).
+                slow = 1.3 if turn["cohort"] == "PD" else 1.0
+                dur_s = slow * (1.0 + turn["angle"] / 90.0 * float(rng.uniform(0.6, 1.0)))
+                start_ms, end_ms = t_ms, t_ms + _ms(dur_s)
+                # A shifted second rater reaches up to 0.7 of the duration past the end.
+                extent_ms = end_ms + (_ms(0.7 * dur_s) if turn["kind"] == "shifted" else 0)
+                timeline[subject].append((start_ms, end_ms, extent_ms, turn))
+                t_ms = extent_ms + _ms(float(rng.uniform(_MIN_GAP_S, _MAX_GAP_S)))
+            segment_end_ms = max(segment_end_ms, t_ms)
+        if segment_end_ms > segment_start_ms:
+            eaf.add_annotation("Scenario", segment_start_ms, segment_end_ms, scenario)
+        segment_start_ms = segment_end_ms
+    return timeline, t0_ms, segment_start_ms
+
+
+def _annotate_locations(
+    eaf: pympi_elan.Eaf,
+    subject: str,
+    spans: list[tuple[int, int, int, dict]],
+    first_ms: int,
+    last_ms: int,
+) -> None:
+    """Each turn's room from halfway after the previous turn to halfway before the next;
+    neighbours in the same room share one annotation."""
+    bounds = [first_ms]
+    for prev, nxt in zip(spans[:-1], spans[1:], strict=True):
+        bounds.append((prev[2] + nxt[0]) // 2)
+    bounds.append(last_ms)
+    segments: list[list] = []
+    for i, (_, _, _, turn) in enumerate(spans):
+        if segments and segments[-1][2] == turn["location"]:
+            segments[-1][1] = bounds[i + 1]
+        else:
+            segments.append([bounds[i], bounds[i + 1], turn["location"]])
+    for s0, s1, room in segments:
+        eaf.add_annotation(f"Location {subject}", s0, s1, room)
+
+
+def _rater_spans(
+    rng: np.random.Generator,
+    kind: str,
+    start_ms: int,
+    end_ms: int,
+    angle: int,
+    *,
+    raters: _Raters,
+    single_rater: str,
+) -> dict[str, tuple[int, int, int]]:
+    """What each rater writes for one turn: rater -> (start ms, end ms, angle)."""
+    names, consensus = raters.names, raters.consensus
+    wrote: dict[str, tuple[int, int, int]] = {}
+    if kind == "single":
+        a, _ = _jittered(rng, start_ms, end_ms, jitter_s=raters.jitter_s)
+        wrote[single_rater] = (a[0], a[1], angle)
+        return wrote
+    a, b = _jittered(rng, start_ms, end_ms, jitter_s=raters.jitter_s)
+    angle_a = angle_b = angle
+    if kind == "disagree":
+        wrong = _wrong_angle(rng, angle, far=bool(rng.random() < raters.far_disagreement_fraction))
+        if rng.random() < 0.5:
+            angle_a = wrong
+        else:
+            angle_b = wrong
+    if kind == "shifted":
+        # b starts so late that it overlaps only `target` of the longer one.
+        lo, hi = _SHIFTED_RATIO_RANGE
+        target = float(rng.uniform(lo, hi))
+        dur_b = b[1] - b[0]
+        longer = max(a[1] - a[0], dur_b)
+        b0 = a[1] - int(target * longer)
+        b = (b0, b0 + dur_b)
+        while _ratio(*a, *b) >= hi:  # ms rounding
+            b = (b[0] + 10, b[1] + 10)
+    if kind != "missed_a":
+        wrote[names[0]] = (a[0], a[1], angle_a)
+    if kind != "missed_b":
+        wrote[names[1]] = (b[0], b[1], angle_b)
+    if kind in ("disagree", "shifted") and consensus:
+        # a shifted pair is two overlapping turns of one person, which the labels refuse
+        # without an adjudicated one (issue 10)
+        wrote[consensus] = (start_ms, end_ms, angle)
+    return wrote
+
+
+def _truth_row(
+    turn: dict, wrote: dict[str, tuple[int, int, int]], raters: _Raters, **known: Any
+) -> dict[str, Any]:
+    """One row of :data:`TRUTH_COLUMNS`: the planted turn and what each rater wrote of it."""
+    wa, wb = wrote.get(raters.names[0]), wrote.get(raters.names[1])
+    wc = wrote.get(raters.consensus) if raters.consensus else None
+    nan = float("nan")
+    return {
+        **known,
+        "cohort": turn["cohort"],
+        "scenario": turn["scenario"],
+        "location": turn["location"],
+        "a_start_s": wa[0] / 1000.0 if wa else nan,
+        "a_end_s": wa[1] / 1000.0 if wa else nan,
+        "a_angle_deg": float(wa[2]) if wa else nan,
+        "b_start_s": wb[0] / 1000.0 if wb else nan,
+        "b_end_s": wb[1] / 1000.0 if wb else nan,
+        "b_angle_deg": float(wb[2]) if wb else nan,
+        "ratio_ab": _ratio(wa[0], wa[1], wb[0], wb[1]) if wa and wb else nan,
+        "consensus_angle_deg": float(wc[2]) if wc else nan,
+    }
+
+
+def _assign_sessions(
+    rng: np.random.Generator,
+    n_pairs: int,
+    sessions_per_pair: int,
+    double_annotated_fraction: float,
+    names: Sequence[str],
+) -> tuple[list[tuple[str, str]], set[str], dict[str, str]]:
+    """(pair, session) in order, the double-annotated sessions (drawn), and the rater of
+    each single-annotated one (the two alternately, in session order)."""
+    sessions = [
+        (f"pair{p:02d}", f"pair{p:02d}_day{k}")
+        for p in range(1, n_pairs + 1)
+        for k in range(1, sessions_per_pair + 1)
+    ]
+    n_double = int(round(double_annotated_fraction * len(sessions)))
+    order = rng.permutation(len(sessions))
+    double = {sessions[i][1] for i in order[:n_double]}
+    single_sessions = [s for _, s in sessions if s not in double]
+    return sessions, double, {s: names[i % 2] for i, s in enumerate(single_sessions)}
+
+
+def _write_session(
+    rng: np.random.Generator,
+    out: Path,
+    pair: str,
+    session: str,
+    subjects: pd.DataFrame,
+    *,
+    turns_this_session: int,
+    is_double: bool,
+    single_rater: str,
+    raters: _Raters,
+    mixes: tuple[Mapping, Mapping, Mapping],
+    truth_rows: list[dict],
+    written_rows: list[dict],
+) -> Path:
+    """Plant, lay out and annotate one session's turns, and write its ``.eaf``."""
+    file_name = f"{session}.eaf"
+    angle_mix, scenario_mix, location_mix = mixes
+    eaf = _new_eaf(session)
+    names, consensus = raters.names, raters.consensus
+    tier_raters = names if is_double else (single_rater,)
+    tier_names: dict[tuple[str, str], str] = {}
+    for subject in subjects["subject"]:
+        for rater in tier_raters + ((consensus,) if is_double and consensus else ()):
+            tier = f"Turn {rater} {subject}"
+            eaf.add_tier(tier, ling="turn", part=subject, ann=rater)
+            tier_names[(rater, subject)] = tier
+        eaf.add_tier(f"Location {subject}", ling="location", part=subject)
+    eaf.add_tier("Scenario", ling="scenario")
+
+    # Each subject's share of turns in this session, then per scenario.
+    per_subject: dict[str, list[dict]] = {}
+    for subject, cohort in subjects.itertuples(index=False):
+        n = turns_this_session
+        angles = _choice(rng, angle_mix, n)
+        scenarios = _choice(rng, scenario_mix, n)
+        rooms = _choice(rng, location_mix, n)
+        kinds = _kinds(rng, n, is_double=is_double, raters=raters)
+        per_subject[subject] = [
+            {"cohort": cohort, "angle": a, "scenario": s, "location": r, "kind": kd}
+            for a, s, r, kd in zip(angles, scenarios, rooms, kinds, strict=True)
+        ]
+    timeline, first_ms, last_ms = _lay_out(rng, eaf, per_subject, scenario_mix)
+
+    for subject, spans in timeline.items():
+        _annotate_locations(eaf, subject, spans, first_ms, last_ms)
+        for i, (start_ms, end_ms, _, turn) in enumerate(spans):
+            turn_id = f"{session}_{subject}_{i:03d}"
+            angle = int(turn["angle"])
+            wrote = _rater_spans(
+                rng,
+                turn["kind"],
+                start_ms,
+                end_ms,
+                angle,
+                raters=raters,
+                single_rater=single_rater,
+            )
+            for rater, (w0, w1, value) in wrote.items():
+                eaf.add_annotation(tier_names[(rater, subject)], w0, w1, str(value))
+                written_rows.append(
+                    {
+                        "session": session,
+                        "file": file_name,
+                        "tier": tier_names[(rater, subject)],
+                        "annotator": rater,
+                        "participant": subject,
+                        "start_s": w0 / 1000.0,
+                        "end_s": w1 / 1000.0,
+                        "angle_deg": float(value),
+                        "scenario": turn["scenario"],
+                        "location": turn["location"],
+                        "value": str(value),
+                        "turn_id": turn_id,
+                    }
+                )
+            truth_rows.append(
+                _truth_row(
+                    turn,
+                    wrote,
+                    raters,
+                    turn_id=turn_id,
+                    session=session,
+                    file=file_name,
+                    subject=subject,
+                    pair=pair,
+                    start_s=start_ms / 1000.0,
+                    end_s=end_ms / 1000.0,
+                    angle_deg=float(angle),
+                    double_annotated=is_double,
+                    kind=turn["kind"],
+                )
+            )
+    path = out / file_name
+    _write_eaf(eaf, path)
+    return path
+
+
 def write_sessions(
     out_dir: str | os.PathLike[str],
     *,
@@ -329,219 +631,49 @@ def write_sessions(
     SyntheticRemap
         The files written and the ground truth.
     """
-    raters = tuple(raters)
-    if len(raters) != 2 or raters[0] == raters[1]:
-        raise TurnbenchError(f"need two different raters, got {raters!r}", item="raters")
-    if consensus is not None and consensus in raters:
-        raise TurnbenchError(
-            "the consensus rater must differ from the two raters", item="consensus"
-        )
-    if n_pairs < 1 or sessions_per_pair < 1 or turns_per_subject < 0:
-        raise TurnbenchError(
-            "n_pairs and sessions_per_pair must be >= 1, turns_per_subject >= 0",
-            item="n_pairs",
-        )
-    if disagreement_rate + missed_rate + shifted_rate > 1.0:
-        raise TurnbenchError(
-            "disagreement, missed and shifted rates add up to more than 1",
-            item="disagreement_rate",
-        )
-    unknown = set(angle_mix) - set(ANGLES_DEG)
-    if unknown:
-        raise TurnbenchError(
-            f"angle_mix has angles outside the vocabulary: {sorted(unknown)}", item="angle_mix"
-        )
+    rater_setup = _Raters(
+        names=tuple(raters),
+        consensus=consensus,
+        disagreement_rate=disagreement_rate,
+        far_disagreement_fraction=far_disagreement_fraction,
+        missed_rate=missed_rate,
+        shifted_rate=shifted_rate,
+        jitter_s=jitter_s,
+    )
+    _check_session_args(rater_setup, n_pairs, sessions_per_pair, turns_per_subject, angle_mix)
+    names = rater_setup.names
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
     participants = _participants(rng, n_pairs)
 
-    sessions = [
-        (f"pair{p:02d}", f"pair{p:02d}_day{k}")
-        for p in range(1, n_pairs + 1)
-        for k in range(1, sessions_per_pair + 1)
-    ]
-    n_double = int(round(double_annotated_fraction * len(sessions)))
-    order = rng.permutation(len(sessions))
-    double = {sessions[i][1] for i in order[:n_double]}
-    single_sessions = [s for _, s in sessions if s not in double]
-    # Single-annotated sessions go to the raters alternately, in session order.
-    single_rater = {s: raters[i % 2] for i, s in enumerate(single_sessions)}
+    sessions, double, single_rater = _assign_sessions(
+        rng, n_pairs, sessions_per_pair, double_annotated_fraction, names
+    )
 
     truth_rows: list[dict] = []
     written_rows: list[dict] = []
     paths: list[Path] = []
     for pair, session in sessions:
-        file_name = f"{session}.eaf"
-        subjects = participants.loc[participants["pair"] == pair, ["subject", "cohort"]]
         k = int(session.rsplit("day", 1)[1]) - 1
-        eaf = _new_eaf(session)
-        is_double = session in double
-        tier_raters = raters if is_double else (single_rater[session],)
-        tier_names: dict[tuple[str, str], str] = {}
-        for subject in subjects["subject"]:
-            for rater in tier_raters + ((consensus,) if is_double and consensus else ()):
-                tier = f"Turn {rater} {subject}"
-                eaf.add_tier(tier, ling="turn", part=subject, ann=rater)
-                tier_names[(rater, subject)] = tier
-            eaf.add_tier(f"Location {subject}", ling="location", part=subject)
-        eaf.add_tier("Scenario", ling="scenario")
-
-        # Each subject's share of turns in this session, then per scenario.
-        per_subject: dict[str, list[dict]] = {}
-        for subject, cohort in subjects.itertuples(index=False):
-            n = turns_per_subject // sessions_per_pair + (
-                1 if k < turns_per_subject % sessions_per_pair else 0
+        paths.append(
+            _write_session(
+                rng,
+                out,
+                pair,
+                session,
+                participants.loc[participants["pair"] == pair, ["subject", "cohort"]],
+                turns_this_session=turns_per_subject // sessions_per_pair
+                + (1 if k < turns_per_subject % sessions_per_pair else 0),
+                is_double=session in double,
+                single_rater=single_rater.get(session, ""),
+                raters=rater_setup,
+                mixes=(angle_mix, scenario_mix, location_mix),
+                truth_rows=truth_rows,
+                written_rows=written_rows,
             )
-            angles = _choice(rng, angle_mix, n)
-            scenarios = _choice(rng, scenario_mix, n)
-            rooms = _choice(rng, location_mix, n)
-            u = rng.random(n)
-            kinds = []
-            for x in u:
-                if not is_double:
-                    kinds.append("single")
-                elif x < disagreement_rate:
-                    kinds.append("disagree")
-                elif x < disagreement_rate + missed_rate:
-                    kinds.append("missed_a" if rng.random() < 0.5 else "missed_b")
-                elif x < disagreement_rate + missed_rate + shifted_rate:
-                    kinds.append("shifted")
-                else:
-                    kinds.append("agree")
-            per_subject[subject] = [
-                {"cohort": cohort, "angle": a, "scenario": s, "location": r, "kind": kd}
-                for a, s, r, kd in zip(angles, scenarios, rooms, kinds, strict=True)
-            ]
-
-        # Lay the scenarios out one after the other; both subjects turn independently
-        # inside each segment (their turns may overlap in time: they are different people).
-        t0_ms = _ms(float(rng.uniform(5.0, 30.0)))
-        segment_start_ms = t0_ms
-        # (start, end, end of anything written for the turn, turn) per subject
-        timeline: dict[str, list[tuple[int, int, int, dict]]] = {s: [] for s in per_subject}
-        for scenario in scenario_mix:
-            segment_end_ms = segment_start_ms
-            for subject, turns in per_subject.items():
-                t_ms = segment_start_ms + _ms(float(rng.uniform(_MIN_GAP_S, _MAX_GAP_S)))
-                for turn in (t for t in turns if t["scenario"] == scenario):
-                    # PD turns are slower; bigger turns take longer (about 1.6 s to 6 s).
-                    slow = 1.3 if turn["cohort"] == "PD" else 1.0
-                    dur_s = slow * (1.0 + turn["angle"] / 90.0 * float(rng.uniform(0.6, 1.0)))
-                    start_ms, end_ms = t_ms, t_ms + _ms(dur_s)
-                    # A shifted second rater reaches up to 0.7 of the duration past the end.
-                    extent_ms = end_ms + (_ms(0.7 * dur_s) if turn["kind"] == "shifted" else 0)
-                    timeline[subject].append((start_ms, end_ms, extent_ms, turn))
-                    t_ms = extent_ms + _ms(float(rng.uniform(_MIN_GAP_S, _MAX_GAP_S)))
-                segment_end_ms = max(segment_end_ms, t_ms)
-            if segment_end_ms > segment_start_ms:
-                eaf.add_annotation("Scenario", segment_start_ms, segment_end_ms, scenario)
-            segment_start_ms = segment_end_ms
-
-        for subject, turns in timeline.items():
-            # Location segments: each turn's room from halfway after the previous turn to
-            # halfway before the next; neighbours in the same room share one annotation.
-            bounds = [t0_ms]
-            for prev, nxt in zip(turns[:-1], turns[1:], strict=True):
-                bounds.append((prev[2] + nxt[0]) // 2)
-            bounds.append(segment_start_ms)
-            segments: list[list] = []
-            for i, (_, _, _, turn) in enumerate(turns):
-                if segments and segments[-1][2] == turn["location"]:
-                    segments[-1][1] = bounds[i + 1]
-                else:
-                    segments.append([bounds[i], bounds[i + 1], turn["location"]])
-            for s0, s1, room in segments:
-                eaf.add_annotation(f"Location {subject}", s0, s1, room)
-
-            for i, (start_ms, end_ms, _, turn) in enumerate(turns):
-                turn_id = f"{session}_{subject}_{i:03d}"
-                kind = turn["kind"]
-                angle = int(turn["angle"])
-                wrote: dict[str, tuple[int, int, int]] = {}
-                if kind == "single":
-                    a, _ = _jittered(rng, start_ms, end_ms, jitter_s=jitter_s)
-                    wrote[single_rater[session]] = (a[0], a[1], angle)
-                else:
-                    a, b = _jittered(rng, start_ms, end_ms, jitter_s=jitter_s)
-                    angle_a = angle_b = angle
-                    if kind == "disagree":
-                        wrong = _wrong_angle(
-                            rng, angle, far=bool(rng.random() < far_disagreement_fraction)
-                        )
-                        if rng.random() < 0.5:
-                            angle_a = wrong
-                        else:
-                            angle_b = wrong
-                    if kind == "shifted":
-                        # b starts so late that it overlaps only `target` of the longer one.
-                        lo, hi = _SHIFTED_RATIO_RANGE
-                        target = float(rng.uniform(lo, hi))
-                        dur_b = b[1] - b[0]
-                        longer = max(a[1] - a[0], dur_b)
-                        b0 = a[1] - int(target * longer)
-                        b = (b0, b0 + dur_b)
-                        while _ratio(*a, *b) >= hi:  # ms rounding
-                            b = (b[0] + 10, b[1] + 10)
-                    if kind != "missed_a":
-                        wrote[raters[0]] = (a[0], a[1], angle_a)
-                    if kind != "missed_b":
-                        wrote[raters[1]] = (b[0], b[1], angle_b)
-                    if kind in ("disagree", "shifted") and consensus:
-                        # a shifted pair is two overlapping turns of one person, which the
-                        # labels refuse without an adjudicated one (issue 10)
-                        wrote[consensus] = (start_ms, end_ms, angle)
-
-                for rater, (w0, w1, value) in wrote.items():
-                    eaf.add_annotation(tier_names[(rater, subject)], w0, w1, str(value))
-                    written_rows.append(
-                        {
-                            "session": session,
-                            "file": file_name,
-                            "tier": tier_names[(rater, subject)],
-                            "annotator": rater,
-                            "participant": subject,
-                            "start_s": w0 / 1000.0,
-                            "end_s": w1 / 1000.0,
-                            "angle_deg": float(value),
-                            "scenario": turn["scenario"],
-                            "location": turn["location"],
-                            "value": str(value),
-                            "turn_id": turn_id,
-                        }
-                    )
-                wa, wb = wrote.get(raters[0]), wrote.get(raters[1])
-                wc = wrote.get(consensus) if consensus else None
-                nan = float("nan")
-                truth_rows.append(
-                    {
-                        "turn_id": turn_id,
-                        "session": session,
-                        "file": file_name,
-                        "subject": subject,
-                        "cohort": turn["cohort"],
-                        "pair": pair,
-                        "scenario": turn["scenario"],
-                        "location": turn["location"],
-                        "start_s": start_ms / 1000.0,
-                        "end_s": end_ms / 1000.0,
-                        "angle_deg": float(angle),
-                        "double_annotated": is_double,
-                        "kind": kind,
-                        "a_start_s": wa[0] / 1000.0 if wa else nan,
-                        "a_end_s": wa[1] / 1000.0 if wa else nan,
-                        "a_angle_deg": float(wa[2]) if wa else nan,
-                        "b_start_s": wb[0] / 1000.0 if wb else nan,
-                        "b_end_s": wb[1] / 1000.0 if wb else nan,
-                        "b_angle_deg": float(wb[2]) if wb else nan,
-                        "ratio_ab": _ratio(wa[0], wa[1], wb[0], wb[1]) if wa and wb else nan,
-                        "consensus_angle_deg": float(wc[2]) if wc else nan,
-                    }
-                )
-        path = out / file_name
-        _write_eaf(eaf, path)
-        paths.append(path)
+        )
 
     participants_path = write_csv(participants, out / "participants.csv")
     truth = typed_frame(pd.DataFrame(truth_rows, columns=list(TRUTH_COLUMNS)), TRUTH_COLUMNS)
@@ -554,6 +686,6 @@ def write_sessions(
         participants=participants,
         truth=truth,
         written=written,
-        raters=(raters[0], raters[1]),
+        raters=(names[0], names[1]),
         consensus=consensus or "",
     )

@@ -307,13 +307,9 @@ def generate_sequence(
     -------
     SyntheticSequence
     """
-    if not segments:
-        raise TurnbenchError("a synthetic sequence needs at least one segment")
-    if not (np.isfinite(fps_hz) and fps_hz > 0):
-        raise TurnbenchError(f"fps must be positive, got {fps_hz}")
-    for name, value in (("noise_mm", noise_mm), ("sway_deg", sway_deg), ("wander_deg", wander_deg)):
-        if not (np.isfinite(value) and value >= 0):
-            raise TurnbenchError(f"{name} must be a finite non-negative number, got {value}")
+    _check_generator_args(
+        segments, fps_hz, noise_mm=noise_mm, sway_deg=sway_deg, wander_deg=wander_deg
+    )
     rng = np.random.default_rng(seed)
     seg_frames = _segment_frames(segments, fps_hz)
     bounds = np.concatenate([[0], np.cumsum(seg_frames)])
@@ -325,7 +321,6 @@ def generate_sequence(
     heading_change = np.radians([s.heading_deg for s in segments])
     speed = np.array([s.speed_m_s for s in segments])
     is_turn = np.isin(kinds, TURN_KINDS)
-    walking = np.isin(kinds, ("walk", "walking_turn"))
 
     # Heading: the turns' heading changes, each completed exactly on its segment's last frame.
     heading_before = np.concatenate([[0.0], np.cumsum(heading_change)[:-1]])
@@ -335,25 +330,9 @@ def generate_sequence(
     )
     heading = heading0 + heading_before[seg_of] + heading_change[seg_of] * _turn_profile(u)
 
-    # Speed, gait amplitude and sway ease in and out at segment boundaries.
-    ramp = int(round(TRANSITION_S * fps_hz))
-    speed_f = _smooth(speed[seg_of], ramp)
-    gait_amp = _smooth(
-        np.where(walking, 1.0, np.where(kinds == "pivot_turn", PIVOT_STEP_AMPLITUDE, 0.0))[seg_of],
-        ramp,
-    )
+    speed_f, gait_amp, phase = _gait(rng, kinds, speed, seg_of, fps_hz)
     # the pelvis rotates with every step, walking or stepping round in a turn in place
-    sway_amp = _smooth(
-        np.where(walking, 1.0, np.where(kinds == "pivot_turn", PIVOT_STEP_AMPLITUDE, 0.0))[seg_of],
-        ramp,
-    )
-    stride_hz = np.where(
-        walking,
-        stride_frequency_hz(np.maximum(speed, 1e-9)),
-        np.where(kinds == "pivot_turn", PIVOT_STEP_FREQUENCY_HZ, 0.0),
-    )[seg_of]
-    stride_hz = _smooth(stride_hz, ramp)
-    phase = rng.uniform(0, 2 * np.pi) + 2 * np.pi * np.cumsum(stride_hz) / fps_hz
+    sway_amp = gait_amp
 
     # Postural wander: slow, small yaw drift of the whole body (low-passed Gaussian noise).
     wander_n = max(int(round(1.0 * fps_hz)), 1)
@@ -381,22 +360,89 @@ def generate_sequence(
     if noise_mm > 0:
         positions += rng.normal(scale=noise_mm, size=positions.shape)
 
-    dropout_rows = []
+    dropout_rows = _drop_frames(positions, dropouts, fps_hz)
+    true_yaw_deg = np.degrees(pelvis_yaw) + 90.0  # left-minus-right is 90° left of the facing
+    planted, seg_rows, drops = _sequence_tables(
+        segments, bounds, is_turn, true_yaw_deg, dropout_rows, fps_hz
+    )
+    return SyntheticSequence(
+        positions=positions,
+        fps=float(fps_hz),
+        planted=planted,
+        segments=seg_rows,
+        dropouts=drops,
+        true_yaw_deg=true_yaw_deg,
+    )
+
+
+def _gait(
+    rng: np.random.Generator,
+    kinds: np.ndarray,
+    speed: np.ndarray,
+    seg_of: np.ndarray,
+    fps_hz: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per frame: the walking speed, the step amplitude and the stride phase (radians)."""
+    walking = np.isin(kinds, ("walk", "walking_turn"))
+    # Speed, gait amplitude and sway ease in and out at segment boundaries.
+    ramp = int(round(TRANSITION_S * fps_hz))
+    speed_f = _smooth(speed[seg_of], ramp)
+    gait_amp = _smooth(
+        np.where(walking, 1.0, np.where(kinds == "pivot_turn", PIVOT_STEP_AMPLITUDE, 0.0))[seg_of],
+        ramp,
+    )
+    stride_hz = np.where(
+        walking,
+        stride_frequency_hz(np.maximum(speed, 1e-9)),
+        np.where(kinds == "pivot_turn", PIVOT_STEP_FREQUENCY_HZ, 0.0),
+    )[seg_of]
+    stride_hz = _smooth(stride_hz, ramp)
+    phase = rng.uniform(0, 2 * np.pi) + 2 * np.pi * np.cumsum(stride_hz) / fps_hz
+    return speed_f, gait_amp, phase
+
+
+def _check_generator_args(
+    segments: Sequence[Segment], fps_hz: float, **non_negative: float
+) -> None:
+    if not segments:
+        raise TurnbenchError("a synthetic sequence needs at least one segment")
+    if not (np.isfinite(fps_hz) and fps_hz > 0):
+        raise TurnbenchError(f"fps must be positive, got {fps_hz}")
+    for name, value in non_negative.items():
+        if not (np.isfinite(value) and value >= 0):
+            raise TurnbenchError(f"{name} must be a finite non-negative number, got {value}")
+
+
+def _drop_frames(
+    positions: np.ndarray, dropouts: Sequence[Dropout], fps_hz: float
+) -> list[tuple[int, int]]:
+    """Set the dropouts' frames to NaN (all joints); their (start, end) frames."""
+    rows = []
     for d in dropouts:
         a = max(int(round(d.start_s * fps_hz)), 0)
-        b = min(a + max(int(round(d.duration_s * fps_hz)), 1), n_frames)
+        b = min(a + max(int(round(d.duration_s * fps_hz)), 1), positions.shape[0])
         if a < b:
             positions[a:b] = np.nan
-            dropout_rows.append((a, b))
+            rows.append((a, b))
+    return rows
 
-    true_yaw_deg = np.degrees(pelvis_yaw) + 90.0  # left-minus-right is 90° left of the facing
+
+def _sequence_tables(
+    segments: Sequence[Segment],
+    bounds: np.ndarray,
+    is_turn: np.ndarray,
+    true_yaw_deg: np.ndarray,
+    dropout_rows: list[tuple[int, int]],
+    fps_hz: float,
+) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+    """The planted turns, the segments and the dropouts as typed tables."""
     seg_rows = pd.DataFrame(
         {
             "start_frame": bounds[:-1],
             "end_frame": bounds[1:],
-            "kind": kinds,
+            "kind": np.array([sg.kind for sg in segments]),
             "heading_deg": np.array([sg.heading_deg for sg in segments], dtype=float),
-            "speed_m_s": speed,
+            "speed_m_s": np.array([sg.speed_m_s for sg in segments]),
         }
     )
     turns = seg_rows[is_turn]
@@ -415,13 +461,10 @@ def generate_sequence(
     drops = pd.DataFrame(
         dropout_rows or np.zeros((0, 2), dtype=np.int64), columns=["start_frame", "end_frame"]
     )
-    return SyntheticSequence(
-        positions=positions,
-        fps=float(fps_hz),
-        planted=typed_frame(planted, PLANTED_DTYPES),
-        segments=typed_frame(seg_rows, SEGMENT_DTYPES),
-        dropouts=typed_frame(drops, DROPOUT_DTYPES),
-        true_yaw_deg=true_yaw_deg,
+    return (
+        typed_frame(planted, PLANTED_DTYPES),
+        typed_frame(seg_rows, SEGMENT_DTYPES),
+        typed_frame(drops, DROPOUT_DTYPES),
     )
 
 

@@ -27,12 +27,11 @@ from turn_datasets.fileio import (
     check_not_input,
     staged_dir,
     to_json_text,
-    write_csv,
     write_json,
     write_text,
 )
 from turn_eval.cli import CONTEXT_SETTINGS, cli
-from turn_eval.scores import build_scores, scores_frame, scores_markdown
+from turn_eval.scores import build_scores, scores_csv, scores_frame, scores_markdown
 from turn_eval.submission import read_predictions, read_reference
 
 #: The files ``--out-dir`` receives besides the figures.
@@ -157,7 +156,7 @@ def score(
             with staged_dir(out_dir, owns=PLOT_FILES, removed=removed) as tmp:
                 write_json(tmp / "scores.json", scores)
                 write_text(tmp / "scores.md", texts["md"])
-                write_csv(frame, tmp / "scores.csv")
+                write_text(tmp / "scores.csv", scores_csv(frame))
                 if plots:
                     from turn_eval.plots import write_plots
 
@@ -184,6 +183,6 @@ def score(
                 + ", ".join(map(str, removed))
             )
     if fmt == "csv":
-        emit(frame.to_csv(index=False, lineterminator="\n"))
+        emit(scores_csv(frame))
     else:
         emit(texts[fmt])

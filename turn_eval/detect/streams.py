@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.fileio import walk_files
 from turn_datasets.mocap.arrays import ARRAY_SUFFIXES, iter_arrays
 from turn_datasets.render.order import natural_key
 from turn_datasets.skeleton import Layout, to_z_up
@@ -91,8 +92,9 @@ def stream_files(paths: Iterable[str | os.PathLike[str]]) -> list[Path]:
     for raw in paths:
         path = Path(raw)
         if path.is_dir():
+            # the one folder walk (links followed once, hidden skipped, unreadable named)
             found = [
-                p for p in path.rglob("*") if p.is_file() and p.suffix.lower() in STREAM_SUFFIXES
+                p for p in walk_files(path) if p.suffix.lower() in STREAM_SUFFIXES and p.is_file()
             ]
             if not found:
                 raise TurnbenchError(

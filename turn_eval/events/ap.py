@@ -24,6 +24,7 @@ turns are walked in score order, which is exactly the greedy order restricted to
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -101,7 +102,7 @@ def average_precision(
     *,
     ious: Sequence[float] = AP_IOUS,
     overlaps: pd.DataFrame | None = None,
-) -> dict[str, object]:
+) -> dict[str, Any]:
     """AP at each IoU threshold, their mean, and the PR curve at each threshold.
 
     ``overlaps`` (:func:`turn_eval.events.matching.overlapping_pairs`) saves the sweep.

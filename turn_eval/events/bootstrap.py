@@ -16,7 +16,7 @@ chunk; the metrics follow with array arithmetic (:func:`event_metrics`).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Mapping
 
 import numpy as np
 
@@ -70,7 +70,7 @@ def cluster_bootstrap(
     n_resamples: int = 1000,
     seed: int = 0,
     indices: Iterable[np.ndarray] | None = None,
-    progress: Callable[[Iterator[np.ndarray], int], Iterable[np.ndarray]] | None = None,
+    progress: Callable[[Iterable[np.ndarray], int], Iterable[np.ndarray]] | None = None,
 ) -> dict[str, dict[str, np.ndarray]]:
     """Every metric of every group on every cluster-bootstrap resample of the units.
 

@@ -32,10 +32,10 @@ Intervals
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any
+from typing import Any, TypeAlias
 
 import numpy as np
 import pandas as pd
@@ -97,8 +97,8 @@ MATCHED_METRICS = (
     "median_abs_dend_s",
 )
 
-Progress = Callable[[Iterator[np.ndarray], int], Iterable[np.ndarray]]
-Frame = pd.DataFrame | str | os.PathLike[str]
+Progress = Callable[[Iterable[np.ndarray], int], Iterable[np.ndarray]]
+Frame: TypeAlias = pd.DataFrame | str | os.PathLike[str]
 
 
 @dataclass(frozen=True)
@@ -627,7 +627,7 @@ def score_events(
         resampled = cluster_bootstrap(sums, n_resamples=n_resamples, seed=seed, progress=progress)
         distributions = {name: _intervals(d) for name, d in resampled.items()}
     # The harness's own metrics of the matched pairs of every group (as `score` computes).
-    matched = [{} for _ in partitions]
+    matched: list[dict[str, np.ndarray]] = [{} for _ in partitions]
     if outcomes.n > 0:
         matched = grouped_metrics(
             outcomes, [Partition(p.name, p.labels, p.codes[tp]) for p in partitions]
@@ -639,7 +639,7 @@ def score_events(
     rates = None
     if ses is not None:
         rates, overall["turns_per_hour"] = _rates(units, ref_unit, det_unit, ses)
-    curves = None
+    curves: dict[str, dict[str, np.ndarray]] | None = None
     if "score" in det:
         ap = average_precision(det, det_unit, ref, ref_unit, ious=AP_IOUS, overlaps=overlaps)
         overall["ap"] = {"by_iou": ap["by_iou"], "mean": ap["mean"]}
