@@ -131,6 +131,10 @@ def test_report_is_one_self_contained_page_with_everything(ran) -> None:
     # method and set (2 x 2 x 4 = 16), the audit its confusion matrix (1)
     pngs = sorted(out.glob("*/scores-*/*.png")) + sorted(out.glob("remap/agreement/*.png"))
     assert len(pngs) == 2 * 2 * 4 + 1
+    # and the untrimmed sessions' (issue 13): one session's timeline, F1 per group, PR curve
+    events = out / "untrimmed" / "events"
+    pngs += [sorted((events / "timelines").glob("*.png"))[0]]
+    pngs += [events / "f1_by_group.png", events / "pr_curve.png"]
     assert len(sources) == len(pngs)
     embedded = set()
     for src in sources:
@@ -415,3 +419,21 @@ def test_a_failed_step_stops_the_demo_with_exit_1(tmp_path: Path, monkeypatch, c
     assert "demo failed" in err and "remap agreement" in err and "code 3" in err
     assert not (tmp_path / "out" / "report.html").exists()
     assert not (tmp_path / "out" / "h36m" / "predictions-net.csv").exists()
+
+
+def test_untrimmed_stage_plants_the_labels_and_finds_them(ran) -> None:
+    # issue 13: streams of the first two REMAP-like sessions with the labels' own turns,
+    # `detect --min-turn-deg 67.5`, `score-events --plots`, and the report's section
+    out, _, said = ran
+    folder = out / "untrimmed"
+    labels = pd.read_csv(out / "remap" / "labels.csv", keep_default_na=False)
+    first_two = sorted(set(labels.session))[:2]
+    assert sorted(p.stem for p in (folder / "streams").glob("*.npz")) == first_two
+    doc = json.loads((folder / "events" / "event_scores.json").read_text())
+    o = doc["overall"]
+    assert o["tp"] + o["fn"] == int(labels.session.isin(first_two).sum())
+    assert o["f1"] >= 0.9 and o["matched"]["accuracy"] >= 0.9
+    assert doc["settings"]["resamples"] == 100
+    assert "--min-turn-deg 67.5" in said and "labelled turns found" in said
+    text = (out / "report.html").read_text(encoding="utf-8")
+    assert "Untrimmed sessions" in text

@@ -54,6 +54,13 @@ from turn_datasets.synthetic.demo_corpus import (
     write_remap_estimates,
 )
 from turn_eval import cli as eval_cli
+from turn_eval.detect.demo_stage import (
+    UNTRIMMED_DIR,
+    UntrimmedResults,
+    load_untrimmed,
+    run_untrimmed_stage,
+    untrimmed_section,
+)
 from turn_eval.report import Report, load_json
 
 __all__ = [
@@ -213,7 +220,7 @@ def _overall_line(scores: dict) -> str:
 #: Written first into the output folder: a folder holding it is the demo's to empty.
 MARKER = ".turnbench-demo"
 #: What the demo writes into its output folder, removed before each run.
-OWNED = ("corpus", "h36m", "remap", "report.html")
+OWNED = ("corpus", "h36m", "remap", UNTRIMMED_DIR, "report.html")
 
 
 def prepare_out_dir(out: Path) -> None:
@@ -289,6 +296,7 @@ class DemoResults:
     disagreements: pd.DataFrame | None
     sets: list[SetScores]
     paths: dict[str, Path] = field(default_factory=dict)
+    untrimmed: UntrimmedResults | None = None
 
 
 #: The benchmarks the demo scores: key, name, folder, groupings shown in the report.
@@ -499,6 +507,32 @@ def _audit_results(audit_dir: Path) -> dict[str, Any]:
     }
 
 
+def _untrimmed_step(
+    out: Path, labels_path: Path, *, seed: int, quick: bool, bootstrap: int
+) -> UntrimmedResults:
+    _say("\n# 7. Untrimmed sessions: every turn found in long skeleton streams, and scored")
+    results = run_untrimmed_stage(
+        out,
+        labels=labels_path,
+        context=labels_path.with_name("context.csv"),
+        sessions=labels_path.with_name("sessions.csv"),
+        seed=seed,
+        run_eval=_eval,
+        max_sessions=2 if quick else None,
+        bootstrap=bootstrap,
+    )
+    o = results.scores["overall"]
+    m = o.get("matched", {})
+    _say(
+        f"{o['tp']} of {o['tp'] + o['fn']} labelled turns found, {o['fp']} false: "
+        f"precision {fixed(100 * o['precision'], 1)}%, recall "
+        f"{fixed(100 * o['recall'], 1)}%, F1 {fixed(100 * o['f1'], 1)}%; "
+        f"matched accuracy {format_metric('accuracy', m.get('accuracy'))}%, "
+        f"MAE {format_metric('mae_deg', m.get('mae_deg'))}°"
+    )
+    return results
+
+
 def run_demo(
     out_dir: str | Path,
     *,
@@ -524,8 +558,10 @@ def run_demo(
     _predict_step(out, references, seed=seed, paths=paths)
     sets = _score_step(out, references, bootstrap=bootstrap, paths=paths)
     _compare_step(out, references, sets, bootstrap=bootstrap, paths=paths)
+    untrimmed = _untrimmed_step(out, labels_path, seed=seed, quick=quick, bootstrap=bootstrap)
+    paths["Untrimmed streams, detections, event scores"] = untrimmed.folder
 
-    _say("\n# 7. The report")
+    _say("\n# 8. The report")
     results = DemoResults(
         seed=seed,
         table3_md=table3,
@@ -533,6 +569,7 @@ def run_demo(
         tables12_md=tables12,
         sets=sets,
         paths=paths,
+        untrimmed=untrimmed,
         **_audit_results(audit_dir),
     )
     paths["The report (open in a browser)"] = write_report(results, out / "report.html")
@@ -638,6 +675,7 @@ def load_results(out_dir: str | Path, *, seed: int = DEMO_SEED) -> DemoResults:
         )
     return DemoResults(
         seed=seed,
+        untrimmed=load_untrimmed(out),
         table3_md=(h36m_dir / "table3.md").read_text(encoding="utf-8"),
         miner_md=miner_md.read_text(encoding="utf-8") if miner_md.exists() else None,
         tables12_md=(remap_dir / "tables1-2.md").read_text(encoding="utf-8"),
@@ -658,6 +696,8 @@ _FILES = {
     "comparisons": "h36m/compare.md, remap/compare.md (and .json)",
     "corpus": "corpus/h36m/ (planted.csv lists the planted turns), corpus/remap/",
     "miner check": "h36m/miner-check.md, h36m/miner-check.csv",
+    "untrimmed sessions": "untrimmed/streams/ (one .npz per session), untrimmed/detections.csv "
+    "(and its manifest), untrimmed/events/ (event scores, timelines, PR curve)",
 }
 
 
@@ -701,6 +741,8 @@ def write_report(results: DemoResults, path: str | Path) -> Path:
 
     for scored in results.sets:
         _scores_section(report, scored)
+    if results.untrimmed is not None:
+        untrimmed_section(report, results.untrimmed)
 
     report.section("Files").files(_FILES, caption="Where everything is, relative to this page")
     return report.write(path)
