@@ -154,6 +154,8 @@ def mine_cmd(
       turn-datasets h36m mine cmu/*.bvh --out cmu-turns.csv
       turn-datasets h36m mine poses.npy --layout h36m17 --fps 30 --up-axis y --units m \\
           --out turns.csv
+      turn-datasets h36m mine visit1.npz --layout h36m17 --up-axis -y --fps 30 --units m \\
+          --out turns.csv   (`turn-eval estimate`'s skeletons: see its manifest's fps_hz)
     """
     params = params_from(MinerParams, miner_options)
     jmap = parse_joint_map(joint_map) if joint_map else None
