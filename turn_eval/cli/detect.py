@@ -13,16 +13,19 @@ import click
 from turn_datasets.cli.common import (
     FPS_HZ,
     Number,
+    file_option,
     info,
+    layout_option,
     params_from,
     params_options,
+    up_axis_option,
     wrote,
 )
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import atomic_path, check_not_input, to_json_text
 from turn_datasets.h36m.manifest import manifest_path
 from turn_datasets.h36m.miner import MinerParams
-from turn_datasets.skeleton import LAYOUTS, UP_AXES, get_layout
+from turn_datasets.skeleton import get_layout
 from turn_eval.cli import CONTEXT_SETTINGS, cli
 from turn_eval.detect.mapping import build_manifest, detect_files
 from turn_eval.detect.protocol import TurnDetector
@@ -55,10 +58,9 @@ def _load_detector(spec: str | None, params: DetectParams) -> TurnDetector:
 
 @cli.command("detect", context_settings=CONTEXT_SETTINGS)
 @click.argument("skeletons", nargs=-1, required=True, type=click.Path(path_type=Path))
-@click.option(
+@file_option(
     "--out",
     required=True,
-    type=click.Path(dir_okay=False, path_type=Path),
     help="Detections CSV to write (score-events reads it); <stem>.manifest.json goes beside it.",
 )
 @click.option(
@@ -70,16 +72,12 @@ def _load_detector(spec: str | None, params: DetectParams) -> TurnDetector:
     help="Whose files: generic arrays (give --layout and --up-axis), or an estimator's own "
     "output by name (turnbench = `turn-eval estimate`'s npz).",
 )
-@click.option(
-    "--layout",
-    "layout_name",
-    type=click.Choice(sorted(LAYOUTS)),
+@layout_option(
+    dest="layout_name",
     default=None,
     help="Joint layout of the skeletons; required with --from arrays.",
 )
-@click.option(
-    "--up-axis",
-    type=click.Choice(UP_AXES),
+@up_axis_option(
     default=None,
     help="The vertical axis: z (world), y (y up), -y (camera axes: y down, as estimators "
     "write); required with --from arrays, else the named format's own.",

@@ -7,11 +7,20 @@ from pathlib import Path
 import click
 import pandas as pd
 
-from turn_datasets.cli.common import FPS_HZ, progress, wrote
+from turn_datasets.cli.common import (
+    FILE,
+    FPS_HZ,
+    file_option,
+    layout_option,
+    progress,
+    up_axis_option,
+    writing,
+    wrote,
+)
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, write_csv
 from turn_datasets.geometry import METHODS, parse_joints
-from turn_datasets.skeleton import LAYOUTS, UP_AXES, get_layout
+from turn_datasets.skeleton import get_layout
 from turn_eval.cli import CONTEXT_SETTINGS, cli
 from turn_eval.detect.streams import iter_layout_arrays
 from turn_eval.estimate.formats import FORMAT_CHOICES, read_estimator_output
@@ -19,13 +28,10 @@ from turn_eval.predict import predict_angles
 
 
 @cli.command("predict", context_settings=CONTEXT_SETTINGS)
-@click.argument(
-    "skeletons", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path)
-)
-@click.option(
+@click.argument("skeletons", nargs=-1, required=True, type=FILE)
+@file_option(
     "--out",
     required=True,
-    type=click.Path(dir_okay=False, path_type=Path),
     help="Predictions CSV to write: clip_id, angle_deg, direction[, speed_deg_s].",
 )
 @click.option(
@@ -37,17 +43,13 @@ from turn_eval.predict import predict_angles
     help="Whose files: generic arrays (give --layout), or an estimator's own output by name "
     "(layout and up axis known: turnbench = `turn-eval estimate`).",
 )
-@click.option(
-    "--layout",
-    "layout_name",
-    type=click.Choice(sorted(LAYOUTS)),
+@layout_option(
+    dest="layout_name",
     default=None,
     help="Joint layout of the skeletons (Human3.6M's 17- or 32-joint order); required with "
     "--from arrays.",
 )
-@click.option(
-    "--up-axis",
-    type=click.Choice(UP_AXES),
+@up_axis_option(
     default=None,
     help="The vertical axis: z (Human3.6M world), y (y up), -y (camera: y down). Default: z, "
     "or the named format's own.",
@@ -153,14 +155,7 @@ def predict_command(
             first_file[clip_id] = path
         frames.append(table)
     result = pd.concat(frames, ignore_index=True)
-    try:
+    with writing("the predictions", out):
         write_csv(result, out)
-    except OSError as exc:
-        # A folder that cannot be made or written: one line like any bad input.
-        raise TurnbenchError(
-            "cannot write the predictions: "
-            + (f"{exc.filename}: {exc.strerror}" if exc.filename else str(exc)),
-            file=str(out),
-        ) from None
     n = len(result)
     wrote(out, what=f"predictions for {n} clip{'' if n == 1 else 's'} to")

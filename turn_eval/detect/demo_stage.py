@@ -67,10 +67,10 @@ def _first_sessions(
             out.append(None)
             continue
         frame = frame[frame["session"].astype(str).isin(keep)]
-        out.append(write_csv(frame, folder / Path(path).name))
-    first = out[0]
-    assert first is not None  # the labels are a file, so their cut is always written
-    return first, out[1], out[2]
+        out.append(write_csv(frame, folder / path.name))
+    labels_cut = out[0]
+    assert labels_cut is not None  # the labels were read above
+    return labels_cut, out[1], out[2]
 
 
 def run_untrimmed_stage(
