@@ -14,6 +14,10 @@ Each ``benchmarks/bench_*.py`` defines ``run() -> dict`` with
     The largest acceptable ratio, as a number (``1.5``) or as text with a comparison
     (``"<= 1.5"``, ``"< 200"``, ``">= 2"``).
 
+A benchmark that needs an optional package names it in a module constant
+``REQUIRES = ("mediapipe",)``; where one is not importable it is listed as ``skipped`` (not
+run, not a failure) and ``make bench`` runs it again in the environment that has it.
+
 Optional keys ``baseline`` (what the ratio divides by) and ``seconds`` (the measured time)
 are printed when given; ``wall_s`` is the benchmark's whole run, setup and baseline
 included. The table goes to stdout as Markdown, and nothing else does (what a benchmark
@@ -101,6 +105,13 @@ def _load(path: Path) -> ModuleType:
     return module
 
 
+def _importable(name: str) -> bool:
+    try:
+        return importlib.util.find_spec(name) is not None
+    except (ImportError, ValueError):
+        return False
+
+
 def parse_target(target: object) -> tuple[Callable[[float, float], bool], float, str]:
     """``1.5`` or ``"<= 1.5"`` -> (comparison, bound, display text); a bare number means ``<=``."""
     if isinstance(target, bool):
@@ -123,7 +134,14 @@ def run_one(path: Path) -> Row:
     try:
         # stdout is the table's alone: whatever a benchmark prints goes to stderr
         with contextlib.redirect_stdout(sys.stderr):
-            result = _load(path).run()
+            module = _load(path)
+            missing = [m for m in getattr(module, "REQUIRES", ()) if not _importable(m)]
+            if missing:
+                row.what = f"needs {', '.join(missing)} (not installed here)"
+                row.result = "skipped"
+                row.wall_s = time.perf_counter() - start
+                return row
+            result = module.run()
         row.wall_s = time.perf_counter() - start
         if not isinstance(result, dict):
             raise TypeError(f"run() returned {type(result).__name__}, expected a dict")
@@ -188,7 +206,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"running {path.name} ...", file=sys.stderr, flush=True)
         rows.append(run_one(path))
     print(format_table(rows))
-    if args.strict and any(r.result != "pass" for r in rows):
+    if args.strict and any(r.result not in ("pass", "skipped") for r in rows):
         return 1
     return 0
 

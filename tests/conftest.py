@@ -34,3 +34,28 @@ def real_eaf_dir(shared_data: Path) -> Path:
 @pytest.fixture(scope="session")
 def cmu_dir(shared_data: Path) -> Path:
     return shared_data / "cmu-mocap"
+
+
+# --- the optional `video` extra (mediapipe) -------------------------------------------------
+# In .venv the video tests skip; `make test` runs the suite a second time in .venv-video with
+# TURNBENCH_REQUIRE_VIDEO=1, where a skip would mean they silently never ran: a failure there.
+REQUIRE_VIDEO = os.environ.get("TURNBENCH_REQUIRE_VIDEO") == "1"
+
+
+def require_mediapipe() -> None:
+    """Skip the calling test without mediapipe, or fail if the video env must have it."""
+    try:
+        import mediapipe  # noqa: F401
+    except ImportError:
+        if REQUIRE_VIDEO:
+            pytest.fail("TURNBENCH_REQUIRE_VIDEO=1 but mediapipe is not importable")
+        pytest.skip("needs the video extra (mediapipe); make test runs it in .venv-video")
+
+
+@pytest.fixture(scope="session")
+def sports2d_video(shared_data: Path) -> Path:
+    """The real BSD clip of people walking (../shared/data/video/SOURCE.md)."""
+    path = shared_data / "video" / "sports2d_demo.mp4"
+    if not path.is_file():
+        pytest.fail(f"real test video not found at {path}")
+    return path

@@ -155,3 +155,17 @@ def test_command_line_prints_only_the_table_on_stdout(bench_dir: Path) -> None:
     assert "running bench_fast.py" in proc.stderr
     # what the benchmarks printed went to stderr
     assert "loading" in proc.stderr and "| warming up | not a row |" in proc.stderr
+
+
+def test_a_benchmark_needing_a_missing_package_is_skipped_not_failed(
+    tmp_path: Path, capsys
+) -> None:
+    (tmp_path / "bench_needs.py").write_text(
+        "REQUIRES = ('turnbench_no_such_package',)\n"
+        "def run():\n    raise AssertionError('must not run')\n"
+    )
+    assert run.main(["--dir", str(tmp_path), "--strict"]) == 0
+    row = capsys.readouterr().out.strip().splitlines()[2]
+    cells = [c.strip() for c in row.split("|")[1:-1]]
+    assert cells[0] == "needs" and cells[7] == "skipped"
+    assert "turnbench_no_such_package" in cells[1]

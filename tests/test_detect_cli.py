@@ -79,7 +79,12 @@ def test_every_format_gives_the_same_turn_and_a_manifest(tmp_path, capsys, turn_
         manifest["params"]["min_turn_deg"] == 67.5
         and manifest["params"]["joints"] == "hip,shoulder"
     )
-    assert manifest["reading"] == {"layout": "h36m17", "up_axis": "-y", "fps_hz": 30.0}
+    assert manifest["reading"] == {
+        "from": "arrays",
+        "layout": "h36m17",
+        "up_axis": "-y",
+        "fps_hz": 30.0,
+    }
     first = manifest["inputs"][0]
     assert first["file"] == str(tmp_path / "home01.npz")
     assert first["sha256"] == sha256_file(tmp_path / "home01.npz")

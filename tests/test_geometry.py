@@ -264,3 +264,35 @@ def test_infinite_joints_are_unusable_frames_without_a_warning():
         assert not usable_frames(p, H36M17).any()
         with pytest.raises(TurnbenchError, match="fewer than two usable frames"):
             turning_angle(p, H36M17)
+
+
+# --- heading change over strides (issue 11) ------------------------------------------------
+
+
+def test_heading_change_removes_a_sway_of_one_stride_exactly() -> None:
+    from turn_datasets.geometry import heading_change_deg, window_means
+
+    # By hand: 20 frames a stride, the yaw 10° before frame 100 and 100° from frame 130, a
+    # ramp between, plus a sway 4 sin(2 pi k / 20): over any 20 consecutive frames the sway
+    # sums to zero (a whole period of a sampled sine), so the means are 10° and 100°
+    # whatever the phase, and the change is 90°. The hip's net rotation from the first frame
+    # to the last is 90° plus the sway's difference at the two frames.
+    k = np.arange(200)
+    heading = np.interp(k, [99, 130], [10.0, 100.0])
+    yaw = heading + 4.0 * np.sin(2 * np.pi * k / 20)
+    got = heading_change_deg(
+        yaw, np.array([99, 95]), np.array([131, 140]), before_frames=20, after_frames=20
+    )
+    np.testing.assert_allclose(got, [90.0, 90.0], atol=1e-9)
+    assert yaw[130] - yaw[99] == pytest.approx(
+        90.0 + 4 * np.sin(2 * np.pi * 130 / 20) - 4 * np.sin(2 * np.pi * 99 / 20)
+    )
+    # windows cut at a neighbour: 5 frames before frame 99 (94..98) average the sway over a
+    # quarter of it; the mean of 4 sin(2 pi k / 20) over k = 94..98 is worked out directly
+    part = np.mean(4 * np.sin(2 * np.pi * np.arange(94, 99) / 20))
+    got = heading_change_deg(yaw, 99, 131, before_frames=20, after_frames=20, lower=94)
+    assert got == pytest.approx(100.0 - (10.0 + part), abs=1e-9)
+    # nothing before (a turn from the first frame): the first frame's yaw
+    got = heading_change_deg(yaw, 0, 131, before_frames=20, after_frames=20)
+    assert got == pytest.approx(100.0 - yaw[0], abs=1e-9)
+    np.testing.assert_allclose(window_means(k.astype(float), [0, 10], [4, 10]), [1.5, 10.0])

@@ -13,10 +13,11 @@ from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.geometry import quantise_deg
 from turn_eval.significance import (
+    _differences,
+    _paired_outcomes,
     compare_predictions,
     mcnemar_exact,
     paired_bootstrap,
-    paired_differences,
 )
 
 
@@ -70,7 +71,17 @@ def test_paired_differences_are_sklearn_differences_on_scipys_resamples():
     a, b, ref = two_systems(120, sd_a_deg=35.0, sd_b_deg=20.0)
     a[:3] = [5.0, 280.0, 275.0]
     n_resamples = 40
-    deltas = paired_differences(a, b, ref, n_resamples=n_resamples, seed=3)
+    # the resampled differences behind paired_bootstrap's intervals and p-values
+    outcomes = _paired_outcomes(
+        a,
+        b,
+        ref,
+        ref_duration_s=None,
+        pred_a_speed_deg_s=None,
+        pred_b_speed_deg_s=None,
+        bin_width_deg=45.0,
+    )
+    deltas = _differences(*outcomes, n_resamples=n_resamples, seed=3)
     assert set(deltas) == {"accuracy", "mae_deg", "wprec"}  # no durations, no speed
     # The documented draws (scipy.stats.bootstrap's): one index matrix for both submissions.
     idx = np.random.default_rng(3).integers(0, ref.size, (n_resamples, ref.size))

@@ -69,7 +69,6 @@ __all__ = [
     "PairedDifference",
     "McNemarResult",
     "Comparison",
-    "paired_differences",
     "paired_bootstrap",
     "mcnemar_exact",
     "compare_predictions",
@@ -196,35 +195,6 @@ def _differences(
             if name in res_a:
                 parts.setdefault(name, []).append(res_b[name] - res_a[name])
     return {name: np.concatenate(values) for name, values in parts.items()}
-
-
-def paired_differences(
-    pred_a_deg,
-    pred_b_deg,
-    ref_deg,
-    *,
-    ref_duration_s=None,
-    pred_a_speed_deg_s=None,
-    pred_b_speed_deg_s=None,
-    n_resamples: int = 1000,
-    seed: int = 0,
-    bin_width_deg: float = 45.0,
-) -> dict[str, np.ndarray]:
-    """The bootstrap distribution of B - A: each metric's difference on every resample.
-
-    Parameters are as in :func:`paired_bootstrap`. Returns metric name -> array of
-    ``n_resamples`` differences (``mae_speed_deg_s`` only with ``ref_duration_s``).
-    """
-    outcomes_a, outcomes_b = _paired_outcomes(
-        pred_a_deg,
-        pred_b_deg,
-        ref_deg,
-        ref_duration_s=ref_duration_s,
-        pred_a_speed_deg_s=pred_a_speed_deg_s,
-        pred_b_speed_deg_s=pred_b_speed_deg_s,
-        bin_width_deg=bin_width_deg,
-    )
-    return _differences(outcomes_a, outcomes_b, n_resamples=n_resamples, seed=seed)
 
 
 def _shift_p_value(deltas: np.ndarray, observed: float) -> float:

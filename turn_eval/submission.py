@@ -38,6 +38,7 @@ from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import typed_frame
 from turn_datasets.geometry import quantise_deg
 from turn_datasets.limits import MAX_ANGLE_DEG, MAX_SPEED_DEG_S
+from turn_datasets.strings import count, stripped_objects, text_array
 
 __all__ = [
     "GROUP_COLUMNS",
@@ -156,8 +157,7 @@ def _wrong_width(n_fields: int, n_header: int, delimiter: str, *, name: str, lin
 
 def _stripped(values) -> np.ndarray:
     """Cells without surrounding white space, as an object array of ``str``."""
-    text = np.asarray(values, dtype=np.dtypes.StringDType())
-    return np.strings.strip(text).astype(object)
+    return stripped_objects(values)
 
 
 def _read_quoted(text: str, name: str, delimiter: str) -> _Table:
@@ -234,7 +234,7 @@ def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.nd
         return header_text, 1, lines, fields + 1, body
     # Variable-width strings: one long line must not widen every other one in memory.
     split = text.split("\n")
-    all_lines = np.asarray(split, dtype=np.dtypes.StringDType())
+    all_lines = text_array(split)
     # Python's strip, as the fast path's: numpy's string functions drop trailing NULs, so a
     # line of a NUL would be blank here and not there.
     nonblank = np.fromiter((bool(line.strip()) for line in split), dtype=bool, count=len(split))
@@ -245,7 +245,7 @@ def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.nd
         str(kept[0]),
         int(numbers[0]),
         numbers[1:].astype(np.int64),
-        np.strings.count(body_lines, delimiter) + 1,
+        count(body_lines, delimiter) + 1,
         "\n".join(body_lines.tolist()),
     )
 

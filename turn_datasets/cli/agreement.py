@@ -25,7 +25,7 @@ from turn_datasets.cli.common import (
     warn_below,
     wrote,
 )
-from turn_datasets.cli.labels import min_overlap_option, no_turns_error
+from turn_datasets.cli.labels import min_overlap_option, no_turns_error, schema_option
 from turn_datasets.errors import GateFailed
 from turn_datasets.fileio import (
     check_not_input,
@@ -60,12 +60,7 @@ REVIEW_DIR = "review"
 @click.argument(
     "inputs", nargs=-1, required=True, metavar="EAF_OR_DIR...", type=click.Path(path_type=Path)
 )
-@click.option(
-    "--schema",
-    "schema_path",
-    type=click.Path(dir_okay=False, path_type=Path),
-    help="Annotation schema TOML for files in another convention (default: the shipped one).",
-)
+@schema_option
 @click.option(
     "--raters",
     nargs=2,

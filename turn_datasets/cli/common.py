@@ -23,6 +23,7 @@ from turn_datasets import limits
 from turn_datasets.errors import GateFailed, TurnbenchError
 from turn_datasets.params import param_fields
 from turn_datasets.render.numbers import counted
+from turn_datasets.skeleton import LAYOUTS, UP_AXES
 
 __all__ = [
     "EXIT_OK",
@@ -42,6 +43,11 @@ __all__ = [
     "counted",
     "params_options",
     "params_from",
+    "FILE",
+    "file_option",
+    "writing",
+    "layout_option",
+    "up_axis_option",
 ]
 
 EXIT_OK = 0
@@ -269,6 +275,37 @@ BIN_WIDTH_DEG = Number(float, min=0, min_open=True, max=limits.MAX_BIN_WIDTH_DEG
 FRACTION = Number(float, min=0, min_open=True, max=1)
 KAPPA = Number(float, min=-1, max=1)
 SEED = Number(int, min=0, max=limits.MAX_SEED)
+
+
+@contextlib.contextmanager
+def writing(what: str, path: str | Path) -> Iterator[None]:
+    """Turn an ``OSError`` while writing ``what`` into one line and exit 2, as any bad input:
+    a folder that cannot be made or written (a file in the way, no permission, a full disk).
+    """
+    try:
+        yield
+    except OSError as exc:
+        detail = f"{exc.filename}: {exc.strerror}" if exc.filename else str(exc)
+        raise TurnbenchError(f"cannot write {what}: {detail}", file=str(path)) from None
+
+
+#: A path the user names that must be a file, never a folder (an input or an --out).
+FILE = click.Path(dir_okay=False, path_type=Path)
+
+
+def file_option(*names: str, help: str, **kwargs):
+    """An option naming one file (``--out``, ``--reference``, ``--participants``, ...)."""
+    return click.option(*names, type=FILE, help=help, **kwargs)
+
+
+def layout_option(help: str, *, dest: str = "layout", **kwargs):
+    """``--layout``: the joint layout of skeleton arrays (Human3.6M's 17 or 32 joints)."""
+    return click.option("--layout", dest, type=click.Choice(sorted(LAYOUTS)), help=help, **kwargs)
+
+
+def up_axis_option(help: str, **kwargs):
+    """``--up-axis``: the vertical axis of skeleton arrays (converted to z up)."""
+    return click.option("--up-axis", type=click.Choice(UP_AXES), help=help, **kwargs)
 
 
 def params_options(cls: type, *, prefix: str = "", defaults: object | None = None):

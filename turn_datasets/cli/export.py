@@ -7,12 +7,12 @@ from pathlib import Path
 import click
 
 from turn_datasets.cli import h36m
-from turn_datasets.cli.common import Number, progress, warn, wrote
+from turn_datasets.cli.common import FILE, Number, progress, warn, wrote
 from turn_datasets.h36m import export
 
 
 @h36m.command("export-clips")
-@click.argument("index", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("index", type=FILE)
 @click.option(
     "--videos",
     "videos_dir",

@@ -12,9 +12,11 @@ import pandas as pd
 
 from turn_datasets.cli import CONTEXT_SETTINGS, remap
 from turn_datasets.cli.common import (
+    FILE,
     FRACTION,
     counted,
     emit,
+    file_option,
     format_option,
     info,
     progress,
@@ -52,7 +54,7 @@ SESSIONS_NAME = "sessions.csv"
 #: Every file ``labels`` writes beside ``--out``.
 BESIDE_NAMES = (ANNOTATIONS_NAME, CONTEXT_NAME, SESSIONS_NAME)
 
-_schema_option = click.option(
+schema_option = click.option(
     "--schema",
     "schema_path",
     type=click.Path(dir_okay=False, path_type=Path),
@@ -86,7 +88,7 @@ def no_turns_error(paths: list[Path], schema: Schema) -> TurnbenchError:
 @click.argument(
     "files", nargs=-1, required=True, metavar="FILE...", type=click.Path(path_type=Path)
 )
-@_schema_option
+@schema_option
 @format_option(default="md", choices=("md", "json"))
 @click.option(
     "--keep-media-paths",
@@ -128,14 +130,13 @@ def inspect_cmd(
 @click.argument(
     "inputs", nargs=-1, required=True, metavar="EAF_OR_DIR...", type=click.Path(path_type=Path)
 )
-@click.option(
+@file_option(
     "--participants",
     "participants_path",
     required=True,
-    type=click.Path(dir_okay=False, path_type=Path),
     help="CSV: subject, cohort (PD or HC), pair, sex, age, years_since_diagnosis.",
 )
-@_schema_option
+@schema_option
 @min_overlap_option
 @click.option(
     "--resolve",
@@ -145,10 +146,9 @@ def inspect_cmd(
     help="Who decides where two raters disagree: the consensus tier (else exit 2), or the "
     "rater whose tier comes first in the file.",
 )
-@click.option(
+@file_option(
     "--out",
     required=True,
-    type=click.Path(dir_okay=False, path_type=Path),
     help=f"Labels CSV to write; {ANNOTATIONS_NAME} (every rater's raw rows), {CONTEXT_NAME} "
     f"and {SESSIONS_NAME} (for score-events) go beside it.",
 )
@@ -234,11 +234,10 @@ def labels_cmd(
 
 
 @remap.command("stats", context_settings=CONTEXT_SETTINGS)
-@click.argument("labels_csv", type=click.Path(dir_okay=False, path_type=Path))
-@click.option(
+@click.argument("labels_csv", type=FILE)
+@file_option(
     "--participants",
     "participants_path",
-    type=click.Path(dir_okay=False, path_type=Path),
     default=None,
     help="Participants table, for mean ages and years since diagnosis.",
 )

@@ -14,14 +14,18 @@ import pandas as pd
 
 from turn_datasets.cli import h36m
 from turn_datasets.cli.common import (
+    FILE,
     FPS_HZ,
     counted,
     emit,
+    file_option,
     format_option,
     info,
+    layout_option,
     params_from,
     params_options,
     progress,
+    up_axis_option,
     warn,
 )
 from turn_datasets.errors import TurnbenchError
@@ -43,7 +47,6 @@ from turn_datasets.mocap.bvh import parse_joint_map
 from turn_datasets.mocap.readers import (
     FORMATS,
 )
-from turn_datasets.skeleton import LAYOUTS, UP_AXES
 
 
 def _check_out_folder(out: Path) -> None:
@@ -59,11 +62,10 @@ def _check_out_folder(out: Path) -> None:
 @click.argument(
     "sources", nargs=-1, required=True, type=click.Path(path_type=Path), metavar="SOURCE..."
 )
-@click.option(
+@file_option(
     "--out",
     "out",
     required=True,
-    type=click.Path(dir_okay=False, path_type=Path),
     help="Clip index CSV to write; the manifest goes beside it as <stem>.manifest.json.",
 )
 @click.option(
@@ -73,16 +75,12 @@ def _check_out_folder(out: Path) -> None:
     default=None,
     help="Read every source as this format instead of detecting it.",
 )
-@click.option(
-    "--layout",
-    type=click.Choice(sorted(LAYOUTS)),
+@layout_option(
     default=None,
     help="Joint layout of generic arrays (.npy/.npz/.h5 of shape frames x joints x 3).",
 )
 @click.option("--fps", type=FPS_HZ, default=None, help="Frame rate of generic arrays, in Hz.")
-@click.option(
-    "--up-axis",
-    type=click.Choice(UP_AXES),
+@up_axis_option(
     default=None,
     help="Vertical axis of generic arrays (converted to z up).",
 )
@@ -105,10 +103,9 @@ def _check_out_folder(out: Path) -> None:
     help="BVH only: joint names over CMU's built-in ones, e.g. left_hip=LHip,right_hip=RHip.",
 )
 @params_options(MinerParams)
-@click.option(
+@file_option(
     "--overrides",
     "overrides_path",
-    type=click.Path(dir_okay=False, path_type=Path),
     default=None,
     help="Curation CSV (clip_id, decision, start_frame, end_frame, note) applied to the result.",
 )
@@ -157,6 +154,8 @@ def mine_cmd(
       turn-datasets h36m mine cmu/*.bvh --out cmu-turns.csv
       turn-datasets h36m mine poses.npy --layout h36m17 --fps 30 --up-axis y --units m \\
           --out turns.csv
+      turn-datasets h36m mine visit1.npz --layout h36m17 --up-axis -y --fps 30 --units m \\
+          --out turns.csv   (`turn-eval estimate`'s skeletons: see its manifest's fps_hz)
     """
     params = params_from(MinerParams, miner_options)
     jmap = parse_joint_map(joint_map) if joint_map else None
@@ -205,7 +204,7 @@ def mine_cmd(
 
 
 @h36m.command("stats")
-@click.argument("index_csv", type=click.Path(dir_okay=False, path_type=Path), metavar="INDEX.csv")
+@click.argument("index_csv", type=FILE, metavar="INDEX.csv")
 @click.option("--csv", "as_csv", is_flag=True, help="Same as --format csv.")
 @format_option(default="md", choices=("md", "csv", "json"))
 def stats_cmd(index_csv: Path, as_csv: bool, fmt: str) -> None:

@@ -155,6 +155,16 @@ def _check_numpy_container(path: Path, suffix: str) -> None:
         )
 
 
+def _np_load(p: Path, suffix: str):
+    """``np.load`` without pickles; a file it cannot read is a :class:`TurnbenchError`."""
+    try:
+        return np.load(p, allow_pickle=False)
+    except CORRUPT as exc:
+        raise TurnbenchError(
+            f"cannot read {suffix} (truncated or corrupt?): {exc}", file=p
+        ) from None
+
+
 def iter_arrays(
     path: str | os.PathLike[str], *, on_bad_array: OnBadSequence | None = None
 ) -> Iterator[tuple[str, np.ndarray]]:
@@ -194,22 +204,10 @@ def iter_arrays(
         raise TurnbenchError("no such file", file=p)
     _check_numpy_container(p, suffix)
     if suffix == ".npy":
-        try:
-            array = np.load(p, allow_pickle=False)
-        except CORRUPT as exc:
-            raise TurnbenchError(
-                f"cannot read .npy (truncated or corrupt?): {exc}", file=p
-            ) from None
-        yield p.stem, _check_tj3(array, path=p, key=p.stem)
+        yield p.stem, _check_tj3(_np_load(p, suffix), path=p, key=p.stem)
         return
     if suffix == ".npz":
-        try:
-            archive = np.load(p, allow_pickle=False)
-        except CORRUPT as exc:
-            raise TurnbenchError(
-                f"cannot read .npz (truncated or corrupt?): {exc}", file=p
-            ) from None
-        with archive:
+        with _np_load(p, suffix) as archive:
             keys = sorted(archive.files)
             if not keys:
                 raise TurnbenchError("the .npz archive holds no array", file=p)

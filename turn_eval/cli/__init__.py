@@ -23,6 +23,7 @@ CONTEXT_SETTINGS = {"help_option_names": ["-h", "--help"], "max_content_width": 
         "score": "turn_eval.cli.score",
         "compare": "turn_eval.cli.compare",
         "predict": "turn_eval.cli.predict",
+        "estimate": "turn_eval.cli.estimate",
         "score-events": "turn_eval.cli.score_events",
         "detect": "turn_eval.cli.detect",
     },
@@ -36,6 +37,7 @@ def cli() -> None:
       turn-eval score predictions.csv --reference turn-h36m.csv --format md
       turn-eval compare a.csv b.csv --reference turn-h36m.csv
       turn-eval predict skeletons.npz --layout h36m17 --out predictions.csv
+      turn-eval estimate walk.mp4 --out walk.npz   (needs: pip install 'turnbench[video]')
       turn-eval detect streams/ --layout h36m17 --up-axis -y --fps 30 --out detections.csv
       turn-eval score-events detections.csv --reference labels.csv
     """

@@ -6,7 +6,17 @@ from pathlib import Path
 
 import click
 
-from turn_datasets.cli.common import SEED, emit, format_option, resamples, warn, wrote
+from turn_datasets.cli.common import (
+    FILE,
+    SEED,
+    emit,
+    file_option,
+    format_option,
+    resamples,
+    warn,
+    writing,
+    wrote,
+)
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, to_json_text, write_text
 from turn_datasets.render.labels import METRIC_LABELS
@@ -77,12 +87,11 @@ def _markdown(result: Comparison, *, a: str, b: str, reference: str, n_missing: 
 
 
 @cli.command("compare", context_settings=CONTEXT_SETTINGS)
-@click.argument("pred_a", metavar="A.csv", type=click.Path(dir_okay=False, path_type=Path))
-@click.argument("pred_b", metavar="B.csv", type=click.Path(dir_okay=False, path_type=Path))
-@click.option(
+@click.argument("pred_a", metavar="A.csv", type=FILE)
+@click.argument("pred_b", metavar="B.csv", type=FILE)
+@file_option(
     "--reference",
     required=True,
-    type=click.Path(dir_okay=False, path_type=Path),
     help="Reference CSV (clip index or labels): clip_id, angle_deg, ...",
 )
 @click.option(
@@ -112,9 +121,8 @@ def _markdown(result: Comparison, *, a: str, b: str, reference: str, n_missing: 
     is_flag=True,
     help="Take negative predicted angles as magnitudes (signed-rotation submissions).",
 )
-@click.option(
+@file_option(
     "--out",
-    type=click.Path(dir_okay=False, path_type=Path),
     default=None,
     help="Also write the result (as printed) to this file.",
 )
@@ -184,13 +192,7 @@ def compare_command(
         )
     if out is not None:
         # The file first: if it cannot be written, stdout stays empty and the exit is 2.
-        try:
+        with writing("the comparison", out):
             write_text(out, text)
-        except OSError as exc:
-            raise TurnbenchError(
-                "cannot write the comparison: "
-                + (f"{exc.filename}: {exc.strerror}" if exc.filename else str(exc)),
-                file=str(out),
-            ) from None
         wrote(out, what="comparison")
     emit(text)

@@ -13,21 +13,25 @@ import click
 from turn_datasets.cli.common import (
     FPS_HZ,
     Number,
+    file_option,
     info,
+    layout_option,
     params_from,
     params_options,
+    up_axis_option,
     wrote,
 )
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import atomic_path, check_not_input, to_json_text
 from turn_datasets.h36m.manifest import manifest_path
 from turn_datasets.h36m.miner import MinerParams
-from turn_datasets.skeleton import LAYOUTS, UP_AXES, get_layout
+from turn_datasets.skeleton import get_layout
 from turn_eval.cli import CONTEXT_SETTINGS, cli
 from turn_eval.detect.mapping import build_manifest, detect_files
 from turn_eval.detect.protocol import TurnDetector
 from turn_eval.detect.rule import DETECT_MINER_DEFAULTS, DetectParams, MinerRule
 from turn_eval.detect.streams import stream_files
+from turn_eval.estimate.formats import FORMAT_CHOICES
 
 
 def _load_detector(spec: str | None, params: DetectParams) -> TurnDetector:
@@ -54,24 +58,29 @@ def _load_detector(spec: str | None, params: DetectParams) -> TurnDetector:
 
 @cli.command("detect", context_settings=CONTEXT_SETTINGS)
 @click.argument("skeletons", nargs=-1, required=True, type=click.Path(path_type=Path))
-@click.option(
+@file_option(
     "--out",
     required=True,
-    type=click.Path(dir_okay=False, path_type=Path),
     help="Detections CSV to write (score-events reads it); <stem>.manifest.json goes beside it.",
 )
 @click.option(
-    "--layout",
-    "layout_name",
-    type=click.Choice(sorted(LAYOUTS)),
-    required=True,
-    help="Joint layout of the skeletons.",
+    "--from",
+    "source_format",
+    type=click.Choice(FORMAT_CHOICES),
+    default="arrays",
+    show_default=True,
+    help="Whose files: generic arrays (give --layout and --up-axis), or an estimator's own "
+    "output by name (turnbench = `turn-eval estimate`'s npz).",
 )
-@click.option(
-    "--up-axis",
-    type=click.Choice(UP_AXES),
-    required=True,
-    help="The vertical axis: z (world), y (y up), -y (camera axes: y down, as estimators write).",
+@layout_option(
+    dest="layout_name",
+    default=None,
+    help="Joint layout of the skeletons; required with --from arrays.",
+)
+@up_axis_option(
+    default=None,
+    help="The vertical axis: z (world), y (y up), -y (camera axes: y down, as estimators "
+    "write); required with --from arrays, else the named format's own.",
 )
 @click.option(
     "--fps",
@@ -115,8 +124,9 @@ def _load_detector(spec: str | None, params: DetectParams) -> TurnDetector:
 def detect_command(
     skeletons: tuple[Path, ...],
     out: Path,
-    layout_name: str,
-    up_axis: str,
+    source_format: str,
+    layout_name: str | None,
+    up_axis: str | None,
     fps_hz: float,
     joints: str,
     detector_spec: str | None,
@@ -139,6 +149,7 @@ def detect_command(
       turn-eval detect streams/ --layout h36m17 --up-axis -y --fps 30 \\
           --min-turn-deg 67.5 --out detections.csv
       turn-eval detect streams/ --layout h36m17 --up-axis -y --fps 30 --workers 4 --out d.csv
+      turn-eval detect skeletons/ --from turnbench --fps 30 --out d.csv   (estimate's npz)
       turn-eval score-events detections.csv --reference labels.csv --context context.csv
     """
     miner = params_from(MinerParams, values)
@@ -146,8 +157,13 @@ def detect_command(
         params_from(DetectParams, values), joints=tuple(joints.split(",")), miner=miner
     )
     detector = _load_detector(detector_spec, params)
-    layout = get_layout(layout_name)
-    files = stream_files(skeletons)
+    files = stream_files(skeletons)  # first: an AlphaPose JSON is refused with its reason
+    if source_format == "arrays" and (layout_name is None or up_axis is None):
+        raise TurnbenchError(
+            "generic arrays need --layout and --up-axis",
+            hint="or name the estimator that wrote them with --from",
+        )
+    layout = get_layout(layout_name or "h36m17")
     check_not_input(out, files)
     mpath = manifest_path(out)
     check_not_input(mpath, files)
@@ -164,6 +180,7 @@ def detect_command(
             layout=layout,
             up_axis=up_axis,
             fps_hz=fps_hz,
+            source_format=source_format,
             workers=workers,
             scheduler=scheduler,
             skip_bad=skip_bad,
@@ -178,6 +195,7 @@ def detect_command(
         layout=layout,
         up_axis=up_axis,
         fps_hz=fps_hz,
+        source_format=source_format,
     )
     try:
         with atomic_path(out) as tmp_csv, atomic_path(mpath) as tmp_manifest:

@@ -7,39 +7,52 @@ from pathlib import Path
 import click
 import pandas as pd
 
-from turn_datasets.cli.common import FPS_HZ, progress, wrote
+from turn_datasets.cli.common import (
+    FILE,
+    FPS_HZ,
+    file_option,
+    layout_option,
+    progress,
+    up_axis_option,
+    writing,
+    wrote,
+)
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, write_csv
 from turn_datasets.geometry import METHODS, parse_joints
-from turn_datasets.skeleton import LAYOUTS, UP_AXES, get_layout
+from turn_datasets.skeleton import get_layout
 from turn_eval.cli import CONTEXT_SETTINGS, cli
 from turn_eval.detect.streams import iter_layout_arrays
+from turn_eval.estimate.formats import FORMAT_CHOICES, read_estimator_output
 from turn_eval.predict import predict_angles
 
 
 @cli.command("predict", context_settings=CONTEXT_SETTINGS)
-@click.argument(
-    "skeletons", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path)
-)
-@click.option(
+@click.argument("skeletons", nargs=-1, required=True, type=FILE)
+@file_option(
     "--out",
     required=True,
-    type=click.Path(dir_okay=False, path_type=Path),
     help="Predictions CSV to write: clip_id, angle_deg, direction[, speed_deg_s].",
 )
 @click.option(
-    "--layout",
-    "layout_name",
-    type=click.Choice(sorted(LAYOUTS)),
-    required=True,
-    help="Joint layout of the skeletons (Human3.6M's 17- or 32-joint order).",
-)
-@click.option(
-    "--up-axis",
-    type=click.Choice(UP_AXES),
-    default="z",
+    "--from",
+    "source_format",
+    type=click.Choice(FORMAT_CHOICES),
+    default="arrays",
     show_default=True,
-    help="The vertical axis: z (Human3.6M world), y (y up), -y (camera: y down).",
+    help="Whose files: generic arrays (give --layout), or an estimator's own output by name "
+    "(layout and up axis known: turnbench = `turn-eval estimate`).",
+)
+@layout_option(
+    dest="layout_name",
+    default=None,
+    help="Joint layout of the skeletons (Human3.6M's 17- or 32-joint order); required with "
+    "--from arrays.",
+)
+@up_axis_option(
+    default=None,
+    help="The vertical axis: z (Human3.6M world), y (y up), -y (camera: y down). Default: z, "
+    "or the named format's own.",
 )
 @click.option(
     "--joints",
@@ -64,8 +77,9 @@ from turn_eval.predict import predict_angles
 def predict_command(
     skeletons: tuple[Path, ...],
     out: Path,
-    layout_name: str,
-    up_axis: str,
+    source_format: str,
+    layout_name: str | None,
+    up_axis: str | None,
     joints: str,
     method: str,
     fps_hz: float | None,
@@ -77,23 +91,48 @@ def predict_command(
     inputs. The output is a predictions file that `turn-eval score` reads, with the
     direction of each turn (left = counter-clockwise seen from above).
 
+    With --from NAME, SKELETONS are another estimator's own output files: turnbench
+    (`turn-eval estimate`'s .npz, the same as --layout h36m17 --up-axis -y),
+    strided-transformer (its demo's output_keypoints_3d.npz), videopose3d (run.py
+    --viz-export .npy), motionbert (infer_wild.py's X3D.npy, named after its folder).
+    AlphaPose's JSON is 2D and refused: lift it to 3D first.
+
     \b
     Example:
       turn-eval predict poses.npz --layout h36m17 --up-axis y --out predictions.csv
+      turn-eval predict walk.npz --layout h36m17 --up-axis -y --out pred.csv  (estimate's)
+      turn-eval predict clips/*/X3D.npy --from motionbert --out pred.csv
       turn-eval predict S9_*.npy --layout h36m32 --joints hip,knee --fps 50 --out pred.csv
       turn-eval score pred.csv --reference turn-h36m.csv
     """
-    layout = get_layout(layout_name)
+    for path in skeletons:
+        if path.suffix.lower() == ".json":  # AlphaPose's 2D output: say so before anything else
+            read_estimator_output(path, "alphapose")
+    if source_format == "arrays" and layout_name is None:
+        raise TurnbenchError(
+            "generic arrays need --layout (h36m17 or h36m32)",
+            hint="or name the estimator that wrote them with --from",
+        )
+    if source_format != "arrays" and layout_name not in (None, "h36m17"):
+        raise TurnbenchError(f"--from {source_format} files are in the h36m17 layout")
+    layout = get_layout(layout_name or "h36m17")
     names = parse_joints(joints)
     check_not_input(out, skeletons)
     frames: list[pd.DataFrame] = []
     first_file: dict[str, Path] = {}
     for path in progress(skeletons, label="predicting", length=len(skeletons)):
         try:
+            # any .json (AlphaPose's) goes to the named readers, which say why it is refused
+            if source_format == "arrays" and path.suffix.lower() != ".json":
+                arrays = iter_layout_arrays(path, layout)
+                file_up_axis = up_axis or "z"
+            else:
+                spec, named = read_estimator_output(path, source_format)
+                arrays, file_up_axis = iter(named), up_axis or spec.up_axis
             table = predict_angles(
-                iter_layout_arrays(path, layout),
+                arrays,
                 layout=layout,
-                up_axis=up_axis,
+                up_axis=file_up_axis,
                 joints=names,
                 method=method,
                 fps_hz=fps_hz,
@@ -116,14 +155,7 @@ def predict_command(
             first_file[clip_id] = path
         frames.append(table)
     result = pd.concat(frames, ignore_index=True)
-    try:
+    with writing("the predictions", out):
         write_csv(result, out)
-    except OSError as exc:
-        # A folder that cannot be made or written: one line like any bad input.
-        raise TurnbenchError(
-            "cannot write the predictions: "
-            + (f"{exc.filename}: {exc.strerror}" if exc.filename else str(exc)),
-            file=str(out),
-        ) from None
     n = len(result)
     wrote(out, what=f"predictions for {n} clip{'' if n == 1 else 's'} to")

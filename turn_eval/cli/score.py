@@ -20,6 +20,7 @@ from turn_datasets.cli.common import (
     progress,
     resamples,
     warn,
+    writing,
     wrote,
 )
 from turn_datasets.errors import TurnbenchError
@@ -151,7 +152,7 @@ def score(
     frame = scores_frame(scores)
     if out_dir is not None:
         removed: list[Path] = []
-        try:
+        with writing("the scores", out_dir):
             # The folder holds one run: figures of an earlier --plots run go when this has none.
             with staged_dir(out_dir, owns=PLOT_FILES, removed=removed) as tmp:
                 write_json(tmp / "scores.json", scores)
@@ -167,14 +168,6 @@ def score(
                         tmp,
                         bin_width_deg=bin_width_deg,
                     )
-        except OSError as exc:
-            # A folder that cannot be made or written (a file in the way, no permission,
-            # a full disk): one line like any bad input; staged_dir left nothing behind.
-            raise TurnbenchError(
-                "cannot write the scores: "
-                + (f"{exc.filename}: {exc.strerror}" if exc.filename else str(exc)),
-                file=str(out_dir),
-            ) from None
         names = [*SCORE_FILES, *(PLOT_FILES if plots else ())]
         wrote(*(out_dir / name for name in names), what="scores")
         if removed:

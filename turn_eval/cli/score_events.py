@@ -19,6 +19,7 @@ from turn_datasets.cli.common import (
     progress,
     resamples,
     warn,
+    writing,
     wrote,
 )
 from turn_datasets.errors import TurnbenchError
@@ -187,7 +188,7 @@ def _write_out_dir(scores, markdown: str, frame, out_dir: Path, *, plots: bool) 
     files an earlier run wrote and this one does not are removed (one run per folder)."""
     removed: list[Path] = []
     written: list[Path] = []
-    try:
+    with writing("the scores", out_dir):
         with staged_dir(out_dir, owns=OWNED, removed=removed) as tmp:
             write_json(tmp / "event_scores.json", scores.doc)
             write_text(tmp / "event_scores.md", markdown)
@@ -203,12 +204,6 @@ def _write_out_dir(scores, markdown: str, frame, out_dir: Path, *, plots: bool) 
                 figures = write_event_plots(scores, tmp)
                 names += [str(p.relative_to(tmp)) for p in figures]
             written = [out_dir / name for name in names]
-    except OSError as exc:
-        raise TurnbenchError(
-            "cannot write the scores: "
-            + (f"{exc.filename}: {exc.strerror}" if exc.filename else str(exc)),
-            file=str(out_dir),
-        ) from None
     n_timelines = sum(1 for p in written if p.parent.name == TIMELINE_DIR)
     shown = [p for p in written if p.parent.name != TIMELINE_DIR]
     wrote(

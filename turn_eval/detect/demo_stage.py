@@ -63,12 +63,14 @@ def _first_sessions(
     out: list[Path | None] = []
     for path in (labels, context, sessions):
         frame = _table(path)
-        if frame is None:
+        if path is None or frame is None:
             out.append(None)
             continue
         frame = frame[frame["session"].astype(str).isin(keep)]
-        out.append(write_csv(frame, folder / Path(path).name))
-    return out[0], out[1], out[2]
+        out.append(write_csv(frame, folder / path.name))
+    labels_cut = out[0]
+    assert labels_cut is not None  # the labels were read above
+    return labels_cut, out[1], out[2]
 
 
 def run_untrimmed_stage(

@@ -75,7 +75,13 @@ class DetectRun:
 
 
 def detect_file(
-    path: str | Path, *, detector: TurnDetector, layout: Layout, up_axis: str, fps_hz: float
+    path: str | Path,
+    *,
+    detector: TurnDetector,
+    layout: Layout,
+    up_axis: str | None,
+    fps_hz: float,
+    source_format: str = "arrays",
 ) -> FileResult:
     """Every stream of one file through ``detector``; errors are returned, not raised, so a
     worker process hands them back as data (the caller decides: stop, or skip the file)."""
@@ -86,7 +92,7 @@ def detect_file(
     except OSError as exc:
         return FileResult(str(path), "", (), _empty(), (str(exc.strerror or exc), None, None))
     try:
-        for s in read_streams(path, layout=layout, up_axis=up_axis):
+        for s in read_streams(path, layout=layout, up_axis=up_axis, source_format=source_format):
             streams.append(
                 {"key": s.key, "session": s.session, "subject": s.subject, "n_frames": s.n_frames}
             )
@@ -186,8 +192,9 @@ def detect_files(
     *,
     detector: TurnDetector,
     layout: Layout,
-    up_axis: str,
+    up_axis: str | None,
     fps_hz: float,
+    source_format: str = "arrays",
     workers: int | None = None,
     scheduler: str | None = None,
     skip_bad: bool = False,
@@ -203,6 +210,9 @@ def detect_files(
         Any :class:`~turn_eval.detect.protocol.TurnDetector` (picklable, for a cluster).
     layout, up_axis, fps_hz
         What the files do not say: joint layout, vertical axis, frame rate.
+    source_format
+        ``arrays``, or the estimator that wrote the files
+        (:func:`turn_eval.detect.streams.read_streams`); its up axis unless ``up_axis``.
     workers
         Map over a local cluster of this many processes; None (default) runs serially.
     scheduler
@@ -221,7 +231,13 @@ def detect_files(
     """
     if workers is not None and workers < 1:
         raise TurnbenchError(f"workers must be at least 1, got {workers}")
-    kwargs = {"detector": detector, "layout": layout, "up_axis": up_axis, "fps_hz": fps_hz}
+    kwargs = {
+        "detector": detector,
+        "layout": layout,
+        "up_axis": up_axis,
+        "fps_hz": fps_hz,
+        "source_format": source_format,
+    }
     done = on_file_done or (lambda: None)
     files = [Path(p) for p in paths]
     if scheduler or workers is not None:
@@ -261,8 +277,9 @@ def build_manifest(
     detector: TurnDetector,
     params: dict,
     layout: Layout,
-    up_axis: str,
+    up_axis: str | None,
     fps_hz: float,
+    source_format: str = "arrays",
 ) -> dict:
     """What ``turn-eval detect`` writes beside its detections: the tool's version, the
     detector and every parameter, the reading options, every input with its sha256 and the
@@ -276,7 +293,12 @@ def build_manifest(
         "version": __version__,
         "detector": detector.name,
         "params": params,
-        "reading": {"layout": layout.name, "up_axis": up_axis, "fps_hz": float(fps_hz)},
+        "reading": {
+            "from": source_format,
+            "layout": layout.name,
+            "up_axis": up_axis,
+            "fps_hz": float(fps_hz),
+        },
         "inputs": run.inputs,
         "skipped": run.skipped,
         "counts": {

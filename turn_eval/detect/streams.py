@@ -103,6 +103,10 @@ def stream_files(paths: Iterable[str | os.PathLike[str]]) -> list[Path]:
                 )
             out.extend(found)
         elif path.is_file():
+            if path.suffix.lower() == ".json":  # AlphaPose's 2D output: say why it cannot serve
+                from turn_eval.estimate.formats import read_estimator_output
+
+                read_estimator_output(path, "alphapose")
             if path.suffix.lower() not in STREAM_SUFFIXES:
                 raise TurnbenchError(
                     f"not a skeleton stream file (expected one of {', '.join(STREAM_SUFFIXES)})",
@@ -152,7 +156,27 @@ def iter_layout_arrays(
         yield key, array
 
 
-def read_streams(path: str | os.PathLike[str], *, layout: Layout, up_axis: str) -> Iterator[Stream]:
+def _named_streams(
+    path: str | os.PathLike[str], source_format: str, up_axis: str | None
+) -> Iterator[tuple[str, str, str, np.ndarray]]:
+    """``(session, subject, key, z-up positions)`` of another estimator's file, read by
+    :func:`turn_eval.estimate.formats.read_estimator_output` (the one reader of those)."""
+    from turn_eval.estimate.formats import read_estimator_output
+
+    spec, named = read_estimator_output(path, source_format)
+    for name, array in named:
+        # turnbench's npz: stem = session, key = track; the others: one clip per file
+        session, subject = stream_names(path, name) if spec.name == "turnbench" else (name, name)
+        yield session, subject, name, to_z_up(array, up_axis or spec.up_axis)
+
+
+def read_streams(
+    path: str | os.PathLike[str],
+    *,
+    layout: Layout,
+    up_axis: str | None,
+    source_format: str = "arrays",
+) -> Iterator[Stream]:
     """The streams of one file, z up, float64, one at a time (memory: one array).
 
     Parameters
@@ -160,9 +184,16 @@ def read_streams(path: str | os.PathLike[str], *, layout: Layout, up_axis: str) 
     path
         A ``.npz``, ``.h5``/``.hdf5`` or ``.npy`` file.
     layout
-        The joint layout every array must have.
+        The joint layout every array must have (``h36m17`` for a named format).
     up_axis
-        The files' vertical axis: ``z``, ``y`` or ``-y`` (camera axes, y down).
+        The files' vertical axis: ``z``, ``y`` or ``-y`` (camera axes, y down); for a named
+        format, None means the format's own.
+    source_format
+        ``arrays`` (generic files, named as in the module docstring) or an estimator's
+        name (:data:`turn_eval.estimate.formats.FORMAT_CHOICES`): ``turnbench`` for
+        ``turn-eval estimate``'s npz (stem = session, track key = subject), or
+        ``strided-transformer``, ``videopose3d``, ``motionbert`` (one person per file, the
+        clip's name as session and subject).
 
     Raises
     ------
@@ -170,6 +201,18 @@ def read_streams(path: str | os.PathLike[str], *, layout: Layout, up_axis: str) 
         An unreadable file, an array of the wrong shape or joint count, infinite values,
         naming the file and the array.
     """
+    if source_format != "arrays":
+        if layout.name != "h36m17":
+            raise TurnbenchError(f"--from {source_format} files are in the h36m17 layout")
+        for session, subject, key, positions in _named_streams(path, source_format, up_axis):
+            if np.isinf(positions).any():
+                raise TurnbenchError(
+                    "positions hold infinite values (corrupt?)", file=path, item=key
+                )
+            yield Stream(session, subject, np.ascontiguousarray(positions), str(path), key)
+        return
+    if up_axis is None:
+        raise TurnbenchError("generic arrays need --up-axis (z, y or -y)", file=path)
     for key, array in iter_layout_arrays(path, layout):
         # to_z_up is a fixed rotation: applied to the three unit vectors it gives its matrix,
         # and one float64 matrix product turns the stored (often float32) array and widens

@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.strings import stripped_objects
 from turn_eval.events.contract import (
     CLIP_INDEX_SESSION,
     CONTEXT_COLUMNS,
@@ -65,7 +66,7 @@ def _texts(frame: pd.DataFrame, col: str) -> np.ndarray:
     if frame.attrs.get("stripped"):
         return values
     values = np.where(pd.isna(values), "", values).astype(str)
-    return np.strings.strip(np.asarray(values, dtype=np.dtypes.StringDType())).astype(object)
+    return stripped_objects(values)
 
 
 def _text_series(values: np.ndarray, frame: pd.DataFrame) -> pd.Series:
