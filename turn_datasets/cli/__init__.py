@@ -11,9 +11,7 @@ import sys
 import click
 
 from turn_datasets import __version__
-from turn_datasets.cli.common import LazyGroup, run_group
-
-CONTEXT_SETTINGS = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
+from turn_datasets.cli.common import CONTEXT_SETTINGS, lazy_group, run_group
 
 
 @click.group(context_settings=CONTEXT_SETTINGS)
@@ -28,14 +26,13 @@ def cli() -> None:
     """
 
 
-@cli.group(
-    cls=LazyGroup,
-    context_settings=CONTEXT_SETTINGS,
-    lazy_commands={
+@lazy_group(
+    {
         "mine": "turn_datasets.cli.mine",
         "stats": "turn_datasets.cli.mine",
         "export-clips": "turn_datasets.cli.export",
     },
+    parent=cli,
 )
 def h36m() -> None:
     """Turn-H3.6M: mine turning clips from motion capture, curate and summarise them.
@@ -47,15 +44,14 @@ def h36m() -> None:
     """
 
 
-@cli.group(
-    cls=LazyGroup,
-    context_settings=CONTEXT_SETTINGS,
-    lazy_commands={
+@lazy_group(
+    {
         "inspect": "turn_datasets.cli.labels",
         "labels": "turn_datasets.cli.labels",
         "stats": "turn_datasets.cli.labels",
         "agreement": "turn_datasets.cli.agreement",
     },
+    parent=cli,
 )
 def remap() -> None:
     """Turn-REMAP: labels from ELAN exports and the inter-rater agreement audit.

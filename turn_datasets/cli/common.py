@@ -385,6 +385,20 @@ def _refuse_empty_paths(command: click.Command) -> click.Command:
     return command
 
 
+#: click settings every command and group shares: ``-h`` as ``--help``, 100 columns of help.
+CONTEXT_SETTINGS = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
+
+
+def lazy_group(commands: Mapping[str, str], parent: click.Group | None = None):
+    """Decorator: a :class:`LazyGroup` of ``commands`` (name -> module), under ``parent``.
+
+    Without ``parent`` it makes a top-level group (a console script's own); every group gets
+    :data:`CONTEXT_SETTINGS`.
+    """
+    make = click.group if parent is None else parent.group
+    return make(cls=LazyGroup, context_settings=CONTEXT_SETTINGS, lazy_commands=commands)
+
+
 class LazyGroup(click.Group):
     """A click group whose commands are imported only when one is asked for.
 

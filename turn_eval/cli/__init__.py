@@ -11,22 +11,18 @@ import sys
 import click
 
 from turn_datasets import __version__
-from turn_datasets.cli.common import LazyGroup, run_group
-
-CONTEXT_SETTINGS = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
+from turn_datasets.cli.common import lazy_group, run_group
 
 
-@click.group(
-    cls=LazyGroup,
-    context_settings=CONTEXT_SETTINGS,
-    lazy_commands={
+@lazy_group(
+    {
         "score": "turn_eval.cli.score",
         "compare": "turn_eval.cli.compare",
         "predict": "turn_eval.cli.predict",
         "estimate": "turn_eval.cli.estimate",
         "score-events": "turn_eval.cli.score_events",
         "detect": "turn_eval.cli.detect",
-    },
+    }
 )
 @click.version_option(__version__, prog_name="turn-eval")
 def cli() -> None:

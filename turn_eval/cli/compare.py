@@ -7,6 +7,7 @@ from pathlib import Path
 import click
 
 from turn_datasets.cli.common import (
+    CONTEXT_SETTINGS,
     FILE,
     SEED,
     emit,
@@ -23,7 +24,7 @@ from turn_datasets.render.labels import METRIC_LABELS
 from turn_datasets.render.markdown import markdown_table
 from turn_datasets.render.numbers import one_decimal
 from turn_datasets.render.numbers import signed as with_sign
-from turn_eval.cli import CONTEXT_SETTINGS, cli
+from turn_eval.cli import cli
 from turn_eval.significance import Comparison, compare_predictions
 from turn_eval.submission import Joined, _list_ids, read_predictions, read_reference
 

@@ -11,6 +11,7 @@ from pathlib import Path
 import click
 
 from turn_datasets.cli.common import (
+    CONTEXT_SETTINGS,
     FPS_HZ,
     Number,
     file_option,
@@ -26,7 +27,7 @@ from turn_datasets.fileio import atomic_path, check_not_input, to_json_text
 from turn_datasets.h36m.manifest import manifest_path
 from turn_datasets.h36m.miner import MinerParams
 from turn_datasets.skeleton import get_layout
-from turn_eval.cli import CONTEXT_SETTINGS, cli
+from turn_eval.cli import cli
 from turn_eval.detect.mapping import build_manifest, detect_files
 from turn_eval.detect.protocol import TurnDetector
 from turn_eval.detect.rule import DETECT_MINER_DEFAULTS, DetectParams, MinerRule

@@ -9,10 +9,10 @@ from typing import TYPE_CHECKING
 
 import click
 
-from turn_datasets.cli.common import FPS_HZ, info, wrote
+from turn_datasets.cli.common import CONTEXT_SETTINGS, FPS_HZ, info, wrote
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, staged_dir
-from turn_eval.cli import CONTEXT_SETTINGS, cli
+from turn_eval.cli import cli
 from turn_eval.estimate.blazepose import load_mediapipe
 from turn_eval.estimate.pipeline import EstimateParams, estimate_video, write_estimate
 

@@ -8,6 +8,7 @@ import click
 import pandas as pd
 
 from turn_datasets.cli.common import (
+    CONTEXT_SETTINGS,
     FILE,
     FPS_HZ,
     file_option,
@@ -21,7 +22,7 @@ from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, write_csv
 from turn_datasets.geometry import METHODS, parse_joints
 from turn_datasets.skeleton import get_layout
-from turn_eval.cli import CONTEXT_SETTINGS, cli
+from turn_eval.cli import cli
 from turn_eval.detect.streams import iter_layout_arrays
 from turn_eval.estimate.formats import FORMAT_CHOICES, read_estimator_output
 from turn_eval.predict import predict_angles

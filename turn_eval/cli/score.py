@@ -13,6 +13,7 @@ import click
 
 from turn_datasets.cli.common import (
     BIN_WIDTH_DEG,
+    CONTEXT_SETTINGS,
     SEED,
     emit,
     format_option,
@@ -31,7 +32,7 @@ from turn_datasets.fileio import (
     write_json,
     write_text,
 )
-from turn_eval.cli import CONTEXT_SETTINGS, cli
+from turn_eval.cli import cli
 from turn_eval.scores import build_scores, scores_csv, scores_frame, scores_markdown
 from turn_eval.submission import read_predictions, read_reference
 

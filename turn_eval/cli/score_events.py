@@ -11,6 +11,7 @@ from pathlib import Path
 import click
 
 from turn_datasets.cli.common import (
+    CONTEXT_SETTINGS,
     FRACTION,
     SEED,
     emit,
@@ -31,7 +32,7 @@ from turn_datasets.fileio import (
     write_json,
     write_text,
 )
-from turn_eval.cli import CONTEXT_SETTINGS, cli
+from turn_eval.cli import cli
 from turn_eval.events.plots import EVENT_PLOT_FILES, TIMELINE_DIR
 from turn_eval.events.scoring import DEFAULT_BY, score_events
 from turn_eval.events.tables import events_frame, events_markdown
