@@ -203,6 +203,25 @@ def write_json(path: str | os.PathLike[str], obj: Any) -> Path:
     return write_text(path, to_json_text(obj))
 
 
+def write_files(folder: str | os.PathLike[str], files: Mapping[str, Any]) -> list[Path]:
+    """Write several outputs into ``folder``, each by its name's suffix, and return the paths.
+
+    ``name.json``: :func:`write_json` of the object; a ``pandas.DataFrame``: :func:`write_csv`;
+    text: :func:`write_text`. One call writes a command's set of tables (the JSON document,
+    its Markdown and its CSV), so every command writes them alike.
+    """
+    paths = []
+    for name, content in files.items():
+        path = Path(folder) / name
+        if name.endswith(".json"):
+            paths.append(write_json(path, content))
+        elif isinstance(content, pd.DataFrame):
+            paths.append(write_csv(content, path))
+        else:
+            paths.append(write_text(path, content))
+    return paths
+
+
 def check_not_input(
     out: str | os.PathLike[str],
     inputs: Iterable[str | os.PathLike[str]],

@@ -31,9 +31,7 @@ from turn_datasets.fileio import (
     check_not_input,
     staged_dir,
     to_json_text,
-    write_csv,
-    write_json,
-    write_text,
+    write_files,
 )
 from turn_datasets.remap.agreement import AgreementAudit, audit_agreement
 from turn_datasets.remap.agreement_report import write_confusion_png
@@ -215,14 +213,17 @@ def _write_outputs(
     removed: list[Path] = []
     # The folder holds one run: review copies of sessions that agree now are removed.
     with staged_dir(out_dir, owns=(f"{REVIEW_DIR}/*.eaf",), removed=removed) as stage:
-        write_json(stage / "agreement.json", document)
-        write_text(stage / "agreement.md", markdown)
-        write_csv(audit.items, stage / "pairs.csv")
-        write_csv(audit.disagreements, stage / "disagreements.csv")
-        write_csv(audit.confusion_table(), stage / "confusion.csv")
+        tables = {
+            "agreement.json": document,
+            "agreement.md": markdown,
+            "pairs.csv": audit.items,
+            "disagreements.csv": audit.disagreements,
+            "confusion.csv": audit.confusion_table(),
+            "by_session.csv": audit.summary_table("session"),
+            "by_rater_pair.csv": audit.summary_table("rater_pair"),
+        }
+        write_files(stage, tables)
         write_confusion_png(audit, stage / "confusion.png")
-        write_csv(audit.summary_table("session"), stage / "by_session.csv")
-        write_csv(audit.summary_table("rater_pair"), stage / "by_rater_pair.csv")
         for session in sessions_to_review:
             rows = audit.disagreements[audit.disagreements["session"] == session]
             write_review_eaf(

@@ -176,6 +176,11 @@ def progress(items: Iterable[T], *, label: str, length: int | None = None) -> It
         yield from bar
 
 
+def bootstrap_progress(chunks: Iterable[T], n_chunks: int) -> Iterator[T]:
+    """The bootstrap's progress bar (the ``progress`` callback of the scoring functions)."""
+    return progress(chunks, label="bootstrap", length=n_chunks)
+
+
 def format_option(default: str = "md", choices: tuple[str, ...] = ("md", "json", "csv")):
     """The ``--format`` option every result-printing command takes."""
     return click.option(

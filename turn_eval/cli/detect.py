@@ -16,10 +16,8 @@ from turn_datasets.cli.common import (
     Number,
     file_option,
     info,
-    layout_option,
     params_from,
     params_options,
-    up_axis_option,
     wrote,
 )
 from turn_datasets.errors import TurnbenchError
@@ -28,11 +26,11 @@ from turn_datasets.h36m.manifest import manifest_path
 from turn_datasets.h36m.miner import MinerParams
 from turn_datasets.skeleton import get_layout
 from turn_eval.cli import cli
+from turn_eval.cli.common import skeleton_source_options
 from turn_eval.detect.mapping import build_manifest, detect_files
 from turn_eval.detect.protocol import TurnDetector
 from turn_eval.detect.rule import DETECT_MINER_DEFAULTS, DetectParams, MinerRule
 from turn_eval.detect.streams import stream_files
-from turn_eval.estimate.formats import FORMAT_CHOICES
 
 
 def _load_detector(spec: str | None, params: DetectParams) -> TurnDetector:
@@ -64,23 +62,11 @@ def _load_detector(spec: str | None, params: DetectParams) -> TurnDetector:
     required=True,
     help="Detections CSV to write (score-events reads it); <stem>.manifest.json goes beside it.",
 )
-@click.option(
-    "--from",
-    "source_format",
-    type=click.Choice(FORMAT_CHOICES),
-    default="arrays",
-    show_default=True,
-    help="Whose files: generic arrays (give --layout and --up-axis), or an estimator's own "
+@skeleton_source_options(
+    from_help="Whose files: generic arrays (give --layout and --up-axis), or an estimator's own "
     "output by name (turnbench = `turn-eval estimate`'s npz).",
-)
-@layout_option(
-    dest="layout_name",
-    default=None,
-    help="Joint layout of the skeletons; required with --from arrays.",
-)
-@up_axis_option(
-    default=None,
-    help="The vertical axis: z (world), y (y up), -y (camera axes: y down, as estimators "
+    layout_help="Joint layout of the skeletons; required with --from arrays.",
+    up_axis_help="The vertical axis: z (world), y (y up), -y (camera axes: y down, as estimators "
     "write); required with --from arrays, else the named format's own.",
 )
 @click.option(

@@ -12,9 +12,7 @@ from turn_datasets.cli.common import (
     FILE,
     FPS_HZ,
     file_option,
-    layout_option,
     progress,
-    up_axis_option,
     writing,
     wrote,
 )
@@ -23,8 +21,9 @@ from turn_datasets.fileio import check_not_input, write_csv
 from turn_datasets.geometry import METHODS, parse_joints
 from turn_datasets.skeleton import get_layout
 from turn_eval.cli import cli
+from turn_eval.cli.common import skeleton_source_options
 from turn_eval.detect.streams import iter_layout_arrays
-from turn_eval.estimate.formats import FORMAT_CHOICES, read_estimator_output
+from turn_eval.estimate.formats import read_estimator_output
 from turn_eval.predict import predict_angles
 
 
@@ -35,24 +34,12 @@ from turn_eval.predict import predict_angles
     required=True,
     help="Predictions CSV to write: clip_id, angle_deg, direction[, speed_deg_s].",
 )
-@click.option(
-    "--from",
-    "source_format",
-    type=click.Choice(FORMAT_CHOICES),
-    default="arrays",
-    show_default=True,
-    help="Whose files: generic arrays (give --layout), or an estimator's own output by name "
+@skeleton_source_options(
+    from_help="Whose files: generic arrays (give --layout), or an estimator's own output by name "
     "(layout and up axis known: turnbench = `turn-eval estimate`).",
-)
-@layout_option(
-    dest="layout_name",
-    default=None,
-    help="Joint layout of the skeletons (Human3.6M's 17- or 32-joint order); required with "
+    layout_help="Joint layout of the skeletons (Human3.6M's 17- or 32-joint order); required with "
     "--from arrays.",
-)
-@up_axis_option(
-    default=None,
-    help="The vertical axis: z (Human3.6M world), y (y up), -y (camera: y down). Default: z, "
+    up_axis_help="The vertical axis: z (Human3.6M world), y (y up), -y (camera: y down). Default: z, "
     "or the named format's own.",
 )
 @click.option(

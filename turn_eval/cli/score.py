@@ -15,10 +15,10 @@ from turn_datasets.cli.common import (
     BIN_WIDTH_DEG,
     CONTEXT_SETTINGS,
     SEED,
+    bootstrap_progress,
     emit,
     format_option,
     info,
-    progress,
     resamples,
     warn,
     writing,
@@ -29,8 +29,7 @@ from turn_datasets.fileio import (
     check_not_input,
     staged_dir,
     to_json_text,
-    write_json,
-    write_text,
+    write_files,
 )
 from turn_eval.cli import cli
 from turn_eval.scores import build_scores, scores_csv, scores_frame, scores_markdown
@@ -41,10 +40,6 @@ SCORE_FILES = ("scores.json", "scores.md", "scores.csv")
 #: The figures ``--plots`` adds (as :data:`turn_eval.plots.PLOT_FILES`; matplotlib is only
 #: imported when they are drawn).
 PLOT_FILES = ("confusion_matrix.png", "predicted_by_bin.png", "abs_error.png", "bland_altman.png")
-
-
-def _bootstrap_progress(chunks, n_chunks: int):
-    return progress(chunks, label="bootstrap", length=n_chunks)
 
 
 @cli.command("score", context_settings=CONTEXT_SETTINGS)
@@ -144,7 +139,7 @@ def score(
         predictions, ref, allow_missing=allow_missing, abs_angles=abs_angles, warn=warn
     )
     scores = build_scores(
-        joined, by=list(by), n_resamples=n_resamples, seed=seed, progress=_bootstrap_progress
+        joined, by=list(by), n_resamples=n_resamples, seed=seed, progress=bootstrap_progress
     )
     texts = {
         "json": to_json_text(scores),
@@ -156,9 +151,14 @@ def score(
         with writing("the scores", out_dir):
             # The folder holds one run: figures of an earlier --plots run go when this has none.
             with staged_dir(out_dir, owns=PLOT_FILES, removed=removed) as tmp:
-                write_json(tmp / "scores.json", scores)
-                write_text(tmp / "scores.md", texts["md"])
-                write_text(tmp / "scores.csv", scores_csv(frame))
+                write_files(
+                    tmp,
+                    {
+                        "scores.json": scores,
+                        "scores.md": texts["md"],
+                        "scores.csv": scores_csv(frame),
+                    },
+                )
                 if plots:
                     from turn_eval.plots import write_plots
 

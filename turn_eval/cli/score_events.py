@@ -14,10 +14,10 @@ from turn_datasets.cli.common import (
     CONTEXT_SETTINGS,
     FRACTION,
     SEED,
+    bootstrap_progress,
     emit,
     format_option,
     info,
-    progress,
     resamples,
     warn,
     writing,
@@ -28,9 +28,7 @@ from turn_datasets.fileio import (
     check_not_input,
     staged_dir,
     to_json_text,
-    write_csv,
-    write_json,
-    write_text,
+    write_files,
 )
 from turn_eval.cli import cli
 from turn_eval.events.plots import EVENT_PLOT_FILES, TIMELINE_DIR
@@ -42,10 +40,6 @@ EVENT_FILES = ("event_scores.json", "event_scores.md", "event_scores.csv", "even
 RATES_FILE = "turn_rates.csv"
 #: What a run may or may not write: an old one this run did not write is removed.
 OWNED = (RATES_FILE, *EVENT_PLOT_FILES, f"{TIMELINE_DIR}/*.png")
-
-
-def _bootstrap_progress(chunks, n_chunks: int):
-    return progress(chunks, label="bootstrap", length=n_chunks)
 
 
 def _split_by(values: tuple[str, ...]) -> list[str]:
@@ -172,7 +166,7 @@ def score_events_cmd(
         seed=seed,
         ignore_unknown=ignore_unknown,
         warn=warn,
-        progress=_bootstrap_progress,
+        progress=bootstrap_progress,
     )
     texts = {"json": to_json_text(scores.doc), "md": events_markdown(scores.doc)}
     frame = events_frame(scores.doc)
@@ -191,14 +185,16 @@ def _write_out_dir(scores, markdown: str, frame, out_dir: Path, *, plots: bool) 
     written: list[Path] = []
     with writing("the scores", out_dir):
         with staged_dir(out_dir, owns=OWNED, removed=removed) as tmp:
-            write_json(tmp / "event_scores.json", scores.doc)
-            write_text(tmp / "event_scores.md", markdown)
-            write_csv(frame, tmp / "event_scores.csv")
-            write_csv(scores.events, tmp / "events.csv")
-            names = list(EVENT_FILES)
+            files = {
+                "event_scores.json": scores.doc,
+                "event_scores.md": markdown,
+                "event_scores.csv": frame,
+                "events.csv": scores.events,
+            }
             if scores.rates is not None:
-                write_csv(scores.rates, tmp / RATES_FILE)
-                names.append(RATES_FILE)
+                files[RATES_FILE] = scores.rates
+            write_files(tmp, files)
+            names = list(files)
             if plots:
                 from turn_eval.events.plots import write_event_plots
 

@@ -15,7 +15,7 @@ from turn_datasets.render.labels import METRIC_LABELS
 from turn_datasets.render.markdown import metric_table
 from turn_datasets.render.numbers import MISSING, fixed, is_missing, one_decimal
 from turn_eval.events.bootstrap import CI_METRICS
-from turn_eval.events.scoring import UNKNOWN_GROUP
+from turn_eval.events.scoring import MATCHED_METRICS, UNKNOWN_GROUP
 
 __all__ = ["EVENT_LABELS", "EVENTS_CSV_COLUMNS", "events_markdown", "events_frame"]
 
@@ -38,15 +38,8 @@ EVENT_LABELS: Mapping[str, tuple[str, str]] = MappingProxyType(
     }
 )
 _DETECTION = ("precision", "recall", "f1")
-_MATCHED = (
-    "accuracy",
-    "mae_deg",
-    "wprec",
-    "mae_speed_deg_s",
-    "direction_agreement",
-    "median_abs_dstart_s",
-    "median_abs_dend_s",
-)
+# the matched-pair metrics in the order scoring reports them (declared once, in scoring)
+_MATCHED = MATCHED_METRICS
 #: ``score_events.csv``: one row per group of every grouping, the overall row and ``avg`` rows.
 EVENTS_CSV_COLUMNS: Mapping[str, str] = {
     "grouping": "str",
