@@ -209,7 +209,8 @@ def test_staged_dir_error_names_the_users_file(tmp_path):
 _SLOW_SCORE = textwrap.dedent(
     """
     import signal, sys, time
-    import turn_eval.cli.score as mod
+    # score writes its tables with fileio.write_files, which calls fileio.write_text
+    import turn_datasets.fileio as mod
 
     # A shell that starts a job in the background (CI scripts, "cmd &") hands it SIGINT
     # ignored, and Python then installs no KeyboardInterrupt handler: restore what a terminal
