@@ -22,5 +22,8 @@ def natural_key(text: str) -> tuple:
     """
     text = str(text)
     parts = _NUMBER.split(text)
-    key = tuple((0, Decimal(p), "") if i % 2 else (1, Decimal(0), p) for i, p in enumerate(parts))
+    key = tuple(
+        (0, int(p) if p.isdigit() else Decimal(p), "") if i % 2 else (1, 0, p)
+        for i, p in enumerate(parts)
+    )
     return (key, text)

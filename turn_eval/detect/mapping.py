@@ -33,7 +33,14 @@ from turn_eval.detect.protocol import TurnDetector, checked_turns
 from turn_eval.detect.streams import read_streams
 from turn_eval.events.contract import DETECTION_DTYPES
 
-__all__ = ["FileResult", "DetectRun", "build_manifest", "detect_file", "detect_files"]
+__all__ = [
+    "FileResult",
+    "DetectRun",
+    "build_manifest",
+    "detect_file",
+    "detect_files",
+    "local_cluster",
+]
 
 
 @dataclass(frozen=True)
@@ -118,6 +125,37 @@ def _serial(paths: Sequence[Path], kwargs: dict, done: Callable[[], None]) -> li
     return out
 
 
+def local_cluster(n_workers: int):
+    """A local Dask cluster of ``n_workers`` single-threaded processes, as ``--workers`` starts
+    it: no dashboard, quiet logs, and workers that keep freed memory for the next file.
+
+    Dask's workers start with ``MALLOC_TRIM_THRESHOLD_`` small, handing freed memory back to
+    the system at once; every file's arrays (megabytes) are then fresh pages, faulted in
+    again: 25-35% more CPU per file than serially (measured on 10-minute streams). Keeping
+    freed memory costs no more than the largest file per worker.
+    """
+    # Imported here: a serial run never pays for Dask's import.
+    import dask
+    from dask.distributed import LocalCluster
+
+    environ = dict(dask.config.get("distributed.nanny.pre-spawn-environ", {}))
+    environ.update({"MALLOC_TRIM_THRESHOLD_": str(2**30), "MALLOC_MMAP_THRESHOLD_": str(2**30)})
+    with (
+        warnings.catch_warnings(),
+        dask.config.set({"distributed.nanny.pre-spawn-environ": environ}),
+    ):
+        # the scheduler's HTTP server says so when another cluster has port 8787; it then
+        # takes another port, and no dashboard is asked for
+        warnings.filterwarnings("ignore", message="Port .* is already in use")
+        return LocalCluster(
+            n_workers=int(n_workers),
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+        )
+
+
 def _distributed(
     paths: Sequence[Path],
     kwargs: dict,
@@ -126,24 +164,13 @@ def _distributed(
     workers: int | None,
     scheduler: str | None,
 ) -> list[FileResult]:
-    # Imported here: a serial run never pays for Dask's import.
-    from dask.distributed import Client, LocalCluster, as_completed
+    from dask.distributed import Client, as_completed
 
     cluster = None
     if scheduler:
         client = Client(scheduler, timeout="30s")
     else:
-        with warnings.catch_warnings():
-            # the scheduler's HTTP server says so when another cluster has port 8787; it
-            # then takes another port, and no dashboard is asked for
-            warnings.filterwarnings("ignore", message="Port .* is already in use")
-            cluster = LocalCluster(
-                n_workers=int(workers or 1),
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=None,
-                silence_logs=logging.ERROR,
-            )
+        cluster = local_cluster(workers or 1)
         client = Client(cluster)
     try:
         futures = client.map(detect_file, list(paths), pure=False, **kwargs)

@@ -155,11 +155,11 @@ def repair_swaps(
     parity = np.concatenate(([0], np.cumsum(flip & linked) % 2))
     # each run of linked frames decides alone which parity is the person's own
     piece = np.concatenate(([0], np.cumsum(~linked)))
-    swapped = np.zeros(idx.size, dtype=bool)
-    for k in range(int(piece[-1]) + 1):
-        sel = piece == k
-        ones = int(parity[sel].sum())
-        swapped[sel] = parity[sel] == (1 if ones * 2 < int(sel.sum()) else 0)
+    ones = np.bincount(piece, weights=parity)
+    count = np.bincount(piece)
+    # the parity held by fewer frames of its run is the swapped one
+    swapped_parity = (2 * ones < count).astype(parity.dtype)
+    swapped = parity == swapped_parity[piece]
     frames = idx[swapped]
     for side in _SIDES:
         a, b = f"left_{side}", f"right_{side}"

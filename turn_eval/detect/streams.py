@@ -214,10 +214,13 @@ def read_streams(
     if up_axis is None:
         raise TurnbenchError("generic arrays need --up-axis (z, y or -y)", file=path)
     for key, array in iter_layout_arrays(path, layout):
-        # axes first, on the stored dtype (often float32: half the bytes to move), then one
-        # float64 copy
-        positions = np.ascontiguousarray(to_z_up(array, up_axis), dtype=np.float64)
-        if np.isinf(positions).any():
+        # to_z_up is a fixed rotation: applied to the three unit vectors it gives its matrix,
+        # and one float64 matrix product turns the stored (often float32) array and widens
+        # it in a single pass over the data
+        # (checked before: inf x 0 would hide an infinity as NaN in the other coordinates)
+        if np.isinf(array).any():
             raise TurnbenchError("positions hold infinite values (corrupt?)", file=path, item=key)
+        rotation = to_z_up(np.eye(3), up_axis)
+        positions = np.ascontiguousarray(np.asarray(array) @ rotation, dtype=np.float64)
         session, subject = stream_names(path, key)
         yield Stream(session, subject, positions, str(path), key)
