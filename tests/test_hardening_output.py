@@ -208,8 +208,13 @@ def test_staged_dir_error_names_the_users_file(tmp_path):
 
 _SLOW_SCORE = textwrap.dedent(
     """
-    import sys, time
+    import signal, sys, time
     import turn_eval.cli.score as mod
+
+    # A shell that starts a job in the background (CI scripts, "cmd &") hands it SIGINT
+    # ignored, and Python then installs no KeyboardInterrupt handler: restore what a terminal
+    # gives, so the test exercises the command and not how pytest was launched.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     from turn_datasets.cli.common import run_group
     from turn_eval.cli import cli
 

@@ -47,6 +47,18 @@ def _save(fig: Figure, path: Path) -> Path:
     return path
 
 
+def _finish(
+    fig: Figure, ax, path: Path, *, xlabel: str, ylabel: str, title: str, legend_loc: str
+) -> Path:
+    """Axis labels, title and legend (at a fixed place), laid out and saved."""
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.legend(loc=legend_loc, fontsize=8)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
 def _confusion(
     pred_bins: np.ndarray, ref_bins: np.ndarray, bin_width_deg: float, path: Path
 ) -> Path:
@@ -123,12 +135,15 @@ def _predicted_by_bin(
     ax.set_xlim(low, high)
     ticks = bins[:: -(-bins.shape[0] // _MAX_TICKS)]
     ax.set_xticks(ticks, [group_label(b) for b in ticks])
-    ax.set_xlabel("reference bin (°)")
-    ax.set_ylabel("predicted angle (°)")
-    ax.set_title("Predicted angles per reference bin")
-    ax.legend(loc="upper left", fontsize=8)
-    fig.tight_layout()
-    return _save(fig, path)
+    return _finish(
+        fig,
+        ax,
+        path,
+        xlabel="reference bin (°)",
+        ylabel="predicted angle (°)",
+        title="Predicted angles per reference bin",
+        legend_loc="upper left",
+    )
 
 
 def _abs_error(error_deg: np.ndarray, bin_width_deg: float, path: Path) -> Path:
@@ -148,13 +163,16 @@ def _abs_error(error_deg: np.ndarray, bin_width_deg: float, path: Path) -> Path:
         linewidth=1,
         label=f"half a bin ({bin_width_deg / 2:g}°)",
     )
-    ax.set_xlabel("absolute error (°)")
-    ax.set_ylabel("clips")
-    ax.set_title("Absolute angle error")
     # a fixed place: "best" searches every bar (slow, and matplotlib warns about it)
-    ax.legend(loc="upper right", fontsize=8)
-    fig.tight_layout()
-    return _save(fig, path)
+    return _finish(
+        fig,
+        ax,
+        path,
+        xlabel="absolute error (°)",
+        ylabel="clips",
+        title="Absolute angle error",
+        legend_loc="upper right",
+    )
 
 
 def _bland_altman(pred_deg: np.ndarray, ref_deg: np.ndarray, path: Path) -> Path:
@@ -174,12 +192,15 @@ def _bland_altman(pred_deg: np.ndarray, ref_deg: np.ndarray, path: Path) -> Path
             linewidth=1,
             label="± 1.96 SD" if sign > 0 else None,
         )
-    ax.set_xlabel("mean of predicted and reference angle (°)")
-    ax.set_ylabel("predicted − reference (°)")
-    ax.set_title("Bland–Altman")
-    ax.legend(loc="lower right", fontsize=8)
-    fig.tight_layout()
-    return _save(fig, path)
+    return _finish(
+        fig,
+        ax,
+        path,
+        xlabel="mean of predicted and reference angle (°)",
+        ylabel="predicted − reference (°)",
+        title="Bland–Altman",
+        legend_loc="lower right",
+    )
 
 
 def write_plots(

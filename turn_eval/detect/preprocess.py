@@ -53,14 +53,17 @@ def runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
 
 
-def body_size(positions: np.ndarray, layout: Layout) -> np.ndarray:
+def body_size(
+    positions: np.ndarray, layout: Layout, frames: np.ndarray | None = None
+) -> np.ndarray:
     """Per-frame size of the body: the summed length of the trunk and upper-arm bones (NaN
-    where one is missing), in the positions' own unit."""
+    where one is missing), in the positions' own unit; of ``frames`` only, when given."""
     total = np.zeros(positions.shape[0])
     for a, b in _SIZE_BONES:
+        # strided views of the two joints' columns, not gathers of rows
         d = positions[:, layout.index(a), :] - positions[:, layout.index(b), :]
-        total += np.sqrt(np.einsum("ij,ij->i", d, d))
-    return total
+        total += np.sqrt(d[:, 0] ** 2 + d[:, 1] ** 2 + d[:, 2] ** 2)
+    return total if frames is None else total[frames]
 
 
 def identity_pieces(
@@ -98,13 +101,14 @@ def identity_pieces(
     idx = np.flatnonzero(usable)
     if idx.size < 2:
         return []
-    size = body_size(positions[idx], layout)
+    size = body_size(positions, layout, idx)
     ok = np.isfinite(size) & (size > 0)
     if ok.sum() < 2:
         return [(int(idx[0]), int(idx[-1]) + 1)]
     size = np.interp(np.arange(idx.size), np.flatnonzero(ok), size[ok])
     cuts = set()
-    hips = positions[idx][:, [layout.index("left_hip"), layout.index("right_hip")], :2].mean(axis=1)
+    left, right = layout.index("left_hip"), layout.index("right_hip")
+    hips = 0.5 * (positions[idx, left, :2] + positions[idx, right, :2])
     step = np.hypot(*np.diff(hips, axis=0).T)
     # a body covers at most ~2 m/s; a body size (trunk + arms) is ~1.1 m: 2 sizes per second
     allowed = jump_sizes + 2.0 * np.diff(idx) / fps_hz
@@ -141,15 +145,16 @@ def identity_pieces(
 def repair_swaps(
     positions: np.ndarray, layout: Layout, *, fps_hz: float, max_gap_s: float
 ) -> tuple[np.ndarray, int]:
-    """Undo left/right swaps (module docstring); returns the repaired copy and the number of
-    frames whose sides were exchanged back."""
-    p = np.array(positions, dtype=float, copy=True)
-    usable = usable_frames(p, layout, ("hip",))
+    """Undo left/right swaps (module docstring); returns the repaired positions (a copy when
+    any frame was repaired, else the input itself) and the number of frames whose sides were
+    exchanged back."""
+    positions = np.asarray(positions, dtype=float)
+    usable = usable_frames(positions, layout, ("hip",))
     idx = np.flatnonzero(usable)
     if idx.size < 2:
-        return p, 0
+        return positions, 0
     left, right = JOINT_PAIRS["hip"]
-    v = p[idx, layout.index(left), :2] - p[idx, layout.index(right), :2]
+    v = positions[idx, layout.index(left), :2] - positions[idx, layout.index(right), :2]
     flip = np.einsum("ij,ij->i", v[1:], v[:-1]) < 0
     linked = np.diff(idx) <= max(int(round(max_gap_s * fps_hz)), 1)
     parity = np.concatenate(([0], np.cumsum(flip & linked) % 2))
@@ -161,6 +166,9 @@ def repair_swaps(
     swapped_parity = (2 * ones < count).astype(parity.dtype)
     swapped = parity == swapped_parity[piece]
     frames = idx[swapped]
+    if frames.size == 0:
+        return positions, 0  # nothing to undo: no copy
+    p = positions.copy()
     for side in _SIDES:
         a, b = f"left_{side}", f"right_{side}"
         if a in layout.joints and b in layout.joints:
