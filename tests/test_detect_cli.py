@@ -220,3 +220,15 @@ def test_serial_run_does_not_import_dask(tmp_path, turn_stream) -> None:
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip() == "False False"
+
+
+def test_unreachable_scheduler_is_one_line(tmp_path, capsys, turn_stream, monkeypatch) -> None:
+    import turn_eval.detect.mapping as mapping
+
+    monkeypatch.setattr(mapping, "SCHEDULER_TIMEOUT_S", 1)
+    np.savez(tmp_path / "home.npz", P01=turn_stream)
+    args = ["detect", tmp_path / "home.npz", *BASE, "--scheduler", "tcp://127.0.0.1:9"]
+    code, _, stderr = run([*args, "--out", tmp_path / "d.csv"], capsys)
+    assert code == EXIT_BAD_INPUT
+    assert "cannot reach the Dask scheduler at tcp://127.0.0.1:9" in stderr
+    assert "Traceback" not in stderr and not (tmp_path / "d.csv").exists()

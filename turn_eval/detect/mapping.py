@@ -125,6 +125,10 @@ def _serial(paths: Sequence[Path], kwargs: dict, done: Callable[[], None]) -> li
     return out
 
 
+#: How long to try to reach a ``--scheduler`` before giving up, seconds.
+SCHEDULER_TIMEOUT_S = 10
+
+
 def local_cluster(n_workers: int):
     """A local Dask cluster of ``n_workers`` single-threaded processes, as ``--workers`` starts
     it: no dashboard, quiet logs, and workers that keep freed memory for the next file.
@@ -168,7 +172,14 @@ def _distributed(
 
     cluster = None
     if scheduler:
-        client = Client(scheduler, timeout="30s")
+        try:
+            client = Client(scheduler, timeout=f"{SCHEDULER_TIMEOUT_S}s")
+        except (OSError, ValueError) as exc:
+            raise TurnbenchError(
+                f"cannot reach the Dask scheduler at {scheduler}: {exc}",
+                hint="start one (`dask scheduler`, then `dask worker ADDRESS` per machine) "
+                "or use --workers N for a local cluster",
+            ) from None
     else:
         cluster = local_cluster(workers or 1)
         client = Client(cluster)
