@@ -24,6 +24,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from turn_datasets.errors import TurnbenchError
@@ -47,16 +48,23 @@ __all__ = [
 class FileResult:
     """One file's detections and what the manifest records of it.
 
-    ``error`` is ``(message, item, hint)`` when the file could not be used (then ``turns``
-    is empty and ``streams`` lists what was read before the error): plain data, so that a
-    worker process hands it back whole.
+    ``columns`` holds the detections column by column (:data:`DETECTION_DTYPES`' names,
+    NumPy arrays): cheaper to hand back from a worker and to join than a table per file;
+    :attr:`turns` is the table. ``error`` is ``(message, item, hint)`` when the file could
+    not be used (then there are no turns and ``streams`` lists what was read before the
+    error): plain data, so that a worker process hands it back whole.
     """
 
     path: str
     sha256: str
     streams: tuple[dict, ...]
-    turns: pd.DataFrame
+    columns: dict[str, np.ndarray]
     error: tuple[str, str | None, str | None] | None = None
+
+    @property
+    def turns(self) -> pd.DataFrame:
+        """The file's detections as a table (:data:`DETECTION_DTYPES`)."""
+        return typed_frame(pd.DataFrame(self.columns), DETECTION_DTYPES)
 
     def raise_error(self) -> None:
         if self.error is not None:
@@ -90,7 +98,7 @@ def detect_file(
     try:
         digest = sha256_file(path)
     except OSError as exc:
-        return FileResult(str(path), "", (), _empty(), (str(exc.strerror or exc), None, None))
+        return FileResult(str(path), "", (), _columns([]), (str(exc.strerror or exc), None, None))
     try:
         for s in read_streams(path, layout=layout, up_axis=up_axis, source_format=source_format):
             streams.append(
@@ -108,9 +116,18 @@ def detect_file(
             parts.append(found)
     except TurnbenchError as exc:
         error = (exc.message, exc.where.item, exc.hint)
-        return FileResult(str(path), digest, tuple(streams), _empty(), error)
-    turns = pd.concat(parts, ignore_index=True) if parts else _empty()
-    return FileResult(str(path), digest, tuple(streams), typed_frame(turns, DETECTION_DTYPES))
+        return FileResult(str(path), digest, tuple(streams), _columns([]), error)
+    return FileResult(str(path), digest, tuple(streams), _columns(parts))
+
+
+def _columns(parts: Sequence[pd.DataFrame]) -> dict[str, np.ndarray]:
+    """The tables' columns joined, by name (:data:`DETECTION_DTYPES`; none: empty arrays)."""
+    out = {}
+    for col, dtype in DETECTION_DTYPES.items():
+        kind = object if dtype == "str" else np.dtype(dtype)
+        arrays = [np.asarray(p[col].to_numpy(), dtype=kind) for p in parts]
+        out[col] = np.concatenate(arrays) if arrays else np.zeros(0, dtype=kind)
+    return out
 
 
 def _empty() -> pd.DataFrame:
@@ -276,9 +293,10 @@ def detect_files(
                 )
             seen[key] = r.path
         run.inputs.append({"file": r.path, "sha256": r.sha256, "streams": list(r.streams)})
-        parts.append(r.turns)
+        parts.append(r.columns)
     if parts:
-        run.detections = typed_frame(pd.concat(parts, ignore_index=True), DETECTION_DTYPES)
+        joined = {c: np.concatenate([p[c] for p in parts]) for c in DETECTION_DTYPES}
+        run.detections = typed_frame(pd.DataFrame(joined), DETECTION_DTYPES)
     return run
 
 
