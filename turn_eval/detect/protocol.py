@@ -50,6 +50,15 @@ def empty_turns() -> pd.DataFrame:
     return typed_frame(pd.DataFrame({c: [] for c in TURN_DTYPES}), TURN_DTYPES)
 
 
+def _typed(table: pd.DataFrame) -> bool:
+    """Whether ``table`` has exactly the contract's columns, in order, of its dtypes."""
+    if list(table.columns) != list(TURN_DTYPES):
+        return False
+    # the dtypes typed_frame gives (whatever this pandas makes of "str")
+    want = empty_turns().dtypes
+    return all(table[col].dtype == want[col] for col in TURN_DTYPES)
+
+
 def checked_turns(
     table: pd.DataFrame, *, detector: str, n_frames: int, fps_hz: float
 ) -> pd.DataFrame:
@@ -65,11 +74,14 @@ def checked_turns(
     missing = [c for c in ("start_s", "end_s", "angle_deg") if c not in table.columns]
     if missing:
         raise TurnbenchError(f"detector {detector!r} returned no {', '.join(missing)} column")
-    t = table.copy()
-    for col in TURN_DTYPES:
-        if col not in t.columns:
-            t[col] = "" if TURN_DTYPES[col] == "str" else np.nan
-    t = typed_frame(t[list(TURN_DTYPES)], TURN_DTYPES)
+    if _typed(table):
+        t = table  # already the contract (the built-in rule's output): nothing to convert
+    else:
+        t = table.copy()
+        for col in TURN_DTYPES:
+            if col not in t.columns:
+                t[col] = "" if TURN_DTYPES[col] == "str" else np.nan
+        t = typed_frame(t[list(TURN_DTYPES)], TURN_DTYPES)
     start, end, angle = (t[c].to_numpy(dtype=float) for c in ("start_s", "end_s", "angle_deg"))
     length_s = n_frames / fps_hz
     bad = ~(np.isfinite(start) & np.isfinite(end) & (start >= 0) & (end > start))
