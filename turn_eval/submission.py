@@ -369,6 +369,15 @@ def _and_more(count: int) -> str:
     return f" ({count - 1} more row{'s' if count > 2 else ''} like it)" if count > 1 else ""
 
 
+def _refuse_rows(
+    table: _Table, bad: np.ndarray, message: Callable[[int], str], *, hint: str | None = None
+) -> None:
+    """Raise for the first ``bad`` row (``message`` of its index), counting the others."""
+    if bad.any():
+        i, line, count = _first_and_count(table, bad)
+        raise TurnbenchError(message(i) + _and_more(count), file=table.path, row=line, hint=hint)
+
+
 def _numbers(
     table: _Table,
     column: str,
@@ -415,25 +424,19 @@ def _numbers(
             raise TurnbenchError(message + _and_more(count), file=table.path, row=line)
     bound = _PLAUSIBLE.get(column)
     if bound is not None:
-        absurd = np.abs(values) > bound
-        if absurd.any():
-            i, line, count = _first_and_count(table, absurd)
-            raise TurnbenchError(
-                f"{column} {values[i]:g} is beyond the plausible {bound:g}{_and_more(count)}",
-                file=table.path,
-                row=line,
-                hint="see the bounds in the README's error section",
-            )
+        _refuse_rows(
+            table,
+            np.abs(values) > bound,
+            lambda i: f"{column} {values[i]:g} is beyond the plausible {bound:g}",
+            hint="see the bounds in the README's error section",
+        )
     if not allow_negative:
-        negative = values < 0
-        if negative.any():
-            i, line, count = _first_and_count(table, negative)
-            raise TurnbenchError(
-                f"{column} is negative ({values[i]:g}){_and_more(count)}",
-                file=table.path,
-                row=line,
-                hint=negative_hint,
-            )
+        _refuse_rows(
+            table,
+            values < 0,
+            lambda i: f"{column} is negative ({values[i]:g})",
+            hint=negative_hint,
+        )
     return values
 
 
@@ -443,10 +446,7 @@ def _clip_ids(table: _Table) -> np.ndarray:
         # "Café" typed on a Mac (NFD) and on Windows (NFC) are different strings but the
         # same id; both sides are compared in NFC.
         ids = pd.Series(ids, dtype=object).str.normalize("NFC").to_numpy(dtype=object)
-    empty = ids == ""
-    if empty.any():
-        _, line, count = _first_and_count(table, empty)
-        raise TurnbenchError(f"clip_id is empty{_and_more(count)}", file=table.path, row=line)
+    _refuse_rows(table, ids == "", lambda _: "clip_id is empty")
     duplicate = pd.Series(ids, dtype=object).duplicated(keep="first").to_numpy()
     if duplicate.any():
         i, line, count = _first_and_count(table, duplicate)
