@@ -154,3 +154,25 @@ def test_plots_need_an_out_dir(capsys, files):
     det, ref = files
     code, _, err = _run(capsys, ["score-events", str(det), "-r", str(ref), "--plots"])
     assert code == 2 and "--plots needs --out-dir" in err
+
+
+def test_an_out_dir_that_would_overwrite_an_input_names_out_dir(capsys, tmp_path):
+    # the detections file sits where the run would write its events table
+    out = tmp_path / "scores"
+    out.mkdir()
+    (out / "events.csv").write_text(DET)
+    (tmp_path / "ref.csv").write_text(REF)
+    code, stdout, err = _run(
+        capsys,
+        [
+            "score-events",
+            str(out / "events.csv"),
+            "-r",
+            str(tmp_path / "ref.csv"),
+            "--out-dir",
+            str(out),
+        ],
+    )
+    assert code == 2 and stdout == ""
+    assert "choose another --out-dir" in err and len(err.strip().splitlines()) == 1
+    assert (out / "events.csv").read_text() == DET

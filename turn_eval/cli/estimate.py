@@ -133,7 +133,10 @@ def estimate_command(
     params = EstimateParams(fps_hz=fps_hz, level=level)
     target_dir = out.parent if out is not None else out_dir
     assert target_dir is not None
-    check_not_input(target_dir / names[0], videos)
+    for name in names:
+        check_not_input(
+            target_dir / name, videos, option="--out" if out is not None else "--out-dir"
+        )
     written: list[Path] = []
     with staged_dir(target_dir) as stage, contextlib.ExitStack() as previews:
         preview_stage = previews.enter_context(staged_dir(preview_dir)) if preview_dir else None

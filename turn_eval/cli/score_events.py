@@ -152,7 +152,7 @@ def score_events_cmd(
     inputs = [p for p in (detections, reference, context_path, sessions_path) if p is not None]
     if out_dir is not None:
         for name in (*EVENT_FILES, RATES_FILE):
-            check_not_input(out_dir / name, inputs)
+            check_not_input(out_dir / name, inputs, option="--out-dir")
         if out_dir.exists() and not out_dir.is_dir():
             raise TurnbenchError("--out-dir is a file, not a folder", file=str(out_dir))
     scores = score_events(
