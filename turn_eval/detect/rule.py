@@ -2,7 +2,9 @@
 
 The rule that mines Turn-H3.6M's clips from motion capture
 (:mod:`turn_datasets.h36m.miner`: hip yaw, bridging short dropouts, a zero-phase low-pass,
-a Savitzky-Golay yaw rate, double-threshold runs of rotation, the net angle) is the
+a heading rate taken over one stride so that the pelvis's step-by-step sway cancels,
+double-threshold runs of it, boundaries where the heading starts and stops changing, and
+the angle as the change of the mean heading over a stride on each side) is the
 detector. It is not a second algorithm; what an estimator's stream needs on top
 (:mod:`turn_eval.detect.preprocess`) comes first, per stream:
 
