@@ -43,7 +43,7 @@ from turn_datasets.fileio import typed_frame
 from turn_datasets.geometry import angular_speed_deg_s, frontal_vectors, parse_joints, usable_frames
 from turn_datasets.h36m.miner import MinerParams, mine_sequence
 from turn_datasets.params import check_params, describe_params, param
-from turn_datasets.skeleton import Layout
+from turn_datasets.skeleton import JOINT_PAIRS, Layout
 from turn_eval.detect.preprocess import identity_pieces, repair_swaps
 from turn_eval.detect.protocol import TURN_DTYPES, empty_turns
 
@@ -140,6 +140,14 @@ def split_overlaps(start: np.ndarray, end: np.ndarray) -> tuple[np.ndarray, np.n
     return start, end
 
 
+def _paired_joints(positions: np.ndarray, layout: Layout) -> tuple[np.ndarray, Layout]:
+    """The joints of :data:`~turn_datasets.skeleton.JOINT_PAIRS` that ``layout`` has, as a
+    contiguous ``(frames, joints, 3)`` copy, and the layout that names them."""
+    names = [n for pair in JOINT_PAIRS.values() for n in pair if n in layout.joints]
+    sub = Layout(f"{layout.name}-pairs", len(names), {n: i for i, n in enumerate(names)})
+    return positions[:, [layout.index(n) for n in names]], sub
+
+
 class MinerRule:
     """The built-in :class:`~turn_eval.detect.protocol.TurnDetector` (module docstring)."""
 
@@ -162,17 +170,25 @@ class MinerRule:
             size_change=prm.identity_size_change,
             size_tolerance=prm.identity_size_tolerance,
         )
-        parts = []
+        # The rule from here on reads only the paired joints (hips, knees, shoulders): one
+        # gather into a compact array makes every later pass (swap repair's copy, frontal
+        # vectors) walk 6 joints' memory instead of the whole skeleton's; same numbers.
+        pairs, pair_layout = _paired_joints(p, layout)
+        # the pieces' clips gathered as columns (one frame of all of them, not one per piece)
+        cols: dict[str, list[np.ndarray]] = {"start": [], "end": [], "angle": [], "dir": []}
+        observed = []
         for a, b in pieces:
-            found = self._mine_piece(p[a:b], fps_hz, layout)
+            found = self._mine_piece(pairs[a:b], fps_hz, pair_layout)
             if len(found):
-                found[["start_frame", "end_frame"]] += a
-                parts.append(found)
-        if not parts:
+                cols["start"].append(found["start_frame"].to_numpy() + a)
+                cols["end"].append(found["end_frame"].to_numpy() + a)
+                cols["angle"].append(found["angle_deg"].to_numpy())
+                cols["dir"].append(found["direction"].to_numpy())
+                observed.append(found["observed"].to_numpy())
+        if not observed:
             return empty_turns()
-        clips = pd.concat(parts, ignore_index=True)
-        start, end = split_overlaps(clips["start_frame"].to_numpy(), clips["end_frame"].to_numpy())
-        angle = clips["angle_deg"].to_numpy()
+        start, end = split_overlaps(np.concatenate(cols["start"]), np.concatenate(cols["end"]))
+        angle = np.concatenate(cols["angle"])
         duration = (end - start) / fps_hz
         min_deg = prm.miner.min_turn_deg
         table = pd.DataFrame(
@@ -180,9 +196,9 @@ class MinerRule:
                 "start_s": start / fps_hz,
                 "end_s": end / fps_hz,
                 "angle_deg": angle,
-                "direction": clips["direction"].to_numpy(),
+                "direction": np.concatenate(cols["dir"]),
                 "speed_deg_s": angular_speed_deg_s(angle, duration),
-                "score": clips["observed"].to_numpy() * angle / (angle + min_deg),
+                "score": np.concatenate(observed) * angle / (angle + min_deg),
             }
         )
         return typed_frame(table, TURN_DTYPES)
