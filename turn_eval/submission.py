@@ -228,10 +228,14 @@ def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.nd
         if not body:
             return header_text, 1, np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), ""
         data = np.frombuffer(body.encode("utf-8"), dtype=np.uint8)
-        ends = np.append(np.flatnonzero(data == 10), data.size)
-        fields = np.diff(np.searchsorted(np.flatnonzero(data == ord(delimiter)), ends), prepend=0)
-        lines = np.arange(2, 2 + ends.size, dtype=np.int64)
-        return header_text, 1, lines, fields + 1, body
+        # One scan for both marks: a line's delimiters are the marks between its newline
+        # and the previous one (the body ends without a newline: its last line ends there).
+        newline = data == 10
+        marks = np.flatnonzero(newline | (data == ord(delimiter)))
+        stops = np.append(np.flatnonzero(newline[marks]), marks.size)
+        fields = np.diff(stops, prepend=-1)
+        lines = np.arange(2, 2 + stops.size, dtype=np.int64)
+        return header_text, 1, lines, fields, body
     # Variable-width strings: one long line must not widen every other one in memory.
     split = text.split("\n")
     all_lines = text_array(split)

@@ -22,6 +22,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -274,6 +275,24 @@ def _keep_attrs(out: pd.DataFrame, source: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
+class _SharedLines(np.ndarray):
+    """Row line numbers as a frame's ``attrs["lines"]``, shared rather than copied.
+
+    pandas deep-copies a frame's ``attrs`` into nearly every result (each column taken, each
+    ``loc``), which for a 100,000-row file copied this array over a hundred times per run.
+    It is read-only, so every copy may be the array itself.
+    """
+
+    def __deepcopy__(self, memo: dict[int, Any] | None = None) -> _SharedLines:
+        return self
+
+
+def _shared_lines(lines: np.ndarray) -> _SharedLines:
+    out = np.array(lines, dtype=np.int64).view(_SharedLines)
+    out.flags.writeable = False
+    return out
+
+
 def _frame_of(
     table: _Table, numeric: Sequence[str], allow_empty: Sequence[str] = ()
 ) -> pd.DataFrame:
@@ -290,7 +309,7 @@ def _frame_of(
             data[col] = pd.Series(table.columns[col], dtype=object)
     frame = pd.DataFrame(data)
     frame.attrs["path"] = table.path
-    frame.attrs["lines"] = table.lines
+    frame.attrs["lines"] = _shared_lines(table.lines)
     # The reader strips every cell and has no missing text (an empty cell is "").
     frame.attrs["stripped"] = True
     return frame
@@ -513,5 +532,5 @@ def drop_unknown(
     keep = ~unknown
     out = detections.loc[keep].reset_index(drop=True)
     out.attrs = dict(detections.attrs)
-    out.attrs["lines"] = _lines_of(detections)[keep]
+    out.attrs["lines"] = _shared_lines(_lines_of(detections)[keep])
     return out, codes[keep], count

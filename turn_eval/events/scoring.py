@@ -145,20 +145,37 @@ def _load(value: Frame | None, reader, checker):
     return reader(value)
 
 
-def _has_text(column: pd.Series) -> bool:
+#: Factorisations of the reference's text columns (codes, distinct values), by column: each
+#: column is factorised once for choosing the groupings and for grouping the events.
+_Factorized = dict[str, tuple[np.ndarray, np.ndarray]]
+
+
+def _factorize(
+    reference: pd.DataFrame, col: str, cache: _Factorized
+) -> tuple[np.ndarray, np.ndarray]:
+    """``pandas.factorize`` of a reference text column, computed once per ``cache``."""
+    if col not in cache:
+        cache[col] = pd.factorize(reference[col].to_numpy(dtype=object))
+    return cache[col]
+
+
+def _has_text(reference: pd.DataFrame, col: str, cache: _Factorized) -> bool:
     """Whether a text column has a non-empty cell (through its distinct values: an
     element-wise comparison of object cells costs far more)."""
-    return any(v != "" for v in pd.unique(column.to_numpy(dtype=object)))
+    return any(v != "" for v in _factorize(reference, col, cache)[1])
 
 
-def _groupings(reference: pd.DataFrame, by: Sequence[str] | None) -> list[str]:
+def _groupings(
+    reference: pd.DataFrame, by: Sequence[str] | None, cache: _Factorized | None = None
+) -> list[str]:
     text_cols = [
         c
         for c in reference.columns
         if c not in ("session", "start_s", "end_s", "angle_deg", "direction")
     ]
     if not by:
-        return [c for c in DEFAULT_BY if c in text_cols and _has_text(reference[c])]
+        cache = {} if cache is None else cache
+        return [c for c in DEFAULT_BY if c in text_cols and _has_text(reference, c, cache)]
     out: list[str] = []
     for name in by:
         col = name.strip().lower()
@@ -226,9 +243,14 @@ def _unit_codes(
     return np.where(per_unit >= 0, per_unit, from_subject)
 
 
-def _named(values: np.ndarray, empty: str) -> tuple[np.ndarray, list[str]]:
-    """Codes and names of text values (a factorisation), ``empty`` naming the empty text."""
-    codes, uniq = pd.factorize(np.asarray(values, dtype=object))
+def _named(
+    values: np.ndarray, empty: str, factorized: tuple[np.ndarray, np.ndarray] | None = None
+) -> tuple[np.ndarray, list[str]]:
+    """Codes and names of text values (a factorisation, or ``factorized`` when already
+    made), ``empty`` naming the empty text."""
+    codes, uniq = (
+        pd.factorize(np.asarray(values, dtype=object)) if factorized is None else factorized
+    )
     return codes, [empty if u == "" else str(u) for u in uniq]
 
 
@@ -257,12 +279,14 @@ def _event_groups(
     units: Units,
     context: pd.DataFrame | None,
     groupings: Sequence[str],
+    cache: _Factorized | None = None,
 ) -> list[Partition]:
     """Each event's group per grouping, as partitions of the events (module docstring).
 
-    Works on codes, not labels: the reference column is factorised once and the false
-    detections' few values on their own.
+    Works on codes, not labels: the reference column is factorised once (``cache`` holds
+    the factorisations already made) and the false detections' few values on their own.
     """
+    cache = {} if cache is None else cache
     ref_row = events["ref_row"].to_numpy()
     det_row = events["det_row"].to_numpy()
     is_fp = ref_row < 0
@@ -277,11 +301,13 @@ def _event_groups(
     ctx = None
     if context is not None:
         ctx = _context_at(context, units.sessions[fp_unit], units.subjects[fp_unit], (ds + de) / 2)
-    subject, subjects = pd.factorize(reference["subject"].to_numpy(dtype=object))
+    subject, subjects = _factorize(reference, "subject", cache)
     unit_subject = pd.Index(subjects).get_indexer(units.subjects)
     out: list[Partition] = []
     for col in groupings:
-        ref_codes, ref_names = _named(reference[col].to_numpy(dtype=object), BLANK_GROUP)
+        ref_codes, ref_names = _named(
+            reference[col].to_numpy(dtype=object), BLANK_GROUP, _factorize(reference, col, cache)
+        )
         if col in CONTEXT_GROUPS:
             fp_values = ctx[col] if ctx is not None else np.full(fp_det.shape[0], "", dtype=object)
             fp_codes, fp_names = _named(fp_values, UNKNOWN_GROUP)
@@ -606,13 +632,14 @@ def score_events(
     ref = _load(reference, read_event_reference, check_event_reference)
     ctx = _load(context, read_context, check_context)
     ses = _load(sessions, read_sessions, check_sessions)
-    groupings = _groupings(ref, by)
+    factorized: _Factorized = {}
+    groupings = _groupings(ref, by, factorized)
     units, ref_unit = units_of(ref, ses)
     det, det_unit, n_dropped = drop_unknown(det, units, ignore_unknown=ignore_unknown, warn=warn)
 
     overlaps = overlapping_pairs(det, det_unit, ref, ref_unit)
     events = categorize_events(det, det_unit, ref, ref_unit, iou=iou, overlaps=overlaps)
-    grouped = _event_groups(events, ref, ref_unit, det, units, ctx, groupings)
+    grouped = _event_groups(events, ref, ref_unit, det, units, ctx, groupings, factorized)
     tp, outcomes, agree, dstart, dend = _matched_block(events, det, ref, bin_width_deg)
     components = _event_components(events, tp, outcomes)
     unit = events["unit"].to_numpy(dtype=np.int64)
