@@ -9,10 +9,10 @@ import numpy as np
 import pandas as pd
 import pytest
 from scipy import signal
-from scipy.optimize import linear_sum_assignment
 
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.geometry import turning_angle
+from turn_datasets.h36m.evaluation import match_turns
 from turn_datasets.h36m.miner import (
     CLIP_INDEX_DTYPES,
     MinerParams,
@@ -297,26 +297,6 @@ def test_fast_filters_equal_scipys() -> None:
 
 
 # --- measured on a synthetic corpus -----------------------------------------------------
-
-
-def match_turns(planted: pd.DataFrame, mined: pd.DataFrame) -> list[tuple[int, int]]:
-    """One-to-one planted/mined pairs of the same direction maximising total frame overlap.
-
-    Solved with scipy's Hungarian algorithm on the overlap matrix; only overlapping pairs
-    are kept.
-    """
-    if planted.empty or mined.empty:
-        return []
-    ps, pe = planted["start_frame"].to_numpy()[:, None], planted["end_frame"].to_numpy()[:, None]
-    ms, me = mined["start_frame"].to_numpy()[None, :], mined["end_frame"].to_numpy()[None, :]
-    overlap = np.clip(np.minimum(pe, me) - np.maximum(ps, ms), 0, None)
-    same_way = (
-        np.sign(planted["angle_deg"].to_numpy())[:, None]
-        == np.sign(mined["net_deg"].to_numpy())[None, :]
-    )
-    overlap = np.where(same_way, overlap, 0)
-    rows, cols = linear_sum_assignment(-overlap)
-    return [(int(r), int(c)) for r, c in zip(rows, cols, strict=True) if overlap[r, c] > 0]
 
 
 def corpus_scores(seeds, *, min_planted_deg: float = 60.0) -> dict:
