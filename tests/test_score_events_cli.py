@@ -94,7 +94,7 @@ def test_out_dir_is_written_whole_and_identically(capsys, files, tmp_path):
         (DET.replace("30,31", "1,3"), "det.csv:4: detections on lines 2 and 4 overlap"),
         (DET.replace("s2,P2,0.5", "s3,P2,0.5"), "det.csv:5: session 's3', subject 'P2' is not"),
         (DET.replace("30,31,90", "30,31,nan"), "det.csv:4: angle_deg is NaN"),
-        (DET.replace(",angle_deg", ",angle"), "det.csv:1: the detections lacks column"),
+        (DET.replace(",angle_deg", ",angle"), "det.csv:1: the detections file lacks column"),
     ],
 )
 def test_bad_input_is_one_line_naming_file_and_line(capsys, tmp_path, files, det_text, message):

@@ -319,7 +319,7 @@ def read_detections(path: str | os.PathLike[str]) -> pd.DataFrame:
     """Read and validate a detections CSV (:func:`check_detections`); other columns ignored."""
     numeric = ("start_s", "end_s", "angle_deg", "speed_deg_s", "score")
     table = _read_table(path, what="detections", numeric_columns=numeric)
-    _require(table, list(DETECTION_REQUIRED), what="the detections")
+    _require(table, list(DETECTION_REQUIRED), what="the detections file")
     frame = _frame_of(table, numeric, allow_empty=("speed_deg_s",))
     return check_detections(frame, what=table.path)
 
