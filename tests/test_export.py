@@ -223,7 +223,9 @@ def test_bad_index_rows(tmp_path: Path, videos: Path, rows, message: str, row: i
 def test_index_without_the_columns(tmp_path: Path, videos: Path) -> None:
     index = tmp_path / "index.csv"
     index.write_text("clip_id,angle_deg\na,90\n", encoding="utf-8")
-    with pytest.raises(export.TurnbenchError, match="lacks columns subject, action"):
+    with pytest.raises(
+        export.TurnbenchError, match="the clip index lacks columns 'subject', 'action'"
+    ):
         export.export_clips(index, videos, tmp_path / "o")
     with pytest.raises(export.TurnbenchError, match="no such file"):
         export.export_clips(tmp_path / "nope.csv", videos, tmp_path / "o")

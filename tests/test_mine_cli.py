@@ -261,7 +261,11 @@ def test_bad_override_rows_name_file_and_line(corpus, tmp_path, capsys, body, li
 def test_override_header_and_adjust_outside_the_sequence(corpus, tmp_path, capsys) -> None:
     bad_header = _write(tmp_path / "h.csv", "clip_id,decision\nx,keep\n")
     code, _, stderr = _mine(corpus, tmp_path / "i.csv", capsys, "--overrides", bad_header)
-    assert code == EXIT_BAD_INPUT and f"{bad_header}:1: the header lacks start_frame" in stderr
+    assert (
+        code == EXIT_BAD_INPUT
+        and (f"{bad_header}:1: the overrides file lacks columns 'start_frame', 'end_frame', 'note'")
+        in stderr
+    )
     plain = tmp_path / "plain.csv"
     _mine(corpus, plain, capsys)
     first = pd.read_csv(plain)["clip_id"][0]
@@ -606,7 +610,10 @@ def test_stats_refuses_a_bad_index(tmp_path, capsys) -> None:
         assert stderr.strip().startswith(f"turn-datasets: error: {bad}:{line}: {message}")
     not_index = _write(tmp_path / "other.csv", "a,b\n1,2\n")
     code, _, stderr = run(["h36m", "stats", not_index], capsys)
-    assert code == EXIT_BAD_INPUT and "not a clip index" in stderr
+    assert (
+        code == EXIT_BAD_INPUT
+        and f"{not_index}:1: the clip index lacks columns 'subject', 'action'" in stderr
+    )
 
 
 def test_stats_on_the_mined_index(corpus, tmp_path, capsys) -> None:

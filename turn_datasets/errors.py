@@ -8,10 +8,11 @@ exit code 3. Anything else is a bug and keeps its traceback.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from os import PathLike
 
-__all__ = ["TurnbenchError", "GateFailed", "Where"]
+__all__ = ["TurnbenchError", "GateFailed", "Where", "require_columns"]
 
 
 @dataclass(frozen=True)
@@ -77,6 +78,47 @@ class TurnbenchError(Exception):
         if self.hint:
             text += f" (hint: {self.hint})"
         return text
+
+
+def require_columns(
+    have: Iterable[object],
+    required: Sequence[str],
+    *,
+    what: str,
+    file: str | PathLike[str] | None = None,
+    row: int | None = 1,
+    note: str = "",
+) -> None:
+    """Raise the one "lacks columns" error of every table turnbench reads.
+
+    Parameters
+    ----------
+    have
+        The table's column names (its header), in order.
+    required
+        The columns it must have.
+    what
+        The table, as the message names it ("the detections file").
+    file, row
+        Where the header is (row 1 unless a preamble precedes it).
+    note
+        Appended to the message, e.g. how names were matched.
+
+    Raises
+    ------
+    TurnbenchError
+        ``<what> lacks column(s) 'a', 'b'; its header has 'x', 'y'<note>``, when any is absent.
+    """
+    header = [str(c) for c in have]
+    missing = [c for c in required if c not in header]
+    if missing:
+        raise TurnbenchError(
+            f"{what} lacks column{'s' if len(missing) > 1 else ''} "
+            f"{', '.join(repr(c) for c in missing)}; its header has "
+            f"{', '.join(repr(c) for c in header)}{note}",
+            file=file,
+            row=row,
+        )
 
 
 class GateFailed(Exception):

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from turn_datasets.errors import TurnbenchError
+from turn_datasets.errors import TurnbenchError, require_columns
 from turn_datasets.fileio import typed_frame
 from turn_datasets.geometry import quantise_deg
 from turn_datasets.limits import MAX_ANGLE_DEG, MAX_SPEED_DEG_S
@@ -353,15 +353,14 @@ def _read_table(
 
 
 def _require(table: _Table, required: Sequence[str], *, what: str) -> None:
-    missing = [c for c in required if c not in table.header]
-    if missing:
-        raise TurnbenchError(
-            f"{what} lacks column{'s' if len(missing) > 1 else ''} "
-            f"{', '.join(repr(c) for c in missing)}; its header has "
-            f"{', '.join(repr(c) for c in table.header)} (matched ignoring case and spaces)",
-            file=table.path,
-            row=table.header_line,
-        )
+    require_columns(
+        table.header,
+        required,
+        what=what,
+        file=table.path,
+        row=table.header_line,
+        note=" (matched ignoring case and spaces)",
+    )
 
 
 def _first_and_count(table: _Table, bad: np.ndarray) -> tuple[int, int, int]:

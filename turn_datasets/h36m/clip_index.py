@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from turn_datasets.errors import TurnbenchError
+from turn_datasets.errors import TurnbenchError, require_columns
 from turn_datasets.geometry import quantise_deg
 from turn_datasets.limits import MAX_ANGLE_DEG
 from turn_datasets.mocap.h36m import parse_h36m_action
@@ -33,11 +33,7 @@ def _read(p: Path, columns: Sequence[str]) -> pd.DataFrame:
         frame = pd.read_csv(p, dtype=str, keep_default_na=False, encoding="utf-8")
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         raise TurnbenchError(f"cannot read the clip index: {exc}", file=p) from None
-    missing = [c for c in columns if c not in frame.columns]
-    if missing:
-        raise TurnbenchError(
-            f"not a clip index: it lacks columns {', '.join(missing)}", file=p, row=1
-        )
+    require_columns(frame.columns, columns, what="the clip index", file=p)
     return frame
 
 

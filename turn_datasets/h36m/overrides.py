@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from turn_datasets.errors import TurnbenchError
+from turn_datasets.errors import TurnbenchError, require_columns
 from turn_datasets.fileio import sha256_file
 from turn_datasets.h36m.miner import MinerParams, SequenceClips, clip_id_of, measure_clip
 from turn_datasets.skeleton import MocapSequence
@@ -137,13 +137,7 @@ def read_overrides(path: str | os.PathLike[str]) -> Overrides:
             file=p,
             row=1,
         ) from None
-    missing = [c for c in OVERRIDE_COLUMNS if c not in header]
-    if missing:
-        raise TurnbenchError(
-            f"the header lacks {', '.join(missing)}; expected {','.join(OVERRIDE_COLUMNS)}",
-            file=p,
-            row=1,
-        )
+    require_columns(header, OVERRIDE_COLUMNS, what="the overrides file", file=p)
     col = {c: header.index(c) for c in OVERRIDE_COLUMNS}
     out = Overrides(path=name, sha256=sha256_file(p))
     try:

@@ -15,7 +15,7 @@ from typing import Any
 
 import pandas as pd
 
-from turn_datasets.errors import TurnbenchError
+from turn_datasets.errors import TurnbenchError, require_columns
 from turn_datasets.fileio import typed_frame
 
 __all__ = [
@@ -92,14 +92,7 @@ def read_participants(path: str | PathLike[str]) -> pd.DataFrame:
             raise TurnbenchError("participants table is empty", file=file, row=1) from None
         except (csv.Error, UnicodeDecodeError) as exc:
             raise TurnbenchError(f"not a readable CSV: {exc}", file=file, row=1) from None
-        missing = [c for c in PARTICIPANT_COLUMNS if c not in header]
-        if missing:
-            raise TurnbenchError(
-                f"participants table lacks column(s) {', '.join(missing)}",
-                file=file,
-                row=1,
-                hint=f"header: {', '.join(PARTICIPANT_COLUMNS)}",
-            )
+        require_columns(header, PARTICIPANT_COLUMNS, what="the participants table", file=file)
         col = {c: header.index(c) for c in PARTICIPANT_COLUMNS}
         seen: dict[str, int] = {}
         try:

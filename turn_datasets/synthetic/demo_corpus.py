@@ -55,7 +55,7 @@ from typing import Protocol
 import numpy as np
 import pandas as pd
 
-from turn_datasets.errors import TurnbenchError
+from turn_datasets.errors import TurnbenchError, require_columns
 from turn_datasets.fileio import atomic_path, typed_frame, write_csv
 from turn_datasets.geometry import direction_of, quantise_deg
 from turn_datasets.mocap.readers import discover, read_source
@@ -416,9 +416,7 @@ def write_h36m_estimates(
         table = pd.read_csv(index, dtype={"subaction": str}, keep_default_na=False)
         where = str(index)
     need = ("clip_id", "subject", "action", "subaction", "start_frame", "end_frame")
-    missing = [c for c in need if c not in table.columns]
-    if missing:
-        raise TurnbenchError(f"the clip index lacks columns {missing}", file=where)
+    require_columns(table.columns, need, what="the clip index", file=where)
     table = table.assign(subaction=table["subaction"].fillna("").astype(str))
     wanted = {(r.subject, r.action, r.subaction) for r in table.itertuples(index=False)}
     arrays: dict[str, np.ndarray] = {}

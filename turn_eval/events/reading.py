@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from turn_datasets.errors import TurnbenchError
+from turn_datasets.errors import TurnbenchError, require_columns
 from turn_datasets.strings import stripped_objects
 from turn_eval.events.contract import (
     CLIP_INDEX_SESSION,
@@ -222,15 +222,7 @@ def _check_direction(frame: pd.DataFrame, what: str) -> None:
 
 
 def _missing(frame: pd.DataFrame, required: Sequence[str], what: str) -> None:
-    missing = [c for c in required if c not in frame.columns]
-    if missing:
-        raise TurnbenchError(
-            f"{what} lacks column{'s' if len(missing) > 1 else ''} "
-            f"{', '.join(repr(c) for c in missing)}; it has "
-            f"{', '.join(repr(str(c)) for c in frame.columns)}",
-            file=_path_of(frame, what),
-            row=1,
-        )
+    require_columns(frame.columns, required, what=what, file=_path_of(frame, what))
 
 
 def check_detections(frame: pd.DataFrame, *, what: str = "detections") -> pd.DataFrame:
