@@ -8,7 +8,7 @@ exit code 3. Anything else is a bug and keeps its traceback.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 from dataclasses import dataclass
 from os import PathLike
 
@@ -82,7 +82,7 @@ class TurnbenchError(Exception):
 
 def require_columns(
     have: Iterable[object],
-    required: Sequence[str],
+    required: Iterable[str],
     *,
     what: str,
     file: str | PathLike[str] | None = None,

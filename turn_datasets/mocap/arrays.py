@@ -15,7 +15,13 @@ import h5py
 import numpy as np
 
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.mocap.checks import CORRUPT, OnBadSequence, checked_positions
+from turn_datasets.mocap.checks import (
+    OnBadSequence,
+    check_joint_count,
+    checked_positions,
+    skip_bad,
+    unreadable,
+)
 from turn_datasets.skeleton import (
     UP_AXES,
     Layout,
@@ -78,23 +84,14 @@ def read_arrays(
             f"unknown units {units!r}; choose one of {', '.join(UNITS)}", file=path
         )
     single = path.suffix.lower() == ".npy"
-    for key, array in iter_arrays(path, on_bad_array=on_bad):
-        item = None if single else key
-        try:
-            if array.shape[1] != lay.n_joints:
-                raise TurnbenchError(
-                    f"array has {array.shape[1]} joints but layout {lay.name!r} has "
-                    f"{lay.n_joints} (shape {tuple(array.shape)})",
-                    file=path,
-                    item=item,
-                )
-            positions = to_z_up(np.asarray(array, dtype=np.float64), up_axis)
-            positions = checked_positions(positions, lay, path=path, item=item)
-        except TurnbenchError as exc:
-            if on_bad is None or single:
-                raise
-            on_bad(exc)
-            continue
+
+    def z_up(named: tuple[str, np.ndarray]) -> tuple[str, np.ndarray]:
+        key, array = named
+        positions = to_z_up(np.asarray(array, dtype=np.float64), up_axis)
+        return key, checked_positions(positions, lay, path=path, item=None if single else key)
+
+    arrays = iter_arrays(path, layout=lay, on_bad_array=on_bad)
+    for key, positions in skip_bad(arrays, z_up, None if single else on_bad):
         yield MocapSequence(
             subject=path.absolute().parent.name,
             action=path.stem if single else f"{path.stem}.{key.replace('/', '.')}",
@@ -111,7 +108,7 @@ def read_arrays(
 ARRAY_SUFFIXES = (".npy", ".npz", ".h5", ".hdf5")
 
 
-def _check_tj3(array: np.ndarray, *, path: Path, key: str) -> np.ndarray:
+def _checked(array: np.ndarray, layout: Layout | None, *, path: Path, key: str) -> np.ndarray:
     if array.ndim != 3 or array.shape[2] != 3 or array.shape[0] < 1 or array.shape[1] < 1:
         raise TurnbenchError(
             f"array has shape {tuple(array.shape)}, expected (frames, joints, 3)",
@@ -122,7 +119,7 @@ def _check_tj3(array: np.ndarray, *, path: Path, key: str) -> np.ndarray:
         raise TurnbenchError(
             f"array has dtype {array.dtype}, expected numbers", file=path, item=key
         )
-    return array
+    return array if layout is None else check_joint_count(array, layout, path=path, item=key)
 
 
 def _h5_dataset_names(group: h5py.Group) -> list[str]:
@@ -157,16 +154,15 @@ def _check_numpy_container(path: Path, suffix: str) -> None:
 
 def _np_load(p: Path, suffix: str):
     """``np.load`` without pickles; a file it cannot read is a :class:`TurnbenchError`."""
-    try:
+    with unreadable(suffix, p):
         return np.load(p, allow_pickle=False)
-    except CORRUPT as exc:
-        raise TurnbenchError(
-            f"cannot read {suffix} (truncated or corrupt?): {exc}", file=p
-        ) from None
 
 
 def iter_arrays(
-    path: str | os.PathLike[str], *, on_bad_array: OnBadSequence | None = None
+    path: str | os.PathLike[str],
+    *,
+    layout: Layout | None = None,
+    on_bad_array: OnBadSequence | None = None,
 ) -> Iterator[tuple[str, np.ndarray]]:
     """Yield ``(name, array)`` for each ``(frames, joints, 3)`` array in a generic array file.
 
@@ -176,6 +172,8 @@ def iter_arrays(
         ``.npy`` -> one ``(file stem, array)``; ``.npz`` -> one ``(key, array)`` per array, in
         the archive's sorted key order, loaded without pickles; ``.h5``/``.hdf5`` -> one
         ``(dataset path, array)`` per dataset, nested groups walked, sorted by path.
+    layout
+        When given, an array with another number of joints is bad as well.
     on_bad_array
         ``.npz``/``.h5``: when given, an array that cannot be read or is not
         ``(frames, joints, 3)`` is passed to it (a :class:`TurnbenchError` naming the file and
@@ -204,58 +202,32 @@ def iter_arrays(
         raise TurnbenchError("no such file", file=p)
     _check_numpy_container(p, suffix)
     if suffix == ".npy":
-        yield p.stem, _check_tj3(_np_load(p, suffix), path=p, key=p.stem)
+        yield p.stem, _checked(_np_load(p, suffix), layout, path=p, key=p.stem)
         return
     if suffix == ".npz":
         with _np_load(p, suffix) as archive:
             keys = sorted(archive.files)
             if not keys:
                 raise TurnbenchError("the .npz archive holds no array", file=p)
-            for key in keys:
-                try:
-                    try:
-                        array = archive[key]
-                    except CORRUPT as exc:
-                        raise TurnbenchError(
-                            f"cannot read this array (pickled, truncated or corrupt?): {exc}",
-                            file=p,
-                            item=key,
-                        ) from None
-                    array = _check_tj3(array, path=p, key=key)
-                except TurnbenchError as exc:
-                    if on_bad_array is None:
-                        raise
-                    on_bad_array(exc)
-                    continue
-                yield key, array
+
+            def member(key: str) -> tuple[str, np.ndarray]:
+                with unreadable("this array", p, item=key, guess="pickled, truncated or corrupt?"):
+                    array = archive[key]
+                return key, _checked(array, layout, path=p, key=key)
+
+            yield from skip_bad(keys, member, on_bad_array)
         return
-    try:
+    with unreadable("HDF5", p):
         fh = h5py.File(p, "r")
-    except CORRUPT as exc:
-        raise TurnbenchError(f"cannot read HDF5 (truncated or corrupt?): {exc}", file=p) from None
     with fh:
-        try:
+        with unreadable("the list of datasets", p):
             names = _h5_dataset_names(fh)
-        except CORRUPT as exc:
-            raise TurnbenchError(
-                f"cannot list the datasets (truncated or corrupt?): {exc}", file=p
-            ) from None
         if not names:
             raise TurnbenchError("the HDF5 file holds no dataset", file=p)
-        for name in names:
-            try:
-                try:
-                    array = fh[name][()]
-                except CORRUPT as exc:
-                    raise TurnbenchError(
-                        f"cannot read this dataset (truncated or corrupt?): {exc}",
-                        file=p,
-                        item=name,
-                    ) from None
-                array = _check_tj3(np.asarray(array), path=p, key=name)
-            except TurnbenchError as exc:
-                if on_bad_array is None:
-                    raise
-                on_bad_array(exc)
-                continue
-            yield name, array
+
+        def dataset(name: str) -> tuple[str, np.ndarray]:
+            with unreadable("this dataset", p, item=name):
+                array = np.asarray(fh[name][()])
+            return name, _checked(array, layout, path=p, key=name)
+
+        yield from skip_bad(names, dataset, on_bad_array)

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import TypeVar
 
 import numpy as np
 
@@ -16,8 +18,14 @@ from turn_datasets.skeleton import (
 __all__ = [
     "OnBadSequence",
     "CORRUPT",
+    "check_joint_count",
     "checked_positions",
+    "skip_bad",
+    "unreadable",
 ]
+
+T = TypeVar("T")
+U = TypeVar("U")
 
 
 # What a library may raise when it parses a truncated or corrupt file. Truncating and
@@ -30,9 +38,62 @@ __all__ = [
 CORRUPT = (Exception,)
 
 
+@contextmanager
+def unreadable(
+    what: str,
+    path: Path,
+    *,
+    item: str | None = None,
+    guess: str = "truncated or corrupt?",
+) -> Iterator[None]:
+    """Report anything the library call inside raises (:data:`CORRUPT`) as one error.
+
+    Wrap the library call alone: the message is ``cannot read <what> (<guess>): <exc>``,
+    naming ``path`` and ``item``.
+    """
+    try:
+        yield
+    except CORRUPT as exc:
+        raise TurnbenchError(f"cannot read {what} ({guess}): {exc}", file=path, item=item) from None
+
+
+def check_joint_count(
+    array: np.ndarray, layout: Layout, *, path: Path, item: str | None
+) -> np.ndarray:
+    """``array`` (frames, joints, 3) if its joints are ``layout``'s, else a TurnbenchError."""
+    if array.shape[1] != layout.n_joints:
+        raise TurnbenchError(
+            f"array has {array.shape[1]} joints but layout {layout.name!r} has "
+            f"{layout.n_joints} (shape {tuple(array.shape)})",
+            file=path,
+            item=item,
+            hint="choose the layout with --layout",
+        )
+    return array
+
+
 #: Called with the error of one unusable sequence of a multi-sequence file (see
 #: :func:`read_source`'s ``on_bad_sequence``).
 OnBadSequence = Callable[[TurnbenchError], None]
+
+
+def skip_bad(
+    items: Iterable[T], check: Callable[[T], U], on_bad: OnBadSequence | None
+) -> Iterator[U]:
+    """``check(item)`` of each item; an item it refuses goes to ``on_bad``, or is raised.
+
+    The one policy of a multi-sequence file: with ``on_bad`` given, a bad sequence is
+    reported to it and the others are still read; without, the first bad one is the error.
+    """
+    for item in items:
+        try:
+            out = check(item)
+        except TurnbenchError as exc:
+            if on_bad is None:
+                raise
+            on_bad(exc)
+            continue
+        yield out
 
 
 def checked_positions(

@@ -37,7 +37,13 @@ import h5py
 import numpy as np
 
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.mocap.checks import CORRUPT, OnBadSequence, checked_positions
+from turn_datasets.mocap.checks import (
+    CORRUPT,
+    OnBadSequence,
+    checked_positions,
+    skip_bad,
+    unreadable,
+)
 from turn_datasets.render.order import natural_key
 from turn_datasets.skeleton import (
     H36M17,
@@ -200,13 +206,8 @@ def read_h36m_cdf(path: Path) -> Iterator[MocapSequence]:
     # subject and action first: a file outside the release's layout is refused unread
     subject = h36m_subject_of(path)
     action = _action_of(path.stem, path)
-    try:
+    with unreadable(f"variable {H36M_CDF_VARIABLE!r}", path, guess="truncated or corrupt CDF?"):
         pose = np.asarray(cdflib.CDF(path).varget(H36M_CDF_VARIABLE))
-    except CORRUPT as exc:
-        raise TurnbenchError(
-            f"cannot read variable {H36M_CDF_VARIABLE!r} (truncated or corrupt CDF?): {exc}",
-            file=path,
-        ) from None
     if pose.ndim == 3 and pose.shape[0] == 1:
         pose = pose[0]
     if pose.ndim != 2 or pose.shape[1] != 96:
@@ -221,17 +222,12 @@ def read_h36m_h5(path: Path) -> Iterator[MocapSequence]:
     subject = h36m_subject_of(path)
     action = _action_of(path.stem, path)
     stored, names = None, []
-    try:
-        with h5py.File(path, "r") as fh:
-            dset = fh.get(H36M_H5_DATASET)
-            if isinstance(dset, h5py.Dataset):
-                stored = np.asarray(dset[()])
-            else:
-                names = sorted(fh)
-    except CORRUPT as exc:
-        raise TurnbenchError(
-            f"cannot read HDF5 (truncated or corrupt?): {exc}", file=path
-        ) from None
+    with unreadable("HDF5", path), h5py.File(path, "r") as fh:
+        dset = fh.get(H36M_H5_DATASET)
+        if isinstance(dset, h5py.Dataset):
+            stored = np.asarray(dset[()])
+        else:
+            names = sorted(fh)
     if stored is None:
         raise TurnbenchError(f"no dataset {H36M_H5_DATASET!r} (datasets: {names})", file=path)
     if stored.ndim != 2 or stored.shape[0] != 96:
@@ -335,28 +331,28 @@ def read_videopose_npz(path: Path, on_bad: OnBadSequence | None) -> Iterator[Moc
         raise TurnbenchError(
             f"{VIDEOPOSE_KEY!r} is not a dict subject -> action -> array", file=path
         )
-    for subject in sorted(data, key=lambda s: natural_key(str(s))):
-        actions = data[subject]
-        for name in sorted(actions, key=lambda a: natural_key(str(a))):
-            item = f"{subject}/{name}"
-            array = np.asarray(actions[name])
-            layout = H36M17 if array.ndim == 3 and array.shape[1] == 17 else H36M32
-            try:
-                action, subaction = _action_of(str(name), path, item)
-                positions = checked_positions(array, layout, path=path, item=item)
-            except TurnbenchError as exc:
-                if on_bad is None:
-                    raise
-                on_bad(exc)
-                continue
-            yield MocapSequence(
-                subject=str(subject),
-                action=action,
-                subaction=subaction,
-                positions=positions,
-                layout=layout,
-                fps=H36M_FPS,
-                units="m",
-                source=str(path),
-                meta={"format": "videopose-npz", "name_on_disk": str(name), "key": item},
-            )
+
+    def sequence(key: tuple[object, object]) -> MocapSequence:
+        subject, name = key
+        item = f"{subject}/{name}"
+        array = np.asarray(data[subject][name])
+        layout = H36M17 if array.ndim == 3 and array.shape[1] == 17 else H36M32
+        action, subaction = _action_of(str(name), path, item)
+        return MocapSequence(
+            subject=str(subject),
+            action=action,
+            subaction=subaction,
+            positions=checked_positions(array, layout, path=path, item=item),
+            layout=layout,
+            fps=H36M_FPS,
+            units="m",
+            source=str(path),
+            meta={"format": "videopose-npz", "name_on_disk": str(name), "key": item},
+        )
+
+    keys = [
+        (subject, name)
+        for subject in sorted(data, key=lambda s: natural_key(str(s)))
+        for name in sorted(data[subject], key=lambda a: natural_key(str(a)))
+    ]
+    yield from skip_bad(keys, sequence, on_bad)

@@ -19,10 +19,10 @@ from turn_datasets.cli.common import (
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, write_csv
 from turn_datasets.geometry import METHODS, parse_joints
+from turn_datasets.mocap.arrays import iter_arrays
 from turn_datasets.skeleton import get_layout
 from turn_eval.cli import cli
 from turn_eval.cli.common import skeleton_source_options
-from turn_eval.detect.streams import iter_layout_arrays
 from turn_eval.estimate.formats import read_estimator_output
 from turn_eval.predict import predict_angles
 
@@ -112,7 +112,7 @@ def predict_command(
         try:
             # any .json (AlphaPose's) goes to the named readers, which say why it is refused
             if source_format == "arrays" and path.suffix.lower() != ".json":
-                arrays = iter_layout_arrays(path, layout)
+                arrays = iter_arrays(path, layout=layout)
                 file_up_axis = up_axis or "z"
             else:
                 spec, named = read_estimator_output(path, source_format)

@@ -20,8 +20,9 @@ Positions may be absolute or root-relative (the pelvis at the origin, as most 2D
 lifters write them); any length unit. They are turned to DESIGN.md's z-up frame here, once,
 with :func:`turn_datasets.skeleton.to_z_up`, so every consumer works on z-up float64.
 
-``turn-eval predict`` reads clips with :func:`iter_layout_arrays` (one array per clip id,
-named as stored); ``turn-eval detect`` reads streams with :func:`read_streams`.
+``turn-eval predict`` reads clips with :func:`turn_datasets.mocap.arrays.iter_arrays` given
+the layout (one array per clip id, named as stored); ``turn-eval detect`` reads streams with
+:func:`read_streams`.
 """
 
 from __future__ import annotations
@@ -42,7 +43,6 @@ from turn_datasets.skeleton import Layout, to_z_up
 __all__ = [
     "STREAM_SUFFIXES",
     "Stream",
-    "iter_layout_arrays",
     "read_streams",
     "stream_files",
     "stream_names",
@@ -130,32 +130,6 @@ def stream_names(path: str | os.PathLike[str], key: str) -> tuple[str, str]:
     return p.stem, key
 
 
-def iter_layout_arrays(
-    path: str | os.PathLike[str], layout: Layout
-) -> Iterator[tuple[str, np.ndarray]]:
-    """``(name, array)`` of each array of a file, refusing one whose joints do not fit ``layout``.
-
-    The arrays are as stored (dtype and axes unchanged), one at a time
-    (:func:`turn_datasets.mocap.arrays.iter_arrays`).
-
-    Raises
-    ------
-    TurnbenchError
-        What ``iter_arrays`` raises, or an array with another joint count, naming the file
-        and the array.
-    """
-    for key, array in iter_arrays(path):
-        if array.shape[1] != layout.n_joints:
-            raise TurnbenchError(
-                f"array has {array.shape[1]} joints but layout {layout.name!r} has "
-                f"{layout.n_joints}",
-                file=path,
-                item=key,
-                hint="choose the layout with --layout",
-            )
-        yield key, array
-
-
 def _named_streams(
     path: str | os.PathLike[str], source_format: str, up_axis: str | None
 ) -> Iterator[tuple[str, str, str, np.ndarray]]:
@@ -213,7 +187,7 @@ def read_streams(
         return
     if up_axis is None:
         raise TurnbenchError("generic arrays need --up-axis (z, y or -y)", file=path)
-    for key, array in iter_layout_arrays(path, layout):
+    for key, array in iter_arrays(path, layout=layout):
         # to_z_up is a fixed rotation: applied to the three unit vectors it gives its matrix,
         # and one float64 matrix product turns the stored (often float32) array and widens
         # it in a single pass over the data
