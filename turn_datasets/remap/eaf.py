@@ -556,22 +556,24 @@ def _file_rows(doc: _Document, schema: Schema) -> tuple[list[dict[str, Any]], Fi
             # without rater and participant beside the tiers a clinician did fill, must not
             # stop the parse (inspect still notes it).
             continue
-        if not r.annotator:
-            raise TurnbenchError(
-                "turn tier names no rater",
-                file=file,
-                tier=r.tier,
-                hint=f"set the tier's {schema.annotator_attribute} attribute in ELAN "
-                "(Tier > Change Tier Attributes)",
-            )
-        if not r.participant:
-            raise TurnbenchError(
-                "turn tier names no participant",
-                file=file,
-                tier=r.tier,
-                hint=f"set the tier's {schema.participant_attribute} attribute in ELAN, or "
-                "turn.default_participant in the schema",
-            )
+        for value, what, hint in (
+            (
+                r.annotator,
+                "rater",
+                f"set the tier's {schema.annotator_attribute} attribute "
+                "in ELAN (Tier > Change Tier Attributes)",
+            ),
+            (
+                r.participant,
+                "participant",
+                f"set the tier's {schema.participant_attribute} "
+                "attribute in ELAN, or turn.default_participant in the schema",
+            ),
+        ):
+            if not value:
+                raise TurnbenchError(
+                    f"turn tier names no {what}", file=file, tier=r.tier, hint=hint
+                )
         key = (r.annotator.casefold(), r.participant)
         if key in seen:
             raise TurnbenchError(
