@@ -17,7 +17,6 @@ from turn_eval.significance import (
     _paired_outcomes,
     compare_predictions,
     mcnemar_exact,
-    paired_bootstrap,
 )
 
 
@@ -71,7 +70,7 @@ def test_paired_differences_are_sklearn_differences_on_scipys_resamples():
     a, b, ref = two_systems(120, sd_a_deg=35.0, sd_b_deg=20.0)
     a[:3] = [5.0, 280.0, 275.0]
     n_resamples = 40
-    # the resampled differences behind paired_bootstrap's intervals and p-values
+    # the resampled differences behind compare_predictions' intervals and p-values
     outcomes = _paired_outcomes(
         a,
         b,
@@ -107,7 +106,7 @@ def test_speed_difference_by_hand():
     ref = np.array([90.0, 180.0, 45.0, 135.0])
     a = ref + 20.0
     b_speed = ref / 2.0 + 4.0
-    result = paired_bootstrap(
+    result = compare_predictions(
         a,
         ref,
         ref,
@@ -115,7 +114,7 @@ def test_speed_difference_by_hand():
         pred_b_speed_deg_s=b_speed,
         n_resamples=50,
         seed=0,
-    )
+    ).differences
     speed = result["mae_speed_deg_s"]
     assert (speed.a, speed.b, speed.diff) == pytest.approx((10.0, 4.0, -6.0))
     # Every clip has the same errors, so every resample has the same difference.
@@ -128,7 +127,7 @@ def test_speed_difference_by_hand():
 def test_accuracy_difference_ci_agrees_with_scipy_paired_percentile():
     a, b, ref = two_systems(300, sd_a_deg=25.0, sd_b_deg=15.0)
     n_resamples = 5000
-    ours = paired_bootstrap(a, b, ref, n_resamples=n_resamples, seed=0)["accuracy"]
+    ours = compare_predictions(a, b, ref, n_resamples=n_resamples, seed=0).differences["accuracy"]
     correct_a = quantise_deg(a) == quantise_deg(ref)
     correct_b = quantise_deg(b) == quantise_deg(ref)
 
@@ -172,7 +171,7 @@ def test_identical_submissions_give_zero_difference_and_p_one():
 def test_clearly_better_b_has_a_ci_excluding_zero():
     a, b, ref = two_systems(200, sd_a_deg=40.0, sd_b_deg=3.0)
     n_resamples = 999
-    result = paired_bootstrap(a, b, ref, n_resamples=n_resamples, seed=0)
+    result = compare_predictions(a, b, ref, n_resamples=n_resamples, seed=0).differences
     assert result["accuracy"].ci_low > 0.0
     assert result["wprec"].ci_low > 0.0
     assert result["mae_deg"].ci_high < 0.0  # lower error: B better
@@ -193,7 +192,7 @@ def test_p_value_of_a_single_discordant_clip_by_hand():
     a[0] = 150.0  # bin 135 != 90: wrong; 60° off
     b[0] = 100.0  # bin 90: right; 10° off
     n_resamples = 4000
-    d = paired_bootstrap(a, b, ref, n_resamples=n_resamples, seed=0)["accuracy"]
+    d = compare_predictions(a, b, ref, n_resamples=n_resamples, seed=0).differences["accuracy"]
     assert d.diff == pytest.approx(0.1)
     by_hand = 1 - 0.9**9
     # Monte Carlo standard error sqrt(0.61 * 0.39 / 4000) = 0.0077; allow four of them.
@@ -204,8 +203,8 @@ def test_p_value_of_a_single_discordant_clip_by_hand():
 
 def test_swapping_a_and_b_negates_the_difference():
     a, b, ref = two_systems(90, sd_a_deg=30.0, sd_b_deg=22.0)
-    ab = paired_bootstrap(a, b, ref, n_resamples=400, seed=2)
-    ba = paired_bootstrap(b, a, ref, n_resamples=400, seed=2)
+    ab = compare_predictions(a, b, ref, n_resamples=400, seed=2).differences
+    ba = compare_predictions(b, a, ref, n_resamples=400, seed=2).differences
     for metric in ab:
         assert ba[metric].diff == pytest.approx(-ab[metric].diff, abs=1e-12)
         assert ba[metric].ci_low == pytest.approx(-ab[metric].ci_high, abs=1e-9)
@@ -246,7 +245,7 @@ def test_signature_and_dict_carry_what_reproduces_the_claim():
 )
 def test_bad_arrays_are_refused(a, b, ref, n_resamples):
     with pytest.raises(TurnbenchError):
-        paired_bootstrap(a, b, ref, n_resamples=n_resamples, seed=0)
+        compare_predictions(a, b, ref, n_resamples=n_resamples, seed=0)
 
 
 def test_difference_intervals_equal_scipy_paired_bootstrap_on_the_same_seed():
@@ -254,7 +253,7 @@ def test_difference_intervals_equal_scipy_paired_bootstrap_on_the_same_seed():
     # intervals of B - A are scipy's percentile intervals up to summation order.
     a, b, ref = two_systems(150, sd_a_deg=30.0, sd_b_deg=20.0, seed=4)
     n_resamples, seed = 300, 5
-    ours = paired_bootstrap(a, b, ref, n_resamples=n_resamples, seed=seed)
+    ours = compare_predictions(a, b, ref, n_resamples=n_resamples, seed=seed).differences
 
     def accuracy(pa, pb, r, axis=-1):
         return np.mean(quantise_deg(pb) == quantise_deg(r), axis=axis) - np.mean(

@@ -69,7 +69,6 @@ __all__ = [
     "PairedDifference",
     "McNemarResult",
     "Comparison",
-    "paired_bootstrap",
     "mcnemar_exact",
     "compare_predictions",
 ]
@@ -228,58 +227,6 @@ def _summarise(
     return result
 
 
-def paired_bootstrap(
-    pred_a_deg,
-    pred_b_deg,
-    ref_deg,
-    *,
-    ref_duration_s=None,
-    pred_a_speed_deg_s=None,
-    pred_b_speed_deg_s=None,
-    n_resamples: int = 1000,
-    seed: int = 0,
-    bin_width_deg: float = 45.0,
-) -> dict[str, PairedDifference]:
-    """Paired bootstrap of the differences B - A in every metric.
-
-    Parameters
-    ----------
-    pred_a_deg, pred_b_deg
-        Predicted angles (degrees) of submissions A and B, one per clip, same clip order.
-    ref_deg
-        Reference angles (degrees) of the same clips.
-    ref_duration_s
-        Reference durations (seconds), for the speed metric (equation 4); None: no speed.
-    pred_a_speed_deg_s, pred_b_speed_deg_s
-        Predicted speeds where the submissions give them (NaN or None: angle over duration).
-    n_resamples
-        Bootstrap resamples (sacrebleu's and this project's default: 1000).
-    seed
-        Seed of ``numpy.random.default_rng`` for the index matrix.
-    bin_width_deg
-        Width of the angle bins (the paper's 45°).
-
-    Returns
-    -------
-    dict
-        Metric name -> :class:`PairedDifference` with A's and B's values on all clips (as
-        ``turn-eval score`` computes them), the observed difference, the mean resampled
-        difference, the 95% percentile interval and the two-sided p-value (module
-        docstring). For the MAEs a negative difference means B is better; for the others a
-        positive one.
-    """
-    outcomes_a, outcomes_b = _paired_outcomes(
-        pred_a_deg,
-        pred_b_deg,
-        ref_deg,
-        ref_duration_s=ref_duration_s,
-        pred_a_speed_deg_s=pred_a_speed_deg_s,
-        pred_b_speed_deg_s=pred_b_speed_deg_s,
-        bin_width_deg=bin_width_deg,
-    )
-    return _summarise(outcomes_a, outcomes_b, n_resamples=n_resamples, seed=seed)
-
-
 def mcnemar_exact(correct_a, correct_b) -> McNemarResult:
     """Exact McNemar test on paired per-clip correctness (``scipy.stats.binomtest``).
 
@@ -316,10 +263,35 @@ def compare_predictions(
     seed: int = 0,
     bin_width_deg: float = 45.0,
 ) -> Comparison:
-    """Paired bootstrap of every metric and the exact McNemar test, with a signature.
+    """Paired bootstrap of the differences B - A in every metric, and the exact McNemar test.
 
-    Parameters are as in :func:`paired_bootstrap`; the clips must be in the same order in
-    all arrays.
+    Parameters
+    ----------
+    pred_a_deg, pred_b_deg
+        Predicted angles (degrees) of submissions A and B, one per clip, in the same clip
+        order as ``ref_deg``.
+    ref_deg
+        Reference angles (degrees) of the same clips.
+    ref_duration_s
+        Reference durations (seconds), for the speed metric (equation 4); None: no speed.
+    pred_a_speed_deg_s, pred_b_speed_deg_s
+        Predicted speeds where the submissions give them (NaN or None: angle over duration).
+    n_resamples
+        Bootstrap resamples (sacrebleu's and this project's default: 1000).
+    seed
+        Seed of ``numpy.random.default_rng`` for the index matrix.
+    bin_width_deg
+        Width of the angle bins (the paper's 45°).
+
+    Returns
+    -------
+    Comparison
+        ``differences``: metric name -> :class:`PairedDifference` with A's and B's values on
+        all clips (as ``turn-eval score`` computes them), the observed difference, the mean
+        resampled difference, the 95% percentile interval and the two-sided p-value (module
+        docstring); for the MAEs a negative difference means B is better, for the others a
+        positive one. ``mcnemar``: :func:`mcnemar_exact` on per-clip correctness. And the
+        settings, for the signature.
     """
     outcomes_a, outcomes_b = _paired_outcomes(
         pred_a_deg,
