@@ -15,10 +15,12 @@ from turn_datasets.cli import CONTEXT_SETTINGS, remap
 from turn_datasets.cli.common import (
     KAPPA,
     SEED,
+    check_out_dir,
     check_stdout,
     counted,
     format_option,
     info,
+    one_run,
     progress,
     resamples,
     warn,
@@ -28,8 +30,6 @@ from turn_datasets.cli.common import (
 from turn_datasets.cli.labels import min_overlap_option, no_turns_error, schema_option
 from turn_datasets.errors import GateFailed
 from turn_datasets.fileio import (
-    check_not_input,
-    staged_dir,
     to_json_text,
     write_files,
 )
@@ -204,15 +204,12 @@ def _write_outputs(
     participants_per_session: dict,
 ) -> None:
     """Every file of --out-dir, staged; nothing lands unless all are written."""
-    targets = [out_dir / name for name in OUT_FILES]
     sessions_to_review = sorted(audit.disagreements["session"].unique()) if review_eaf else []
     files = dict(zip(audit.items["session"], audit.items["file"], strict=True))
-    review_targets = [out_dir / REVIEW_DIR / f"{s}.eaf" for s in sessions_to_review]
-    for target in (*targets, *review_targets):
-        check_not_input(target, paths, option="--out-dir")
-    removed: list[Path] = []
+    review_names = [f"{REVIEW_DIR}/{s}.eaf" for s in sessions_to_review]
+    check_out_dir(out_dir, [*OUT_FILES, *review_names], paths)
     # The folder holds one run: review copies of sessions that agree now are removed.
-    with staged_dir(out_dir, owns=(f"{REVIEW_DIR}/*.eaf",), removed=removed) as stage:
+    with one_run(out_dir, what="the agreement report", owns=(f"{REVIEW_DIR}/*.eaf",)) as stage:
         tables = {
             "agreement.json": document,
             "agreement.md": markdown,
@@ -235,11 +232,9 @@ def _write_outputs(
                 tier_per_participant=participants_per_session.get(session, 1) > 1,
                 keep_media_paths=keep_media_paths,
             )
-    what = f"agreement report ({len(targets)} files"
+    what = f"agreement report ({len(OUT_FILES)} files"
     if review_eaf:
-        what += f", {len(review_targets)} review copies in {out_dir / REVIEW_DIR}"
+        what += f", {len(review_names)} review copies in {out_dir / REVIEW_DIR}"
     wrote(out_dir, what=what + ") to")
-    if review_eaf and not review_targets:
+    if review_eaf and not review_names:
         info("no disagreements: no review copies written")
-    if removed:
-        info(f"removed {len(removed)} file(s) of the previous run: " + ", ".join(map(str, removed)))

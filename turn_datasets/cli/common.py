@@ -21,6 +21,7 @@ import click
 
 from turn_datasets import limits
 from turn_datasets.errors import GateFailed, TurnbenchError
+from turn_datasets.fileio import check_not_input, staged_dir
 from turn_datasets.params import param_fields
 from turn_datasets.render.numbers import counted
 from turn_datasets.skeleton import LAYOUTS, UP_AXES
@@ -46,6 +47,8 @@ __all__ = [
     "FILE",
     "file_option",
     "writing",
+    "check_out_dir",
+    "one_run",
     "layout_option",
     "up_axis_option",
 ]
@@ -292,6 +295,30 @@ def writing(what: str, path: str | Path) -> Iterator[None]:
     except OSError as exc:
         detail = f"{exc.filename}: {exc.strerror}" if exc.filename else str(exc)
         raise TurnbenchError(f"cannot write {what}: {detail}", file=str(path)) from None
+
+
+def check_out_dir(out_dir: Path, names: Iterable[str], inputs: Iterable[Path]) -> None:
+    """Refuse an ``--out-dir`` that is a file, or whose ``names`` would overwrite an input."""
+    inputs = list(inputs)
+    for name in names:
+        check_not_input(out_dir / name, inputs, option="--out-dir")
+    if out_dir.exists() and not out_dir.is_dir():
+        raise TurnbenchError("--out-dir is a file, not a folder", file=str(out_dir))
+
+
+@contextlib.contextmanager
+def one_run(out_dir: Path, *, what: str, owns: Iterable[str] = ()) -> Iterator[Path]:
+    """Yield a staging folder whose files replace ``out_dir``'s together, or none at all.
+
+    The folder holds one run: a file matching ``owns`` (glob patterns) that an earlier run
+    wrote and this one did not is removed, and said on stderr. A folder that cannot be
+    written is one line and exit 2 (:func:`writing`).
+    """
+    removed: list[Path] = []
+    with writing(what, out_dir), staged_dir(out_dir, owns=owns, removed=removed) as stage:
+        yield stage
+    if removed:
+        info(f"removed {len(removed)} file(s) of the previous run: " + ", ".join(map(str, removed)))
 
 
 #: A path the user names that must be a file, never a folder (an input or an --out).

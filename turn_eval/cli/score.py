@@ -16,18 +16,15 @@ from turn_datasets.cli.common import (
     CONTEXT_SETTINGS,
     SEED,
     bootstrap_progress,
+    check_out_dir,
     emit,
     format_option,
-    info,
+    one_run,
     resamples,
     warn,
-    writing,
     wrote,
 )
-from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import (
-    check_not_input,
-    staged_dir,
     to_json_text,
     write_files,
 )
@@ -128,12 +125,8 @@ def score(
     """
     if plots and out_dir is None:
         raise click.UsageError("--plots needs --out-dir (the figures are files)")
-    inputs = [predictions, reference]
     if out_dir is not None:
-        for name in (*SCORE_FILES, *(PLOT_FILES if plots else ())):
-            check_not_input(out_dir / name, inputs, option="--out-dir")
-        if out_dir.exists() and not out_dir.is_dir():
-            raise TurnbenchError("--out-dir is a file, not a folder", file=str(out_dir))
+        check_out_dir(out_dir, (*SCORE_FILES, *PLOT_FILES), [predictions, reference])
     ref = read_reference(reference, bin_width_deg=bin_width_deg)
     joined = read_predictions(
         predictions, ref, allow_missing=allow_missing, abs_angles=abs_angles, warn=warn
@@ -147,35 +140,20 @@ def score(
     }
     frame = scores_frame(scores)
     if out_dir is not None:
-        removed: list[Path] = []
-        with writing("the scores", out_dir):
-            # The folder holds one run: figures of an earlier --plots run go when this has none.
-            with staged_dir(out_dir, owns=PLOT_FILES, removed=removed) as tmp:
-                write_files(
-                    tmp,
-                    {
-                        "scores.json": scores,
-                        "scores.md": texts["md"],
-                        "scores.csv": scores_csv(frame),
-                    },
-                )
-                if plots:
-                    from turn_eval.plots import write_plots
+        # Figures of an earlier --plots run go when this run has none.
+        with one_run(out_dir, what="the scores", owns=PLOT_FILES) as stage:
+            write_files(
+                stage,
+                {"scores.json": scores, "scores.md": texts["md"], "scores.csv": scores_csv(frame)},
+            )
+            if plots:
+                from turn_eval.plots import write_plots
 
-                    t = joined.table
-                    write_plots(
-                        t["pred_angle_deg"].to_numpy(),
-                        t["ref_angle_deg"].to_numpy(),
-                        tmp,
-                        bin_width_deg=bin_width_deg,
-                    )
+                t = joined.table
+                pred, ref_deg = t["pred_angle_deg"].to_numpy(), t["ref_angle_deg"].to_numpy()
+                write_plots(pred, ref_deg, stage, bin_width_deg=bin_width_deg)
         names = [*SCORE_FILES, *(PLOT_FILES if plots else ())]
         wrote(*(out_dir / name for name in names), what="scores")
-        if removed:
-            info(
-                f"removed {len(removed)} file(s) of the previous run: "
-                + ", ".join(map(str, removed))
-            )
     if fmt == "csv":
         emit(scores_csv(frame))
     else:

@@ -15,18 +15,15 @@ from turn_datasets.cli.common import (
     FRACTION,
     SEED,
     bootstrap_progress,
+    check_out_dir,
     emit,
     format_option,
-    info,
+    one_run,
     resamples,
     warn,
-    writing,
     wrote,
 )
-from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import (
-    check_not_input,
-    staged_dir,
     to_json_text,
     write_files,
 )
@@ -151,10 +148,7 @@ def score_events_cmd(
         raise click.UsageError("--plots needs --out-dir (the figures are files)")
     inputs = [p for p in (detections, reference, context_path, sessions_path) if p is not None]
     if out_dir is not None:
-        for name in (*EVENT_FILES, RATES_FILE):
-            check_not_input(out_dir / name, inputs, option="--out-dir")
-        if out_dir.exists() and not out_dir.is_dir():
-            raise TurnbenchError("--out-dir is a file, not a folder", file=str(out_dir))
+        check_out_dir(out_dir, (*EVENT_FILES, RATES_FILE), inputs)
     scores = score_events(
         detections,
         reference,
@@ -181,26 +175,23 @@ def score_events_cmd(
 def _write_out_dir(scores, markdown: str, frame, out_dir: Path, *, plots: bool) -> None:
     """Every table (and with ``plots`` the figures) into ``out_dir``, together or not at all;
     files an earlier run wrote and this one does not are removed (one run per folder)."""
-    removed: list[Path] = []
-    written: list[Path] = []
-    with writing("the scores", out_dir):
-        with staged_dir(out_dir, owns=OWNED, removed=removed) as tmp:
-            files = {
-                "event_scores.json": scores.doc,
-                "event_scores.md": markdown,
-                "event_scores.csv": frame,
-                "events.csv": scores.events,
-            }
-            if scores.rates is not None:
-                files[RATES_FILE] = scores.rates
-            write_files(tmp, files)
-            names = list(files)
-            if plots:
-                from turn_eval.events.plots import write_event_plots
+    with one_run(out_dir, what="the scores", owns=OWNED) as stage:
+        files = {
+            "event_scores.json": scores.doc,
+            "event_scores.md": markdown,
+            "event_scores.csv": frame,
+            "events.csv": scores.events,
+        }
+        if scores.rates is not None:
+            files[RATES_FILE] = scores.rates
+        write_files(stage, files)
+        names = list(files)
+        if plots:
+            from turn_eval.events.plots import write_event_plots
 
-                figures = write_event_plots(scores, tmp)
-                names += [str(p.relative_to(tmp)) for p in figures]
-            written = [out_dir / name for name in names]
+            figures = write_event_plots(scores, stage)
+            names += [str(p.relative_to(stage)) for p in figures]
+    written = [out_dir / name for name in names]
     n_timelines = sum(1 for p in written if p.parent.name == TIMELINE_DIR)
     shown = [p for p in written if p.parent.name != TIMELINE_DIR]
     wrote(
@@ -208,5 +199,3 @@ def _write_out_dir(scores, markdown: str, frame, out_dir: Path, *, plots: bool) 
         *([f"{n_timelines} timelines in {out_dir / TIMELINE_DIR}"] if n_timelines else []),
         what="event scores",
     )
-    if removed:
-        info(f"removed {len(removed)} file(s) of the previous run: " + ", ".join(map(str, removed)))
