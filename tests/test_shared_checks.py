@@ -59,3 +59,18 @@ def test_check_joint_count() -> None:
         err.value
     )
     assert err.value.hint == "choose the layout with --layout"
+
+
+def test_skeleton_source_needs_what_generic_arrays_do_not_say() -> None:
+    from turn_eval.cli.common import SkeletonSource
+
+    with pytest.raises(TurnbenchError, match=r"^generic arrays need --layout \(hint"):
+        SkeletonSource("arrays", None, None).layout(need_up_axis=False)
+    with pytest.raises(TurnbenchError, match="generic arrays need --layout and --up-axis"):
+        SkeletonSource("arrays", None, None).layout(need_up_axis=True)
+    with pytest.raises(TurnbenchError, match="generic arrays need --up-axis"):
+        SkeletonSource("arrays", "h36m32", None).layout(need_up_axis=True)
+    assert SkeletonSource("arrays", "h36m32", None).layout(need_up_axis=False).n_joints == 32
+    with pytest.raises(TurnbenchError, match="--from motionbert files are in the h36m17"):
+        SkeletonSource("motionbert", "h36m32", None).layout(need_up_axis=True)
+    assert SkeletonSource("motionbert", None, None).layout(need_up_axis=True).name == "h36m17"

@@ -6,25 +6,65 @@ module adds the one block that is turn_eval's own: whose files the skeletons are
 
 from __future__ import annotations
 
+import functools
+from dataclasses import dataclass
+
 import click
 
 from turn_datasets.cli.common import layout_option, up_axis_option
+from turn_datasets.errors import TurnbenchError
+from turn_datasets.skeleton import Layout, get_layout
 from turn_eval.estimate.formats import FORMAT_CHOICES
+
+
+@dataclass(frozen=True)
+class SkeletonSource:
+    """What ``--from``, ``--layout`` and ``--up-axis`` say about the skeleton files.
+
+    ``format`` is ``arrays`` (generic arrays) or an estimator's name
+    (:data:`turn_eval.estimate.formats.FORMAT_CHOICES`); ``layout_name`` and ``up_axis`` are
+    None when not given, so a missing ``--layout`` can be told from the default.
+    """
+
+    format: str
+    layout_name: str | None
+    up_axis: str | None
+
+    def layout(self, *, need_up_axis: bool) -> Layout:
+        """The joint layout, once the three options are known to fit together.
+
+        Generic arrays need ``--layout`` (and ``--up-axis`` when ``need_up_axis``); an
+        estimator's files are in the h36m17 layout.
+        """
+        if self.format == "arrays":
+            needed = [("--layout", self.layout_name)]
+            if need_up_axis:
+                needed.append(("--up-axis", self.up_axis))
+            missing = [option for option, value in needed if value is None]
+            if missing:
+                raise TurnbenchError(
+                    f"generic arrays need {' and '.join(missing)}",
+                    hint="or name the estimator that wrote them with --from",
+                )
+        elif self.layout_name not in (None, "h36m17"):
+            raise TurnbenchError(f"--from {self.format} files are in the h36m17 layout")
+        return get_layout(self.layout_name or "h36m17")
 
 
 def skeleton_source_options(*, from_help: str, layout_help: str, up_axis_help: str):
     """Decorator: ``--from`` (whose files), ``--layout`` and ``--up-axis``, in that order.
 
-    ``--from`` is ``arrays`` (generic arrays: the layout and the up axis given) or an
-    estimator's output by name (:data:`turn_eval.estimate.formats.FORMAT_CHOICES`); the command
-    receives ``source_format``, ``layout_name`` and ``up_axis`` (``None`` when not given, so it
-    can tell a missing ``--layout`` from the default).
+    The command receives them as one ``source`` (:class:`SkeletonSource`).
     """
 
     def decorator(f):
+        @functools.wraps(f)
+        def command(*args, source_format: str, layout_name: str | None, up_axis: str | None, **kw):
+            return f(*args, source=SkeletonSource(source_format, layout_name, up_axis), **kw)
+
         # click collects options bottom-up: apply the last one first so --help keeps this order
-        f = up_axis_option(default=None, help=up_axis_help)(f)
-        f = layout_option(dest="layout_name", default=None, help=layout_help)(f)
+        command = up_axis_option(default=None, help=up_axis_help)(command)
+        command = layout_option(dest="layout_name", default=None, help=layout_help)(command)
         return click.option(
             "--from",
             "source_format",
@@ -32,6 +72,6 @@ def skeleton_source_options(*, from_help: str, layout_help: str, up_axis_help: s
             default="arrays",
             show_default=True,
             help=from_help,
-        )(f)
+        )(command)
 
     return decorator

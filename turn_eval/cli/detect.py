@@ -24,9 +24,8 @@ from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import atomic_path, check_not_input, to_json_text
 from turn_datasets.h36m.manifest import manifest_path
 from turn_datasets.h36m.miner import MinerParams
-from turn_datasets.skeleton import get_layout
 from turn_eval.cli import cli
-from turn_eval.cli.common import skeleton_source_options
+from turn_eval.cli.common import SkeletonSource, skeleton_source_options
 from turn_eval.detect.mapping import build_manifest, detect_files
 from turn_eval.detect.protocol import TurnDetector
 from turn_eval.detect.rule import DETECT_MINER_DEFAULTS, DetectParams, MinerRule
@@ -111,9 +110,7 @@ def _load_detector(spec: str | None, params: DetectParams) -> TurnDetector:
 def detect_command(
     skeletons: tuple[Path, ...],
     out: Path,
-    source_format: str,
-    layout_name: str | None,
-    up_axis: str | None,
+    source: SkeletonSource,
     fps_hz: float,
     joints: str,
     detector_spec: str | None,
@@ -145,12 +142,7 @@ def detect_command(
     )
     detector = _load_detector(detector_spec, params)
     files = stream_files(skeletons)  # first: an AlphaPose JSON is refused with its reason
-    if source_format == "arrays" and (layout_name is None or up_axis is None):
-        raise TurnbenchError(
-            "generic arrays need --layout and --up-axis",
-            hint="or name the estimator that wrote them with --from",
-        )
-    layout = get_layout(layout_name or "h36m17")
+    layout = source.layout(need_up_axis=True)
     check_not_input(out, files)
     mpath = manifest_path(out)
     check_not_input(mpath, files)
@@ -165,9 +157,9 @@ def detect_command(
             files,
             detector=detector,
             layout=layout,
-            up_axis=up_axis,
+            up_axis=source.up_axis,
             fps_hz=fps_hz,
-            source_format=source_format,
+            source_format=source.format,
             workers=workers,
             scheduler=scheduler,
             skip_bad=skip_bad,
@@ -180,9 +172,9 @@ def detect_command(
         detector=detector,
         params=params.as_dict() if detector_spec is None else {},
         layout=layout,
-        up_axis=up_axis,
+        up_axis=source.up_axis,
         fps_hz=fps_hz,
-        source_format=source_format,
+        source_format=source.format,
     )
     try:
         with atomic_path(out) as tmp_csv, atomic_path(mpath) as tmp_manifest:

@@ -20,9 +20,8 @@ from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, write_csv
 from turn_datasets.geometry import METHODS, parse_joints
 from turn_datasets.mocap.arrays import iter_arrays
-from turn_datasets.skeleton import get_layout
 from turn_eval.cli import cli
-from turn_eval.cli.common import skeleton_source_options
+from turn_eval.cli.common import SkeletonSource, skeleton_source_options
 from turn_eval.estimate.formats import read_estimator_output
 from turn_eval.predict import predict_angles
 
@@ -65,9 +64,7 @@ from turn_eval.predict import predict_angles
 def predict_command(
     skeletons: tuple[Path, ...],
     out: Path,
-    source_format: str,
-    layout_name: str | None,
-    up_axis: str | None,
+    source: SkeletonSource,
     joints: str,
     method: str,
     fps_hz: float | None,
@@ -96,14 +93,7 @@ def predict_command(
     for path in skeletons:
         if path.suffix.lower() == ".json":  # AlphaPose's 2D output: say so before anything else
             read_estimator_output(path, "alphapose")
-    if source_format == "arrays" and layout_name is None:
-        raise TurnbenchError(
-            "generic arrays need --layout (h36m17 or h36m32)",
-            hint="or name the estimator that wrote them with --from",
-        )
-    if source_format != "arrays" and layout_name not in (None, "h36m17"):
-        raise TurnbenchError(f"--from {source_format} files are in the h36m17 layout")
-    layout = get_layout(layout_name or "h36m17")
+    layout = source.layout(need_up_axis=False)
     names = parse_joints(joints)
     check_not_input(out, skeletons)
     frames: list[pd.DataFrame] = []
@@ -111,12 +101,12 @@ def predict_command(
     for path in progress(skeletons, label="predicting", length=len(skeletons)):
         try:
             # any .json (AlphaPose's) goes to the named readers, which say why it is refused
-            if source_format == "arrays" and path.suffix.lower() != ".json":
+            if source.format == "arrays" and path.suffix.lower() != ".json":
                 arrays = iter_arrays(path, layout=layout)
-                file_up_axis = up_axis or "z"
+                file_up_axis = source.up_axis or "z"
             else:
-                spec, named = read_estimator_output(path, source_format)
-                arrays, file_up_axis = iter(named), up_axis or spec.up_axis
+                spec, named = read_estimator_output(path, source.format)
+                arrays, file_up_axis = iter(named), source.up_axis or spec.up_axis
             table = predict_angles(
                 arrays,
                 layout=layout,
