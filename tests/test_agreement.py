@@ -334,17 +334,13 @@ def test_bootstrap_drops_resamples_with_undefined_kappa():
 
 @pytest.fixture(scope="module")
 def synth(tmp_path_factory):
-    from turn_datasets.synthetic.eaf import write_sessions
+    from turn_datasets.synthetic.eaf import Raters, write_sessions
 
+    raters = Raters(
+        disagreement_rate=0.08, far_disagreement_fraction=0.4, missed_rate=0.05, shifted_rate=0.04
+    )
     return write_sessions(
-        tmp_path_factory.mktemp("synth"),
-        seed=11,
-        n_pairs=4,
-        turns_per_subject=40,
-        disagreement_rate=0.08,
-        far_disagreement_fraction=0.4,
-        missed_rate=0.05,
-        shifted_rate=0.04,
+        tmp_path_factory.mktemp("synth"), seed=11, n_pairs=4, turns_per_subject=40, raters=raters
     )
 
 

@@ -17,7 +17,7 @@ from turn_datasets.cli.agreement import OUT_FILES
 from turn_datasets.cli.common import EXIT_BAD_INPUT, EXIT_GATE, EXIT_OK, run_group
 from turn_datasets.fileio import sha256_file
 from turn_datasets.remap.eaf import load_eaf, read_annotations
-from turn_datasets.synthetic.eaf import write_sessions
+from turn_datasets.synthetic.eaf import Raters, write_sessions
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -35,9 +35,7 @@ def synth(tmp_path_factory):
         seed=3,
         n_pairs=3,
         turns_per_subject=30,
-        disagreement_rate=0.10,
-        missed_rate=0.06,
-        shifted_rate=0.04,
+        raters=Raters(disagreement_rate=0.10, missed_rate=0.06, shifted_rate=0.04),
     )
 
 

@@ -241,15 +241,14 @@ def test_clip_id() -> None:
 
 def test_against_synthetic_ground_truth(tmp_path: Path) -> None:
     """Sessions from the project's generator: every label matches its planted turn."""
-    from turn_datasets.synthetic.eaf import write_sessions
+    from turn_datasets.synthetic.eaf import Raters, write_sessions
 
     synth = write_sessions(
         tmp_path / "eaf",
         seed=7,
         n_pairs=2,
         turns_per_subject=16,
-        disagreement_rate=0.25,
-        missed_rate=0.1,
+        raters=Raters(disagreement_rate=0.25, missed_rate=0.1),
     )
     labels = make_labels(
         read_annotations(tmp_path / "eaf"), read_participants(synth.participants_path)

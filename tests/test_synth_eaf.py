@@ -16,6 +16,7 @@ from turn_datasets.synthetic.eaf import (
     PARTICIPANT_COLUMNS,
     TRUTH_COLUMNS,
     WRITTEN_COLUMNS,
+    Raters,
     write_sessions,
 )
 
@@ -23,9 +24,7 @@ SMALL = {
     "n_pairs": 3,
     "sessions_per_pair": 2,
     "turns_per_subject": 30,
-    "disagreement_rate": 0.10,
-    "missed_rate": 0.06,
-    "shifted_rate": 0.05,
+    "raters": Raters(disagreement_rate=0.10, missed_rate=0.06, shifted_rate=0.05),
 }
 
 
@@ -207,10 +206,10 @@ def test_paper_sized_corpus_has_the_papers_shape(tmp_path):
 
 def test_bad_parameters(tmp_path):
     with pytest.raises(TurnbenchError, match="two different raters"):
-        write_sessions(tmp_path, seed=0, raters=("x", "x"))
+        write_sessions(tmp_path, seed=0, raters=Raters(names=("x", "x")))
     with pytest.raises(TurnbenchError, match="consensus rater must differ"):
-        write_sessions(tmp_path, seed=0, raters=("x", "consensus"))
+        write_sessions(tmp_path, seed=0, raters=Raters(names=("x", "consensus")))
     with pytest.raises(TurnbenchError, match="add up to more than 1"):
-        write_sessions(tmp_path, seed=0, disagreement_rate=0.6, missed_rate=0.6)
+        write_sessions(tmp_path, seed=0, raters=Raters(disagreement_rate=0.6, missed_rate=0.6))
     with pytest.raises(TurnbenchError, match="outside the vocabulary"):
         write_sessions(tmp_path, seed=0, angle_mix={100: 1.0})

@@ -53,6 +53,7 @@ __all__ = [
     "TRUTH_COLUMNS",
     "WRITTEN_COLUMNS",
     "PARTICIPANT_COLUMNS",
+    "Raters",
     "SyntheticRemap",
     "write_sessions",
 ]
@@ -275,37 +276,61 @@ def _write_eaf(eaf: pympi_elan.Eaf, path: Path) -> None:
 
 
 @dataclass(frozen=True)
-class _Raters:
-    """Who annotates and how they err (:func:`write_sessions`' parameters)."""
+class Raters:
+    """Who annotates the synthetic sessions, and how they err.
 
-    names: tuple[str, ...]
-    consensus: str | None
-    disagreement_rate: float
-    far_disagreement_fraction: float
-    missed_rate: float
-    shifted_rate: float
-    jitter_s: float
+    Attributes
+    ----------
+    names
+        The two raters' names (``ANNOTATOR`` attribute and tier names).
+    consensus
+        Name of the adjudicating rater, who writes the true angle of every planted angle
+        disagreement and shifted pair; ``None`` writes no consensus tiers.
+    disagreement_rate, missed_rate, shifted_rate
+        Per double-annotated turn, the chance of an angle disagreement (one rater writes a
+        neighbouring bin; two bins away with ``far_disagreement_fraction``), of one rater
+        missing the turn, and of the second rater's interval being shifted so far (overlap
+        ratio 0.3 to 0.5) that the audit cannot match it at 0.6.
+    jitter_s
+        Standard deviation of each rater's boundary error, seconds (clipped at twice this).
+
+    Raises
+    ------
+    TurnbenchError
+        Not two different raters, a consensus rater among them, or rates adding up to more
+        than 1.
+    """
+
+    names: tuple[str, ...] = ("clinician1", "clinician2")
+    consensus: str | None = "consensus"
+    disagreement_rate: float = 0.025
+    far_disagreement_fraction: float = 0.25
+    missed_rate: float = 0.03
+    shifted_rate: float = 0.0
+    jitter_s: float = 0.15
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "names", tuple(self.names))
+        if len(self.names) != 2 or self.names[0] == self.names[1]:
+            raise TurnbenchError(f"need two different raters, got {self.names!r}", item="names")
+        if self.consensus is not None and self.consensus in self.names:
+            raise TurnbenchError(
+                "the consensus rater must differ from the two raters", item="consensus"
+            )
+        if self.disagreement_rate + self.missed_rate + self.shifted_rate > 1.0:
+            raise TurnbenchError(
+                "disagreement, missed and shifted rates add up to more than 1",
+                item="disagreement_rate",
+            )
 
 
 def _check_session_args(
-    raters: _Raters, n_pairs: int, sessions_per_pair: int, turns_per_subject: int, angle_mix
+    n_pairs: int, sessions_per_pair: int, turns_per_subject: int, angle_mix
 ) -> None:
-    names, consensus = raters.names, raters.consensus
-    if len(names) != 2 or names[0] == names[1]:
-        raise TurnbenchError(f"need two different raters, got {names!r}", item="raters")
-    if consensus is not None and consensus in names:
-        raise TurnbenchError(
-            "the consensus rater must differ from the two raters", item="consensus"
-        )
     if n_pairs < 1 or sessions_per_pair < 1 or turns_per_subject < 0:
         raise TurnbenchError(
             "n_pairs and sessions_per_pair must be >= 1, turns_per_subject >= 0",
             item="n_pairs",
-        )
-    if raters.disagreement_rate + raters.missed_rate + raters.shifted_rate > 1.0:
-        raise TurnbenchError(
-            "disagreement, missed and shifted rates add up to more than 1",
-            item="disagreement_rate",
         )
     unknown = set(angle_mix) - set(ANGLES_DEG)
     if unknown:
@@ -314,7 +339,7 @@ def _check_session_args(
         )
 
 
-def _kinds(rng: np.random.Generator, n: int, *, is_double: bool, raters: _Raters) -> list[str]:
+def _kinds(rng: np.random.Generator, n: int, *, is_double: bool, raters: Raters) -> list[str]:
     """What happens to each of ``n`` turns: one rater only, both agree, or a planted error."""
     kinds = []
     for x in rng.random(n):
@@ -394,7 +419,7 @@ def _rater_spans(
     end_ms: int,
     angle: int,
     *,
-    raters: _Raters,
+    raters: Raters,
     single_rater: str,
 ) -> dict[str, tuple[int, int, int]]:
     """What each rater writes for one turn: rater -> (start ms, end ms, angle)."""
@@ -434,7 +459,7 @@ def _rater_spans(
 
 
 def _truth_row(
-    turn: dict, wrote: dict[str, tuple[int, int, int]], raters: _Raters, **known: Any
+    turn: dict, wrote: dict[str, tuple[int, int, int]], raters: Raters, **known: Any
 ) -> dict[str, Any]:
     """One row of :data:`TRUTH_COLUMNS`: the planted turn and what each rater wrote of it."""
     wa, wb = wrote.get(raters.names[0]), wrote.get(raters.names[1])
@@ -487,7 +512,7 @@ def _write_session(
     turns_this_session: int,
     is_double: bool,
     single_rater: str,
-    raters: _Raters,
+    raters: Raters,
     mixes: tuple[Mapping, Mapping, Mapping],
     truth_rows: list[dict],
     written_rows: list[dict],
@@ -583,13 +608,7 @@ def write_sessions(
     sessions_per_pair: int = 2,
     turns_per_subject: int = 58,
     double_annotated_fraction: float = 0.5,
-    raters: Sequence[str] = ("clinician1", "clinician2"),
-    consensus: str | None = "consensus",
-    disagreement_rate: float = 0.025,
-    far_disagreement_fraction: float = 0.25,
-    missed_rate: float = 0.03,
-    shifted_rate: float = 0.0,
-    jitter_s: float = 0.15,
+    raters: Raters = Raters(),
     angle_mix: Mapping[int, float] = ANGLE_MIX,
     scenario_mix: Mapping[str, float] = SCENARIO_MIX,
     location_mix: Mapping[str, float] = LOCATION_MIX,
@@ -612,17 +631,7 @@ def write_sessions(
     double_annotated_fraction
         Share of sessions labelled by both raters (the paper: about half of the turns).
     raters
-        The two raters' names (``ANNOTATOR`` attribute and tier names).
-    consensus
-        Name of the adjudicating rater, who writes the true angle of every planted angle
-        disagreement and shifted pair; ``None`` writes no consensus tiers.
-    disagreement_rate, missed_rate, shifted_rate
-        Per double-annotated turn, the chance of an angle disagreement (one rater writes a
-        neighbouring bin; two bins away with ``far_disagreement_fraction``), of one rater
-        missing the turn, and of the second rater's interval being shifted so far (overlap
-        ratio 0.3 to 0.5) that the audit cannot match it at 0.6.
-    jitter_s
-        Standard deviation of each rater's boundary error, seconds (clipped at twice this).
+        Who annotates and how they err (:class:`Raters`).
     angle_mix, scenario_mix, location_mix
         Shares of the planted angles, scenarios and rooms.
 
@@ -631,17 +640,8 @@ def write_sessions(
     SyntheticRemap
         The files written and the ground truth.
     """
-    rater_setup = _Raters(
-        names=tuple(raters),
-        consensus=consensus,
-        disagreement_rate=disagreement_rate,
-        far_disagreement_fraction=far_disagreement_fraction,
-        missed_rate=missed_rate,
-        shifted_rate=shifted_rate,
-        jitter_s=jitter_s,
-    )
-    _check_session_args(rater_setup, n_pairs, sessions_per_pair, turns_per_subject, angle_mix)
-    names = rater_setup.names
+    _check_session_args(n_pairs, sessions_per_pair, turns_per_subject, angle_mix)
+    names = raters.names
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -668,7 +668,7 @@ def write_sessions(
                 + (1 if k < turns_per_subject % sessions_per_pair else 0),
                 is_double=session in double,
                 single_rater=single_rater.get(session, ""),
-                raters=rater_setup,
+                raters=raters,
                 mixes=(angle_mix, scenario_mix, location_mix),
                 truth_rows=truth_rows,
                 written_rows=written_rows,
@@ -687,5 +687,5 @@ def write_sessions(
         truth=truth,
         written=written,
         raters=(names[0], names[1]),
-        consensus=consensus or "",
+        consensus=raters.consensus or "",
     )
