@@ -212,11 +212,12 @@ def _has_blank_line(text: str) -> bool:
     return not text[text.rfind("\n") + 1 :].strip()
 
 
-def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.ndarray, str]:
+def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.ndarray, bytes]:
     """Split a quote-free text into its header and body, skipping blank lines.
 
     Returns the header's text and line number, each body line's line number and number of
-    fields, and the body's lines joined by ``\n`` for pandas.
+    fields, and the body's lines joined by ``\n`` for pandas, as UTF-8 (what its C parser
+    reads: given text, it would encode it again).
     """
     last = text[:-1] if text.endswith("\n") else text
     if not _has_blank_line(last):
@@ -226,8 +227,9 @@ def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.nd
         # character), without splitting the text into lines.
         header_text, _, body = last.partition("\n")
         if not body:
-            return header_text, 1, np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), ""
-        data = np.frombuffer(body.encode("utf-8"), dtype=np.uint8)
+            return header_text, 1, np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), b""
+        encoded = body.encode("utf-8")
+        data = np.frombuffer(encoded, dtype=np.uint8)
         # One scan for both marks: a line's delimiters are the marks between its newline
         # and the previous one (the body ends without a newline: its last line ends there).
         newline = data == 10
@@ -235,7 +237,7 @@ def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.nd
         stops = np.append(np.flatnonzero(newline[marks]), marks.size)
         fields = np.diff(stops, prepend=-1)
         lines = np.arange(2, 2 + stops.size, dtype=np.int64)
-        return header_text, 1, lines, fields, body
+        return header_text, 1, lines, fields, encoded
     # Variable-width strings: one long line must not widen every other one in memory.
     split = text.split("\n")
     all_lines = text_array(split)
@@ -250,7 +252,7 @@ def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.nd
         int(numbers[0]),
         numbers[1:].astype(np.int64),
         count(body_lines, delimiter) + 1,
-        "\n".join(body_lines.tolist()),
+        "\n".join(body_lines.tolist()).encode("utf-8"),
     )
 
 
@@ -295,8 +297,10 @@ def _read_plain(
         # ("nan", an empty cell, a word) sends the file through the strict text path.
         try:
             frame = pd.read_csv(
-                io.StringIO(joined),
-                dtype={i: ("float64" if i in numeric else str) for i in range(len(header))},
+                io.BytesIO(joined),
+                # Text as object columns of str, as the table keeps them: pandas' str dtype
+                # would be made only to be turned back into objects.
+                dtype={i: ("float64" if i in numeric else object) for i in range(len(header))},
                 decimal="," if delimiter != "," else ".",
                 **options,
             )
@@ -307,10 +311,10 @@ def _read_plain(
         ):
             frame = None
     if frame is None:
-        frame = pd.read_csv(io.StringIO(joined), dtype=str, **options)
+        frame = pd.read_csv(io.BytesIO(joined), dtype=object, **options)
         numeric = set()
     # White space around cells only matters when there is some; finding none is cheap.
-    padded = "\r" in joined or " " in joined or (delimiter != "\t" and "\t" in joined)
+    padded = b"\r" in joined or b" " in joined or (delimiter != "\t" and b"\t" in joined)
     for i, col in enumerate(header):
         if not col:
             continue
