@@ -76,6 +76,22 @@ def _text_series(values: np.ndarray, frame: pd.DataFrame) -> pd.Series:
     return pd.Series(np.asarray(values, dtype=object), index=frame.index, dtype=object)
 
 
+def _set_texts(frame: pd.DataFrame, columns: Sequence[str]) -> None:
+    """Make ``columns`` of ``frame`` stripped ``str`` objects (:func:`_texts`), in place; a
+    column of the file reader's frame is one already and is left as it is."""
+    for col in columns:
+        if frame.attrs.get("stripped") and frame[col].dtype == object:
+            continue
+        frame[col] = _text_series(_texts(frame, col), frame)
+
+
+def _set_floats(frame: pd.DataFrame, columns: Sequence[str]) -> None:
+    """Make ``columns`` of ``frame`` float64, anything not a number NaN, in place."""
+    for col in columns:
+        if frame[col].dtype != np.float64:
+            frame[col] = pd.to_numeric(frame[col], errors="coerce").astype(np.float64)
+
+
 def _lines_of(frame: pd.DataFrame) -> np.ndarray:
     lines = frame.attrs.get("lines")
     if lines is None or len(lines) != frame.shape[0]:
@@ -204,11 +220,13 @@ def _check_intervals(frame: pd.DataFrame, what: str, unit: Sequence[str], noun: 
 
 
 def _check_direction(frame: pd.DataFrame, what: str) -> None:
-    # Lower-cased through the few distinct values, not per row.
-    codes, uniq = pd.factorize(_texts(frame, "direction"))
-    values = np.array([str(u).lower() for u in uniq], dtype=object)[codes]
-    bad = ~np.isin(values, ["", *DIRECTIONS])
-    if bad.any():
+    # Lower-cased and checked through the few distinct values, not per row.
+    texts = _texts(frame, "direction")
+    codes, uniq = pd.factorize(texts)
+    lowered = [str(u).lower() for u in uniq]
+    allowed = ("", *DIRECTIONS)
+    if not all(u in allowed for u in lowered):
+        bad = np.array([u not in allowed for u in lowered])[codes]
         i, count = _first(bad)
         raise _fail(
             f"direction {frame['direction'].iat[i]!r} is not one of {', '.join(DIRECTIONS)} "
@@ -218,7 +236,10 @@ def _check_direction(frame: pd.DataFrame, what: str) -> None:
             i,
             count,
         )
-    frame["direction"] = _text_series(values, frame)
+    if lowered != list(uniq) or not (
+        frame.attrs.get("stripped") and frame["direction"].dtype == object
+    ):
+        frame["direction"] = _text_series(np.array(lowered, dtype=object)[codes], frame)
 
 
 def _missing(frame: pd.DataFrame, required: Sequence[str], what: str) -> None:
@@ -246,16 +267,11 @@ def check_detections(frame: pd.DataFrame, *, what: str = "detections") -> pd.Dat
     # frame stays as it was without copying its cells.
     out = frame.loc[:, cols].copy(deep=False)
     out.attrs = dict(frame.attrs)
-    for col in _UNIT:
-        out[col] = _text_series(_texts(out, col), out)
+    _set_texts(out, _UNIT)
     _check_text(out, what, _UNIT)
-    for col in (
-        "start_s",
-        "end_s",
-        "angle_deg",
-        *(c for c in ("speed_deg_s", "score") if c in out),
-    ):
-        out[col] = pd.to_numeric(out[col], errors="coerce").astype(np.float64)
+    _set_floats(
+        out, ("start_s", "end_s", "angle_deg", *(c for c in ("speed_deg_s", "score") if c in out))
+    )
     _check_number(out, what, "start_s")
     _check_number(out, what, "end_s")
     hint = "; angles are magnitudes in degrees, with the sense in direction"
@@ -306,8 +322,10 @@ def _frame_of(
                 table, col, allow_empty=col in allow_empty, allow_negative=True, negative_hint=None
             )
         else:
-            data[col] = pd.Series(table.columns[col], dtype=object)
-    frame = pd.DataFrame(data)
+            data[col] = pd.Series(table.columns[col], dtype=object, copy=False)
+    # The arrays are the reader's own: no copy, and no block of all the text columns copied
+    # together (pandas copies arrays given to a constructor unless told not to).
+    frame = pd.DataFrame(data, copy=False)
     frame.attrs["path"] = table.path
     frame.attrs["lines"] = _shared_lines(table.lines)
     # The reader strips every cell and has no missing text (an empty cell is "").
@@ -334,11 +352,10 @@ def check_event_reference(frame: pd.DataFrame, *, what: str = "reference") -> pd
     frame = frame if "session" in frame.columns else _clip_index_sessions(frame, what)
     _missing(frame, REFERENCE_REQUIRED, what)
     out = frame.copy(deep=False)
-    for col in _UNIT:
-        out[col] = _text_series(_texts(out, col), out)
+    _set_texts(out, _UNIT)
     _check_text(out, what, _UNIT)
     for col in ("start_s", "end_s", "angle_deg"):
-        out[col] = pd.to_numeric(out[col], errors="coerce").astype(np.float64)
+        _set_floats(out, (col,))
         high = MAX_ANGLE_DEG if col == "angle_deg" else np.inf
         _check_number(out, what, col, high=high)
     if "direction" in out:
@@ -352,8 +369,7 @@ def check_event_reference(frame: pd.DataFrame, *, what: str = "reference") -> pd
         and c not in numeric
         and (out[c].dtype == object or pd.api.types.is_string_dtype(out[c]))
     ]
-    for c in rest:
-        out[c] = _text_series(_texts(out, c), out)
+    _set_texts(out, rest)
     cols = [*REFERENCE_REQUIRED, *(["direction"] if "direction" in out else []), *rest]
     return out.loc[:, cols].reset_index(drop=True).pipe(_keep_attrs, frame)
 
@@ -388,11 +404,10 @@ def check_context(frame: pd.DataFrame, *, what: str = "context") -> pd.DataFrame
     out = frame.copy(deep=False)
     if "subject" not in out:
         out["subject"] = ""
-    for col in ("session", "subject", "scenario", "location"):
-        out[col] = _text_series(_texts(out, col), out)
+    _set_texts(out, ("session", "subject", "scenario", "location"))
     _check_text(out, what, ("session",))
     for col in ("start_s", "end_s"):
-        out[col] = pd.to_numeric(out[col], errors="coerce").astype(np.float64)
+        _set_floats(out, (col,))
         _check_number(out, what, col)
     _check_intervals(out, what, _UNIT, "context interval")
     return out.loc[:, list(CONTEXT_COLUMNS)].reset_index(drop=True).pipe(_keep_attrs, frame)
@@ -409,10 +424,9 @@ def check_sessions(frame: pd.DataFrame, *, what: str = "sessions") -> pd.DataFra
     per (session, subject)."""
     _missing(frame, list(SESSIONS_COLUMNS), what)
     out = frame.copy(deep=False)
-    for col in _UNIT:
-        out[col] = _text_series(_texts(out, col), out)
+    _set_texts(out, _UNIT)
     _check_text(out, what, _UNIT)
-    out["duration_s"] = pd.to_numeric(out["duration_s"], errors="coerce").astype(np.float64)
+    _set_floats(out, ("duration_s",))
     _check_number(out, what, "duration_s")
     zero = out["duration_s"].to_numpy() <= 0
     if zero.any():
