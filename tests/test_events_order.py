@@ -43,3 +43,31 @@ def test_rows_in_order_are_their_own_guess():
     unit = np.repeat(np.arange(3), 4)
     time_s = np.tile([0.0, 1.5, 3.0, 7.25], 3)
     assert unit_time_guess(unit, time_s).tolist() == list(range(12))
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    values=st.lists(
+        st.sampled_from([0.0, 0.001, 0.25, 0.3, 1.0 / 3, 2.0, 1e9]), min_size=0, max_size=30
+    ),
+    n_groups=st.integers(1, 4),
+    data=st.data(),
+)
+def test_group_medians_are_numpys_median_of_each_group(values, n_groups, data):
+    from turn_eval.events.scoring import _group_medians
+
+    v = np.array(values, dtype=np.float64)
+    codes = np.array(
+        data.draw(
+            st.lists(st.integers(0, n_groups - 1), min_size=len(values), max_size=len(values))
+        ),
+        dtype=np.int64,
+    )
+    count = np.bincount(codes, minlength=n_groups)
+    got = _group_medians(codes, count, v, np.argsort(v))
+    for g in range(n_groups):
+        if count[g]:
+            # Bit for bit, not approximately.
+            assert got[g] == float(np.median(v[codes == g]))
+        else:
+            assert np.isnan(got[g])
