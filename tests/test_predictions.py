@@ -419,6 +419,37 @@ def test_line_scan_fast_path_equals_line_by_line(rows, delimiter, crlf, final_ne
     assert fast[3].tolist() == [line.count(delimiter) + 1 for line in lines[1:]]
 
 
+@settings(max_examples=300, deadline=None)
+@given(
+    width=st.integers(1, 4),
+    cells=st.lists(
+        st.one_of(_CELL, st.sampled_from(["", " ", "\t", "\u00a0", "\x0c"])),
+        min_size=1,
+        max_size=40,
+    ),
+    delimiter=st.sampled_from([",", ";", "\t"]),
+    final_newline=st.booleans(),
+)
+def test_line_scan_of_rows_of_one_width_equals_the_definition(
+    width, cells, delimiter, final_newline
+):
+    # Rows of the header's width (the well-formed file the scan shortcuts), cells that may
+    # be white space or the delimiter: the header, line numbers, field counts and body are
+    # those of the lines with something on them, taken one by one.
+    rows = [cells[i : i + width] for i in range(0, len(cells), width)]
+    lines = [delimiter.join(row) for row in rows]
+    if not lines[0].strip():
+        return
+    text = "\n".join(lines) + ("\n" if final_newline else "")
+    kept = [(n, line) for n, line in enumerate(text.split("\n"), start=1) if line.strip()]
+    header, *body = kept
+    got = _plain_lines(text, delimiter)
+    assert got[:2] == (header[1], header[0])
+    assert got[2].tolist() == [n for n, _ in body]
+    assert got[3].tolist() == [line.count(delimiter) + 1 for _, line in body]
+    assert got[4] == "\n".join(line for _, line in body).encode("utf-8")
+
+
 def test_a_line_of_unicode_white_space_is_blank(tmp_path, ref):
     # No-break spaces alone on lines 2 and 4 are blank lines, skipped: header line 1, rows
     # on lines 3, 5, 6 and 7, the bad cell on line 7.

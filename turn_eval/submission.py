@@ -220,14 +220,14 @@ def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.nd
     reads: given text, it would encode it again).
     """
     last = text[:-1] if text.endswith("\n") else text
-    if not _has_blank_line(last):
-        # No blank line (the usual file): the header is line 1, the body the rest, as it is;
-        # the fields per line are counted from the delimiters' and line ends' positions in
-        # the UTF-8 bytes (delimiters and newlines are ASCII, never inside a multi-byte
-        # character), without splitting the text into lines.
-        header_text, _, body = last.partition("\n")
-        if not body:
-            return header_text, 1, np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), b""
+    header_text, _, body = last.partition("\n")
+    if header_text.strip() and not body:
+        return header_text, 1, np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), b""
+    if header_text.strip():
+        # Without a blank line (the usual file) the header is line 1, the body the rest, as
+        # it is; the fields per line are counted from the delimiters' and line ends'
+        # positions in the UTF-8 bytes (delimiters and newlines are ASCII, never inside a
+        # multi-byte character), without splitting the text into lines.
         encoded = body.encode("utf-8")
         data = np.frombuffer(encoded, dtype=np.uint8)
         # One scan for both marks: a line's delimiters are the marks between its newline
@@ -237,7 +237,14 @@ def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.nd
         stops = np.append(np.flatnonzero(newline[marks]), marks.size)
         fields = np.diff(stops, prepend=-1)
         lines = np.arange(2, 2 + stops.size, dtype=np.int64)
-        return header_text, 1, lines, fields, encoded
+        # A line with a delimiter that is not white space is not blank: when every line has
+        # the header's one or more (a well-formed file), no blank line need be looked for.
+        header_fields = header_text.count(delimiter) + 1
+        every_line_has_one = (
+            not delimiter.isspace() and header_fields > 1 and bool((fields == header_fields).all())
+        )
+        if every_line_has_one or not _has_blank_line(last):
+            return header_text, 1, lines, fields, encoded
     # Variable-width strings: one long line must not widen every other one in memory.
     split = text.split("\n")
     all_lines = text_array(split)
