@@ -6,7 +6,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from turn_eval.events._order import in_lexsort_order, lexsort, unit_time_guess
+from turn_eval.events._order import in_lexsort_order, lexsort, stable_argsort, unit_time_guess
 
 _TIMES = st.sampled_from([0.0, 0.1, 0.1 + 1e-12, 1.0, 2.5, 1e6, 1e6 + 1e-9, np.nan])
 
@@ -71,3 +71,15 @@ def test_group_medians_are_numpys_median_of_each_group(values, n_groups, data):
             assert got[g] == float(np.median(v[codes == g]))
         else:
             assert np.isnan(got[g])
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.lists(
+        st.sampled_from([-1.0, -0.0, 0.0, 0.5, 0.5 + 1e-16, 0.7, np.inf, -np.inf, np.nan]),
+        max_size=40,
+    )
+)
+def test_stable_argsort_is_numpys(values):
+    v = np.array(values, dtype=np.float64)
+    assert stable_argsort(v).tolist() == np.argsort(v, kind="stable").tolist()
