@@ -60,6 +60,7 @@ from turn_eval.events.reading import (
     check_event_reference,
     check_sessions,
     drop_unknown,
+    pair_codes,
     read_context,
     read_detections,
     read_event_reference,
@@ -198,20 +199,34 @@ def _context_at(
     out = {c: np.full(time_s.shape[0], "", dtype=object) for c in CONTEXT_GROUPS}
     if context.shape[0] == 0 or time_s.shape[0] == 0:
         return out
-    keys = pd.MultiIndex.from_arrays(
-        [context["session"].to_numpy(dtype=object), context["subject"].to_numpy(dtype=object)]
+    # One numbering of the (session, subject) pairs of the context's rows and of the units,
+    # each unit with its own subject and with the session's shared "" (a few thousand names,
+    # not one per time).
+    n_ctx, n_units = context.shape[0], len(units)
+    ctx_key, own, shared = (
+        codes.astype(np.float64)
+        for codes in pair_codes(
+            np.concatenate(
+                [context["session"].to_numpy(dtype=object), units.sessions, units.sessions]
+            ),
+            np.concatenate(
+                [
+                    context["subject"].to_numpy(dtype=object),
+                    units.subjects,
+                    np.full(n_units, "", dtype=object),
+                ]
+            ),
+            split=[n_ctx, n_ctx + n_units],
+        )
     )
-    uniq = keys.unique()
-    ctx_key = uniq.get_indexer(keys).astype(np.float64)
     start = context["start_s"].to_numpy(dtype=np.float64)
     end = context["end_s"].to_numpy(dtype=np.float64)
     order = np.lexsort((start, ctx_key))
     sorted_keys = ctx_key[order] + 1j * start[order]
-    for who in (units.subjects, np.full(len(units), "", dtype=object)):
-        # Looked up once per unit, not once per time.
-        key = uniq.get_indexer(pd.MultiIndex.from_arrays([units.sessions, who]))
-        key = key.astype(np.float64)[unit]
-        todo = (out[CONTEXT_GROUPS[0]] == "") & (out[CONTEXT_GROUPS[1]] == "") & (key >= 0)
+    for unit_key in (own, shared):
+        # A pair the context lacks has a number no context row has: never a hit.
+        key = unit_key[unit]
+        todo = (out[CONTEXT_GROUPS[0]] == "") & (out[CONTEXT_GROUPS[1]] == "")
         pos = np.searchsorted(sorted_keys, key + 1j * time_s, side="right") - 1
         row = order[np.maximum(pos, 0)]
         hit = todo & (pos >= 0) & (ctx_key[row] == key) & (end[row] > time_s)
