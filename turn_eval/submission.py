@@ -220,14 +220,14 @@ def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.nd
     reads: given text, it would encode it again).
     """
     last = text[:-1] if text.endswith("\n") else text
-    header_text, _, body = last.partition("\n")
-    if header_text.strip() and not body:
-        return header_text, 1, np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), b""
-    if header_text.strip():
-        # Without a blank line (the usual file) the header is line 1, the body the rest, as
-        # it is; the fields per line are counted from the delimiters' and line ends'
-        # positions in the UTF-8 bytes (delimiters and newlines are ASCII, never inside a
-        # multi-byte character), without splitting the text into lines.
+    if not _has_blank_line(last):
+        # No blank line (the usual file): the header is line 1, the body the rest, as it is;
+        # the fields per line are counted from the delimiters' and line ends' positions in
+        # the UTF-8 bytes (delimiters and newlines are ASCII, never inside a multi-byte
+        # character), without splitting the text into lines.
+        header_text, _, body = last.partition("\n")
+        if not body:
+            return header_text, 1, np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), b""
         encoded = body.encode("utf-8")
         data = np.frombuffer(encoded, dtype=np.uint8)
         # One scan for both marks: a line's delimiters are the marks between its newline
@@ -237,14 +237,7 @@ def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.nd
         stops = np.append(np.flatnonzero(newline[marks]), marks.size)
         fields = np.diff(stops, prepend=-1)
         lines = np.arange(2, 2 + stops.size, dtype=np.int64)
-        # A line with a delimiter that is not white space is not blank: when every line has
-        # the header's one or more (a well-formed file), no blank line need be looked for.
-        header_fields = header_text.count(delimiter) + 1
-        every_line_has_one = (
-            not delimiter.isspace() and header_fields > 1 and bool((fields == header_fields).all())
-        )
-        if every_line_has_one or not _has_blank_line(last):
-            return header_text, 1, lines, fields, encoded
+        return header_text, 1, lines, fields, encoded
     # Variable-width strings: one long line must not widen every other one in memory.
     split = text.split("\n")
     all_lines = text_array(split)
@@ -263,31 +256,33 @@ def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.nd
     )
 
 
-def _read_plain(
-    text: str, name: str, delimiter: str, numeric_columns: Sequence[str] = _NUMERIC
-) -> _Table:
-    """The fast reader, for files without quotes: one record per line, so every row's line
-    number is known before pandas' C parser splits the fields (``numeric_columns`` as
-    numbers where they all parse)."""
-    header_text, header_line, lines, widths, joined = _plain_lines(text, delimiter)
-    header = [cell.strip().lower() for cell in header_text.split(delimiter)]
-    _check_header(header, name=name, line=header_line)
-    wrong = np.flatnonzero(widths != len(header))
-    if wrong.size:
-        i = int(wrong[0])
-        raise _wrong_width(int(widths[i]), len(header), delimiter, name=name, line=int(lines[i]))
-    table = _Table(
-        path=name,
-        header=tuple(header),
-        columns={},
-        numbers={},
-        lines=lines,
-        delimiter=delimiter,
-        header_line=header_line,
-    )
-    if lines.size == 0:
-        table.columns = {col: np.empty(0, dtype=object) for col in header if col}
-        return table
+def _well_formed_body(text: str, delimiter: str) -> tuple[str, bytes, int] | None:
+    """The header's text, the body as UTF-8 and its number of lines, when the body holds
+    exactly the delimiters of that many lines of the header's width (two or more fields, the
+    delimiter not white space); else None.
+
+    Then no line is blank (each would hold a delimiter), and no line has fewer fields than
+    the header unless another has more, which pandas' C parser refuses (or, on the first
+    line, takes as an index): :func:`_read_plain` checks that instead of counting each
+    line's fields, which costs more than the parse of a clean file's numbers.
+    """
+    last = text[:-1] if text.endswith("\n") else text
+    header_text, _, body = last.partition("\n")
+    fields = header_text.count(delimiter) + 1
+    if not body or not header_text.strip() or delimiter.isspace() or fields < 2:
+        return None
+    encoded = body.encode("utf-8")
+    data = np.frombuffer(encoded, dtype=np.uint8)
+    n_lines = int(np.count_nonzero(data == 10)) + 1
+    if int(np.count_nonzero(data == ord(delimiter))) != (fields - 1) * n_lines:
+        return None
+    return header_text, encoded, n_lines
+
+
+def _parse_body(
+    joined: bytes, header: Sequence[str], delimiter: str, numeric_columns: Sequence[str]
+) -> tuple[pd.DataFrame, set[int]]:
+    """The body's fields by pandas' C parser, and which columns it gave as numbers."""
     options = {
         "sep": delimiter,
         "header": None,
@@ -298,7 +293,6 @@ def _read_plain(
         "engine": "c",
     }
     numeric = {i for i, col in enumerate(header) if col in numeric_columns}
-    frame = None
     if numeric:
         # Numbers straight from the C parser (the clean, common case); anything it refuses
         # ("nan", an empty cell, a word) sends the file through the strict text path.
@@ -312,14 +306,64 @@ def _read_plain(
                 **options,
             )
         except ValueError:
-            frame = None
-        if frame is not None and not all(
-            np.isfinite(frame[i].to_numpy(dtype=np.float64)).all() for i in numeric
-        ):
-            frame = None
-    if frame is None:
-        frame = pd.read_csv(io.BytesIO(joined), dtype=object, **options)
-        numeric = set()
+            pass
+        else:
+            if all(np.isfinite(frame[i].to_numpy(dtype=np.float64)).all() for i in numeric):
+                return frame, numeric
+    return pd.read_csv(io.BytesIO(joined), dtype=object, **options), set()
+
+
+def _read_plain(
+    text: str,
+    name: str,
+    delimiter: str,
+    numeric_columns: Sequence[str] = _NUMERIC,
+    *,
+    count_each_line: bool = False,
+) -> _Table:
+    """The fast reader, for files without quotes: one record per line, so every row's line
+    number is known before pandas' C parser splits the fields (``numeric_columns`` as
+    numbers where they all parse). Each line's fields are counted when the body's total
+    says some line may be blank or of the wrong width (:func:`_well_formed_body`), or
+    ``count_each_line``."""
+    well_formed = None if count_each_line else _well_formed_body(text, delimiter)
+    if well_formed is not None:
+        header_text, joined, n_lines = well_formed
+        header_line, lines, widths = 1, np.arange(2, 2 + n_lines, dtype=np.int64), None
+    else:
+        header_text, header_line, lines, widths, joined = _plain_lines(text, delimiter)
+    header = [cell.strip().lower() for cell in header_text.split(delimiter)]
+    _check_header(header, name=name, line=header_line)
+    if widths is not None:
+        wrong = np.flatnonzero(widths != len(header))
+        if wrong.size:
+            i = int(wrong[0])
+            raise _wrong_width(
+                int(widths[i]), len(header), delimiter, name=name, line=int(lines[i])
+            )
+    table = _Table(
+        path=name,
+        header=tuple(header),
+        columns={},
+        numbers={},
+        lines=lines,
+        delimiter=delimiter,
+        header_line=header_line,
+    )
+    if lines.size == 0:
+        table.columns = {col: np.empty(0, dtype=object) for col in header if col}
+        return table
+    try:
+        frame, numeric = _parse_body(joined, header, delimiter, numeric_columns)
+    except pd.errors.ParserError:
+        if widths is not None:
+            raise
+        frame = None
+    if widths is None and (frame is None or not isinstance(frame.index, pd.RangeIndex)):
+        # A line with more fields than the header (and so one with fewer): counted line by
+        # line to name the first.
+        return _read_plain(text, name, delimiter, numeric_columns, count_each_line=True)
+    assert frame is not None
     # White space around cells only matters when there is some; finding none is cheap.
     padded = b"\r" in joined or b" " in joined or (delimiter != "\t" and b"\t" in joined)
     for i, col in enumerate(header):
