@@ -6,8 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
+from turn_datasets.errors import TurnbenchError
 from turn_eval.events.reading import (
+    _Pairs,
     check_context,
     check_detections,
     check_event_reference,
@@ -16,6 +20,7 @@ from turn_eval.events.reading import (
     read_detections,
     read_event_reference,
     read_sessions,
+    units_of,
 )
 
 # Padded cells, upper-case directions, an empty speed and direction, an extra column.
@@ -79,3 +84,47 @@ def test_directions_are_lower_cased_from_a_file(tmp_path):
     path = tmp_path / "det.csv"
     path.write_text(DETECTIONS, encoding="utf-8")
     assert read_detections(path)["direction"].tolist() == ["left", "right", "", "left"]
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    rows=st.lists(
+        st.tuples(st.sampled_from(["s1", "s2", "s10", ""]), st.sampled_from(["P1", "P2", ""])),
+        min_size=1,
+        max_size=30,
+    ),
+    extra=st.lists(
+        st.tuples(st.sampled_from(["s1", "s3"]), st.sampled_from(["P1", "P3"])),
+        max_size=4,
+        unique=True,
+    ),
+    queries=st.lists(
+        st.tuples(st.sampled_from(["s1", "s2", "s3", "s9"]), st.sampled_from(["P1", "P3"])),
+        min_size=1,
+        max_size=10,
+    ),
+)
+def test_units_and_their_lookup_from_the_factorised_pairs(rows, extra, queries):
+    # Units are the distinct (session, subject) pairs of the reference's rows and of the
+    # sessions table, in sorted order; a row's unit is its pair's place among them; a
+    # detection's is -1 where the pair is not one of them. Worked out with Python's own set,
+    # sort and index, against the factorised pairs the scoring passes along.
+    reference = pd.DataFrame(rows, columns=["session", "subject"])
+    sessions = pd.DataFrame(extra, columns=["session", "subject"]) if extra else None
+    names = sorted(set(rows) | set(extra))
+    units, ref_unit = units_of(reference, sessions)
+    assert list(zip(units.sessions, units.subjects, strict=True)) == names
+    assert ref_unit.tolist() == [names.index(r) for r in rows]
+    detections = pd.DataFrame(queries, columns=["session", "subject"])
+    expected = [names.index(q) if q in names else -1 for q in queries]
+    assert units.codes(detections).tolist() == expected
+    pairs = _Pairs.of(detections)
+    assert units.lookup(pairs.sessions, pairs.subjects)[pairs.code].tolist() == expected
+
+
+def test_an_empty_subject_of_the_reference_names_its_line(tmp_path):
+    path = tmp_path / "ref.csv"
+    path.write_text(REFERENCE.replace("c3,s1,P1", "c3,s1,  "), encoding="utf-8")
+    with pytest.raises(TurnbenchError, match="subject is empty") as err:
+        read_event_reference(path)
+    assert err.value.where.row == 4

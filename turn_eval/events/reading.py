@@ -113,6 +113,29 @@ def pair_codes(*columns: np.ndarray, split: Sequence[int] = ()) -> list[np.ndarr
     return np.split(code, list(split))
 
 
+@dataclass(frozen=True)
+class _Pairs:
+    """The (session, subject) pair of every row of a table, factorised once for its checks,
+    its unit numbers and the lookup of its units: each row's pair number (in order of first
+    appearance) and each number's session and subject."""
+
+    code: np.ndarray
+    sessions: np.ndarray
+    subjects: np.ndarray
+
+    @classmethod
+    def of(cls, frame: pd.DataFrame) -> _Pairs:
+        a, uniq_a = pd.factorize(frame["session"].to_numpy(dtype=object), use_na_sentinel=False)
+        b, uniq_b = pd.factorize(frame["subject"].to_numpy(dtype=object), use_na_sentinel=False)
+        width = max(len(uniq_b), 1)
+        code, pairs = pd.factorize(a.astype(np.int64) * width + b)
+        return cls(
+            code=code.astype(np.int64),
+            sessions=np.asarray(uniq_a, dtype=object)[pairs // width],
+            subjects=np.asarray(uniq_b, dtype=object)[pairs % width],
+        )
+
+
 def _path_of(frame: pd.DataFrame, what: str) -> str:
     return str(frame.attrs.get("path", what))
 
@@ -136,6 +159,15 @@ def _check_text(frame: pd.DataFrame, what: str, columns: Sequence[str]) -> None:
             bad |= pd.isna(values)
         if bad.any():
             i, count = _first(bad)
+            raise _fail(f"{col} is empty", frame, what, i, count)
+
+
+def _check_unit_names(frame: pd.DataFrame, what: str, pairs: _Pairs) -> None:
+    """:func:`_check_text` of ``session`` and ``subject``, through their distinct pairs."""
+    for col, names in (("session", pairs.sessions), ("subject", pairs.subjects)):
+        empty = names == ""
+        if empty.any():
+            i, count = _first(empty[pairs.code])
             raise _fail(f"{col} is empty", frame, what, i, count)
 
 
@@ -172,8 +204,15 @@ def _check_number(
         )
 
 
-def _check_intervals(frame: pd.DataFrame, what: str, unit: Sequence[str], noun: str) -> None:
-    """End after start, no duplicate rows, no two intervals of one unit overlapping."""
+def _check_intervals(
+    frame: pd.DataFrame,
+    what: str,
+    unit: Sequence[str],
+    noun: str,
+    unit_code: np.ndarray | None = None,
+) -> None:
+    """End after start, no duplicate rows, no two intervals of one unit overlapping
+    (``unit_code``: each row's unit, if already numbered)."""
     start = frame["start_s"].to_numpy(dtype=np.float64)
     end = frame["end_s"].to_numpy(dtype=np.float64)
     backwards = end <= start
@@ -182,7 +221,8 @@ def _check_intervals(frame: pd.DataFrame, what: str, unit: Sequence[str], noun: 
         raise _fail(f"end_s {end[i]:g} is not after start_s {start[i]:g}", frame, what, i, count)
     if frame.shape[0] < 2:
         return
-    (unit_code,) = pair_codes(*(frame[c].to_numpy(dtype=object) for c in unit))
+    if unit_code is None:
+        (unit_code,) = pair_codes(*(frame[c].to_numpy(dtype=object) for c in unit))
     # Codes number the units in order of appearance, so a file written unit by unit in time
     # order (what a detector or the labels write) is already sorted: no sort needed.
     step = np.diff(unit_code)
@@ -261,6 +301,13 @@ def check_detections(frame: pd.DataFrame, *, what: str = "detections") -> pd.Dat
     the required ones, ``direction`` lower-cased (empty where not given), and ``attrs``
     ``path`` and ``lines`` kept. Raises :class:`TurnbenchError` as the module docstring says.
     """
+    return _checked_detections(frame, what)[0]
+
+
+def _checked_detections(
+    frame: pd.DataFrame, what: str = "detections"
+) -> tuple[pd.DataFrame, _Pairs]:
+    """:func:`check_detections`, and the rows' (session, subject) pairs it factorised."""
     _missing(frame, list(DETECTION_REQUIRED), what)
     cols = [*DETECTION_REQUIRED, *(c for c in DETECTION_OPTIONAL if c in frame.columns)]
     # Shallow: every column this changes is replaced, never written into, so the caller's
@@ -268,7 +315,8 @@ def check_detections(frame: pd.DataFrame, *, what: str = "detections") -> pd.Dat
     out = frame.loc[:, cols].copy(deep=False)
     out.attrs = dict(frame.attrs)
     _set_texts(out, _UNIT)
-    _check_text(out, what, _UNIT)
+    pairs = _Pairs.of(out)
+    _check_unit_names(out, what, pairs)
     _set_floats(
         out, ("start_s", "end_s", "angle_deg", *(c for c in ("speed_deg_s", "score") if c in out))
     )
@@ -282,8 +330,8 @@ def check_detections(frame: pd.DataFrame, *, what: str = "detections") -> pd.Dat
         _check_number(out, what, "score", allow_negative=True)
     if "direction" in out:
         _check_direction(out, what)
-    _check_intervals(out, what, _UNIT, "detection")
-    return out.reset_index(drop=True).pipe(_keep_attrs, frame)
+    _check_intervals(out, what, _UNIT, "detection", pairs.code)
+    return out.reset_index(drop=True).pipe(_keep_attrs, frame), pairs
 
 
 def _keep_attrs(out: pd.DataFrame, source: pd.DataFrame) -> pd.DataFrame:
@@ -335,11 +383,16 @@ def _frame_of(
 
 def read_detections(path: str | os.PathLike[str]) -> pd.DataFrame:
     """Read and validate a detections CSV (:func:`check_detections`); other columns ignored."""
+    return _read_detections(path)[0]
+
+
+def _read_detections(path: str | os.PathLike[str]) -> tuple[pd.DataFrame, _Pairs]:
+    """:func:`read_detections`, and the rows' (session, subject) pairs."""
     numeric = ("start_s", "end_s", "angle_deg", "speed_deg_s", "score")
     table = _read_table(path, what="detections", numeric_columns=numeric)
     _require(table, list(DETECTION_REQUIRED), what="the detections file")
     frame = _frame_of(table, numeric, allow_empty=("speed_deg_s",))
-    return check_detections(frame, what=table.path)
+    return _checked_detections(frame, what=table.path)
 
 
 def check_event_reference(frame: pd.DataFrame, *, what: str = "reference") -> pd.DataFrame:
@@ -349,18 +402,26 @@ def check_event_reference(frame: pd.DataFrame, *, what: str = "reference") -> pd
     Returns ``session, subject, start_s, end_s, angle_deg`` (typed), ``direction`` when the
     reference has it, then every other text column (stripped strings) as possible groupings.
     """
+    return _checked_event_reference(frame, what)[0]
+
+
+def _checked_event_reference(
+    frame: pd.DataFrame, what: str = "reference"
+) -> tuple[pd.DataFrame, _Pairs]:
+    """:func:`check_event_reference`, and the rows' (session, subject) pairs it factorised."""
     frame = frame if "session" in frame.columns else _clip_index_sessions(frame, what)
     _missing(frame, REFERENCE_REQUIRED, what)
     out = frame.copy(deep=False)
     _set_texts(out, _UNIT)
-    _check_text(out, what, _UNIT)
+    pairs = _Pairs.of(out)
+    _check_unit_names(out, what, pairs)
     for col in ("start_s", "end_s", "angle_deg"):
         _set_floats(out, (col,))
         high = MAX_ANGLE_DEG if col == "angle_deg" else np.inf
         _check_number(out, what, col, high=high)
     if "direction" in out:
         _check_direction(out, what)
-    _check_intervals(out, what, _UNIT, "reference turn")
+    _check_intervals(out, what, _UNIT, "reference turn", pairs.code)
     numeric = {"start_s", "end_s", "angle_deg"}
     rest = [
         c
@@ -371,7 +432,7 @@ def check_event_reference(frame: pd.DataFrame, *, what: str = "reference") -> pd
     ]
     _set_texts(out, rest)
     cols = [*REFERENCE_REQUIRED, *(["direction"] if "direction" in out else []), *rest]
-    return out.loc[:, cols].reset_index(drop=True).pipe(_keep_attrs, frame)
+    return out.loc[:, cols].reset_index(drop=True).pipe(_keep_attrs, frame), pairs
 
 
 def _clip_index_sessions(frame: pd.DataFrame, what: str) -> pd.DataFrame:
@@ -387,10 +448,15 @@ def _clip_index_sessions(frame: pd.DataFrame, what: str) -> pd.DataFrame:
 
 def read_event_reference(path: str | os.PathLike[str]) -> pd.DataFrame:
     """Read and validate a reference CSV (:func:`check_event_reference`)."""
+    return _read_event_reference(path)[0]
+
+
+def _read_event_reference(path: str | os.PathLike[str]) -> tuple[pd.DataFrame, _Pairs]:
+    """:func:`read_event_reference`, and the rows' (session, subject) pairs."""
     numeric = ("start_s", "end_s", "angle_deg")
     table = _read_table(path, what="reference", numeric_columns=numeric)
     frame = _frame_of(table, numeric)
-    return check_event_reference(frame, what=table.path)
+    return _checked_event_reference(frame, what=table.path)
 
 
 def check_context(frame: pd.DataFrame, *, what: str = "context") -> pd.DataFrame:
@@ -495,9 +561,16 @@ def units_of(
     reference: pd.DataFrame, sessions: pd.DataFrame | None = None
 ) -> tuple[Units, np.ndarray]:
     """:func:`known_units` and each reference row's unit number, from one factorisation."""
-    parts = [reference] if sessions is None else [reference, sessions]
-    sessions_all = np.concatenate([p["session"].to_numpy(dtype=object) for p in parts])
-    subjects_all = np.concatenate([p["subject"].to_numpy(dtype=object) for p in parts])
+    return _units_of_pairs(_Pairs.of(reference), sessions)
+
+
+def _units_of_pairs(pairs: _Pairs, sessions: pd.DataFrame | None) -> tuple[Units, np.ndarray]:
+    """:func:`units_of` from the reference's pairs: only its distinct pairs and the sessions
+    table's rows are numbered, not every reference row again."""
+    sessions_all, subjects_all = pairs.sessions, pairs.subjects
+    if sessions is not None:
+        sessions_all = np.concatenate([sessions_all, sessions["session"].to_numpy(dtype=object)])
+        subjects_all = np.concatenate([subjects_all, sessions["subject"].to_numpy(dtype=object)])
     (code,) = pair_codes(sessions_all, subjects_all)
     _, first, inverse = np.unique(code, return_index=True, return_inverse=True)
     # Units in sorted (session, subject) order: rank the distinct pairs by their names.
@@ -508,7 +581,7 @@ def units_of(
     rank[order] = np.arange(first.shape[0])
     chosen = first[order]
     units = Units(sessions=sessions_all[chosen], subjects=subjects_all[chosen])
-    return units, rank[inverse.reshape(-1)][: reference.shape[0]]
+    return units, rank[inverse.reshape(-1)][: pairs.sessions.shape[0]][pairs.code]
 
 
 def drop_unknown(
@@ -517,13 +590,18 @@ def drop_unknown(
     *,
     ignore_unknown: bool,
     warn: Callable[[str], None] | None = None,
+    pairs: _Pairs | None = None,
 ) -> tuple[pd.DataFrame, np.ndarray, int]:
     """The detections of annotated units, their unit numbers, and how many were dropped.
 
     A detection of a unit the reference lacks is an error naming its line, unless
     ``ignore_unknown``: then such rows are dropped and counted (and ``warn`` told).
+    ``pairs`` (the detections' own, if factorised) has each distinct pair looked up once.
     """
-    codes = units.codes(detections)
+    if pairs is None:
+        codes = units.codes(detections)
+    else:
+        codes = units.lookup(pairs.sessions, pairs.subjects)[pairs.code]
     unknown = codes < 0
     if not unknown.any():
         return detections, codes, 0

@@ -55,17 +55,17 @@ from turn_eval.events.contract import CONTEXT_GROUPS
 from turn_eval.events.matching import categorize_events, overlapping_pairs
 from turn_eval.events.reading import (
     Units,
+    _checked_detections,
+    _checked_event_reference,
+    _read_detections,
+    _read_event_reference,
+    _units_of_pairs,
     check_context,
-    check_detections,
-    check_event_reference,
     check_sessions,
     drop_unknown,
     pair_codes,
     read_context,
-    read_detections,
-    read_event_reference,
     read_sessions,
-    units_of,
 )
 from turn_eval.metrics import (
     CONFIDENCE,
@@ -687,14 +687,17 @@ def score_events(
         raise TurnbenchError(f"--iou must be in (0, 1], got {iou}")
     if n_resamples < 0 or seed < 0:
         raise TurnbenchError("--bootstrap and --seed must be 0 or more")
-    det = _load(detections, read_detections, check_detections)
-    ref = _load(reference, read_event_reference, check_event_reference)
+    # The (session, subject) pairs of every row are factorised once, by the validation.
+    det, det_pairs = _load(detections, _read_detections, _checked_detections)
+    ref, ref_pairs = _load(reference, _read_event_reference, _checked_event_reference)
     ctx = _load(context, read_context, check_context)
     ses = _load(sessions, read_sessions, check_sessions)
     factorized: _Factorized = {}
     groupings = _groupings(ref, by, factorized)
-    units, ref_unit = units_of(ref, ses)
-    det, det_unit, n_dropped = drop_unknown(det, units, ignore_unknown=ignore_unknown, warn=warn)
+    units, ref_unit = _units_of_pairs(ref_pairs, ses)
+    det, det_unit, n_dropped = drop_unknown(
+        det, units, ignore_unknown=ignore_unknown, warn=warn, pairs=det_pairs
+    )
 
     overlaps = overlapping_pairs(det, det_unit, ref, ref_unit)
     events = categorize_events(det, det_unit, ref, ref_unit, iou=iou, overlaps=overlaps)
