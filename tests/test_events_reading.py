@@ -128,3 +128,11 @@ def test_an_empty_subject_of_the_reference_names_its_line(tmp_path):
     with pytest.raises(TurnbenchError, match="subject is empty") as err:
         read_event_reference(path)
     assert err.value.where.row == 4
+
+
+def test_pairs_number_a_missing_name_as_a_name():
+    frame = pd.DataFrame({"session": ["s1", np.nan, "s1", np.nan], "subject": ["P1"] * 4})
+    pairs = _Pairs.of(frame)
+    assert pairs.code.tolist() == [0, 1, 0, 1]
+    assert pairs.sessions[0] == "s1" and pd.isna(pairs.sessions[1])
+    assert pairs.subjects.tolist() == ["P1", "P1"]

@@ -113,6 +113,15 @@ def pair_codes(*columns: np.ndarray, split: Sequence[int] = ()) -> list[np.ndarr
     return np.split(code, list(split))
 
 
+def _factorize_names(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``pandas.factorize``, a missing name (NaN) numbered as a name too (rarely needed, and
+    twice as slow to ask for)."""
+    codes, names = pd.factorize(values)
+    if (codes < 0).any():
+        codes, names = pd.factorize(values, use_na_sentinel=False)
+    return codes, names
+
+
 @dataclass(frozen=True)
 class _Pairs:
     """The (session, subject) pair of every row of a table, factorised once for its checks,
@@ -125,8 +134,8 @@ class _Pairs:
 
     @classmethod
     def of(cls, frame: pd.DataFrame) -> _Pairs:
-        a, uniq_a = pd.factorize(frame["session"].to_numpy(dtype=object), use_na_sentinel=False)
-        b, uniq_b = pd.factorize(frame["subject"].to_numpy(dtype=object), use_na_sentinel=False)
+        a, uniq_a = _factorize_names(frame["session"].to_numpy(dtype=object))
+        b, uniq_b = _factorize_names(frame["subject"].to_numpy(dtype=object))
         width = max(len(uniq_b), 1)
         code, pairs = pd.factorize(a.astype(np.int64) * width + b)
         return cls(
