@@ -384,7 +384,7 @@ def _read_table(
     parser when every cell of them is a finite number (else :func:`_numbers` parses them)."""
     name = os.fspath(path)
     text = _one_newline(_read_text(name, what=what), name, what=what)
-    if not text.strip():
+    if not text or text.isspace():  # blank (strip would copy the whole text to say so)
         raise TurnbenchError(f"empty {what} file: no header and no rows", file=name)
     # The first line with something on it, found without splitting the whole text.
     first = re.search(r"\S", text)
