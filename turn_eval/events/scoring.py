@@ -453,6 +453,24 @@ def _pair_stats(
     ]
 
 
+def _matched_by_group(
+    partitions: Sequence[Partition], tp: np.ndarray, outcomes, agree, dstart, dend
+) -> tuple[list[dict[str, np.ndarray]], list[list[dict[str, Any]]]]:
+    """Per grouping, the harness's own metrics of each group's matched pairs (as `score`
+    computes them) and the pairs' direction agreement and boundary medians."""
+    matched: list[dict[str, np.ndarray]] = [{} for _ in partitions]
+    if outcomes.n > 0:
+        matched = grouped_metrics(
+            outcomes, [Partition(p.name, p.labels, p.codes[tp]) for p in partitions]
+        )
+    # |Δstart| and |Δend| sorted once for every grouping's medians.
+    ascending = (np.argsort(dstart), np.argsort(dend))
+    pair_stats = [
+        _pair_stats(p.codes[tp], len(p.labels), agree, dstart, dend, ascending) for p in partitions
+    ]
+    return matched, pair_stats
+
+
 def _rates(
     units: Units,
     ref_unit: np.ndarray,
@@ -715,17 +733,7 @@ def score_events(
     if n_resamples > 0 and len(units) > 0:
         resampled = cluster_bootstrap(sums, n_resamples=n_resamples, seed=seed, progress=progress)
         distributions = {name: _intervals(d) for name, d in resampled.items()}
-    # The harness's own metrics of the matched pairs of every group (as `score` computes).
-    matched: list[dict[str, np.ndarray]] = [{} for _ in partitions]
-    if outcomes.n > 0:
-        matched = grouped_metrics(
-            outcomes, [Partition(p.name, p.labels, p.codes[tp]) for p in partitions]
-        )
-
-    ascending = (np.argsort(dstart), np.argsort(dend))
-    pair_stats = [
-        _pair_stats(p.codes[tp], len(p.labels), agree, dstart, dend, ascending) for p in partitions
-    ]
+    matched, pair_stats = _matched_by_group(partitions, tp, outcomes, agree, dstart, dend)
     entry = _Entries(partitions, sums, matched, pair_stats, distributions)
     overall = entry(0, 0)
     rates = None
