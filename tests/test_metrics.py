@@ -374,3 +374,19 @@ def test_a_huge_finite_angle_is_scored_not_crashed():
     report = bin_report(o)
     assert report["per_bin"]["90"] == {"n": 2, "n_predicted": 1, "precision": 1.0, "recall": 0.5}
     assert report["kappa"] is not None and -1.0 <= report["kappa"] <= 1.0
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_segments_are_numpys_unique_rows(seed):
+    # The distinct rows' first indices and every row's id, as np.unique(axis=0) gives them.
+    from turn_eval.metrics import _segments
+
+    rng = np.random.default_rng(seed)
+    sizes = [3, 5, 2]
+    columns = [rng.integers(0, size, 200) for size in sizes]
+    first, seg = _segments(columns, sizes)
+    _, first_np, seg_np = np.unique(
+        np.stack(columns, axis=1), axis=0, return_index=True, return_inverse=True
+    )
+    assert first.tolist() == first_np.tolist()
+    assert seg.tolist() == seg_np.reshape(-1).tolist()

@@ -20,6 +20,7 @@ from turn_eval.submission import (
     JOINED_COLUMNS,
     _has_blank_line,
     _plain_lines,
+    _read_plain,
     read_predictions,
     read_reference,
 )
@@ -417,6 +418,88 @@ def test_line_scan_fast_path_equals_line_by_line(rows, delimiter, crlf, final_ne
     # Counted by hand from the lines themselves.
     assert fast[2].tolist() == list(range(2, len(lines) + 1))
     assert fast[3].tolist() == [line.count(delimiter) + 1 for line in lines[1:]]
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    width=st.integers(1, 4),
+    cells=st.lists(
+        st.one_of(_CELL, st.sampled_from(["", " ", "\t", "\u00a0", "\x0c"])),
+        min_size=1,
+        max_size=40,
+    ),
+    delimiter=st.sampled_from([",", ";", "\t"]),
+    final_newline=st.booleans(),
+)
+def test_line_scan_of_rows_of_one_width_equals_the_definition(
+    width, cells, delimiter, final_newline
+):
+    # Rows of the header's width (the well-formed file the scan shortcuts), cells that may
+    # be white space or the delimiter: the header, line numbers, field counts and body are
+    # those of the lines with something on them, taken one by one.
+    rows = [cells[i : i + width] for i in range(0, len(cells), width)]
+    lines = [delimiter.join(row) for row in rows]
+    if not lines[0].strip():
+        return
+    text = "\n".join(lines) + ("\n" if final_newline else "")
+    kept = [(n, line) for n, line in enumerate(text.split("\n"), start=1) if line.strip()]
+    header, *body = kept
+    got = _plain_lines(text, delimiter)
+    assert got[:2] == (header[1], header[0])
+    assert got[2].tolist() == [n for n, _ in body]
+    assert got[3].tolist() == [line.count(delimiter) + 1 for _, line in body]
+    assert got[4] == "\n".join(line for _, line in body).encode("utf-8")
+
+
+def _outcome(read):
+    try:
+        table = read()
+    except TurnbenchError as exc:
+        return ("error", str(exc))
+    return (
+        table.header,
+        table.header_line,
+        table.lines.tolist(),
+        {c: v.tolist() for c, v in table.columns.items()},
+        {c: v.tolist() for c, v in table.numbers.items()},
+    )
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    widths=st.lists(st.integers(0, 4), min_size=1, max_size=8),
+    cells=st.lists(st.sampled_from(["1", "2.5", "x", "", " ", "nan"]), min_size=32, max_size=32),
+    delimiter=st.sampled_from([",", ";", "\t"]),
+    header_width=st.integers(1, 3),
+)
+def test_reader_without_a_count_per_line_reads_as_with_one(widths, cells, delimiter, header_width):
+    # Lines of any width, blank ones among them (width 0), so that the body's total of
+    # delimiters may be right while lines are not (one long, one short): the reader that
+    # trusts the total and the parser reads exactly what it reads counting every line's
+    # fields, and refuses the same line with the same message.
+    header = delimiter.join(["angle_deg", "note", "speed_deg_s"][:header_width])
+    it = iter(cells)
+    rows = [delimiter.join(next(it) for _ in range(w)) if w else "" for w in widths]
+    text = header + "\n" + "\n".join(rows) + "\n"
+    assert _outcome(lambda: _read_plain(text, "f.csv", delimiter)) == _outcome(
+        lambda: _read_plain(text, "f.csv", delimiter, count_each_line=True)
+    )
+
+
+@pytest.mark.parametrize(
+    "rows",
+    [
+        ["1,2,3,4", "1,2", "1,2,3"],  # the first line long, a later one short
+        ["1,2", "1,2,3,4", "1,2,3"],  # a short line, then a long one
+        ["1,2,3", "", "1,2,3,4,5"],  # a blank line made up for by a long one
+    ],
+)
+def test_a_long_line_hidden_by_a_short_one_is_named(rows):
+    text = "a,b,c\n" + "\n".join(rows) + "\n"
+    with pytest.raises(TurnbenchError, match="fields but the header has 3") as err:
+        _read_plain(text, "f.csv", ",")
+    bad = next(i for i, row in enumerate(rows) if row and row.count(",") != 2)
+    assert err.value.where.row == bad + 2
 
 
 def test_a_line_of_unicode_white_space_is_blank(tmp_path, ref):

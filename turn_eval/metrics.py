@@ -390,7 +390,11 @@ def _segments(columns: Sequence[np.ndarray], sizes: Sequence[int]) -> tuple[np.n
         key = np.zeros(columns[0].shape[0], dtype=np.int64)
         for column, size in zip(columns, sizes, strict=True):
             key = key * size + column
-        _, first, seg = np.unique(key, return_index=True, return_inverse=True)
+        # np.unique's first indices, without the stable sort it uses to find them (the
+        # first index of each value is its smallest).
+        uniq, seg = np.unique(key, return_inverse=True)
+        first = np.full(uniq.shape[0], key.shape[0], dtype=np.int64)
+        np.minimum.at(first, seg.reshape(-1), np.arange(key.shape[0]))
     else:
         _, first, seg = np.unique(
             np.stack(columns, axis=1), axis=0, return_index=True, return_inverse=True

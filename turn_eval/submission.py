@@ -212,11 +212,12 @@ def _has_blank_line(text: str) -> bool:
     return not text[text.rfind("\n") + 1 :].strip()
 
 
-def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.ndarray, str]:
+def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.ndarray, bytes]:
     """Split a quote-free text into its header and body, skipping blank lines.
 
     Returns the header's text and line number, each body line's line number and number of
-    fields, and the body's lines joined by ``\n`` for pandas.
+    fields, and the body's lines joined by ``\n`` for pandas, as UTF-8 (what its C parser
+    reads: given text, it would encode it again).
     """
     last = text[:-1] if text.endswith("\n") else text
     if not _has_blank_line(last):
@@ -226,8 +227,9 @@ def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.nd
         # character), without splitting the text into lines.
         header_text, _, body = last.partition("\n")
         if not body:
-            return header_text, 1, np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), ""
-        data = np.frombuffer(body.encode("utf-8"), dtype=np.uint8)
+            return header_text, 1, np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64), b""
+        encoded = body.encode("utf-8")
+        data = np.frombuffer(encoded, dtype=np.uint8)
         # One scan for both marks: a line's delimiters are the marks between its newline
         # and the previous one (the body ends without a newline: its last line ends there).
         newline = data == 10
@@ -235,7 +237,7 @@ def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.nd
         stops = np.append(np.flatnonzero(newline[marks]), marks.size)
         fields = np.diff(stops, prepend=-1)
         lines = np.arange(2, 2 + stops.size, dtype=np.int64)
-        return header_text, 1, lines, fields, body
+        return header_text, 1, lines, fields, encoded
     # Variable-width strings: one long line must not widen every other one in memory.
     split = text.split("\n")
     all_lines = text_array(split)
@@ -250,23 +252,95 @@ def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.nd
         int(numbers[0]),
         numbers[1:].astype(np.int64),
         count(body_lines, delimiter) + 1,
-        "\n".join(body_lines.tolist()),
+        "\n".join(body_lines.tolist()).encode("utf-8"),
     )
 
 
+def _well_formed_body(text: str, delimiter: str) -> tuple[str, bytes, int] | None:
+    """The header's text, the body as UTF-8 and its number of lines, when the body holds
+    exactly the delimiters of that many lines of the header's width (two or more fields, the
+    delimiter not white space); else None.
+
+    Then no line is blank (each would hold a delimiter), and no line has fewer fields than
+    the header unless another has more, which pandas' C parser refuses (or, on the first
+    line, takes as an index): :func:`_read_plain` checks that instead of counting each
+    line's fields, which costs more than the parse of a clean file's numbers.
+    """
+    last = text[:-1] if text.endswith("\n") else text
+    header_text, _, body = last.partition("\n")
+    fields = header_text.count(delimiter) + 1
+    if not body or not header_text.strip() or delimiter.isspace() or fields < 2:
+        return None
+    encoded = body.encode("utf-8")
+    data = np.frombuffer(encoded, dtype=np.uint8)
+    n_lines = int(np.count_nonzero(data == 10)) + 1
+    if int(np.count_nonzero(data == ord(delimiter))) != (fields - 1) * n_lines:
+        return None
+    return header_text, encoded, n_lines
+
+
+def _parse_body(
+    joined: bytes, header: Sequence[str], delimiter: str, numeric_columns: Sequence[str]
+) -> tuple[pd.DataFrame, set[int]]:
+    """The body's fields by pandas' C parser, and which columns it gave as numbers."""
+    options = {
+        "sep": delimiter,
+        "header": None,
+        "names": list(range(len(header))),
+        "keep_default_na": False,
+        "quoting": csv.QUOTE_NONE,
+        "skip_blank_lines": False,
+        "engine": "c",
+    }
+    numeric = {i for i, col in enumerate(header) if col in numeric_columns}
+    if numeric:
+        # Numbers straight from the C parser (the clean, common case); anything it refuses
+        # ("nan", an empty cell, a word) sends the file through the strict text path.
+        try:
+            frame = pd.read_csv(
+                io.BytesIO(joined),
+                # Text as object columns of str, as the table keeps them: pandas' str dtype
+                # would be made only to be turned back into objects.
+                dtype={i: ("float64" if i in numeric else object) for i in range(len(header))},
+                decimal="," if delimiter != "," else ".",
+                **options,
+            )
+        except ValueError:
+            pass
+        else:
+            if all(np.isfinite(frame[i].to_numpy(dtype=np.float64)).all() for i in numeric):
+                return frame, numeric
+    return pd.read_csv(io.BytesIO(joined), dtype=object, **options), set()
+
+
 def _read_plain(
-    text: str, name: str, delimiter: str, numeric_columns: Sequence[str] = _NUMERIC
+    text: str,
+    name: str,
+    delimiter: str,
+    numeric_columns: Sequence[str] = _NUMERIC,
+    *,
+    count_each_line: bool = False,
 ) -> _Table:
     """The fast reader, for files without quotes: one record per line, so every row's line
     number is known before pandas' C parser splits the fields (``numeric_columns`` as
-    numbers where they all parse)."""
-    header_text, header_line, lines, widths, joined = _plain_lines(text, delimiter)
+    numbers where they all parse). Each line's fields are counted when the body's total
+    says some line may be blank or of the wrong width (:func:`_well_formed_body`), or
+    ``count_each_line``."""
+    well_formed = None if count_each_line else _well_formed_body(text, delimiter)
+    if well_formed is not None:
+        header_text, joined, n_lines = well_formed
+        header_line, lines, widths = 1, np.arange(2, 2 + n_lines, dtype=np.int64), None
+    else:
+        header_text, header_line, lines, widths, joined = _plain_lines(text, delimiter)
     header = [cell.strip().lower() for cell in header_text.split(delimiter)]
     _check_header(header, name=name, line=header_line)
-    wrong = np.flatnonzero(widths != len(header))
-    if wrong.size:
-        i = int(wrong[0])
-        raise _wrong_width(int(widths[i]), len(header), delimiter, name=name, line=int(lines[i]))
+    if widths is not None:
+        wrong = np.flatnonzero(widths != len(header))
+        if wrong.size:
+            i = int(wrong[0])
+            raise _wrong_width(
+                int(widths[i]), len(header), delimiter, name=name, line=int(lines[i])
+            )
     table = _Table(
         path=name,
         header=tuple(header),
@@ -279,38 +353,19 @@ def _read_plain(
     if lines.size == 0:
         table.columns = {col: np.empty(0, dtype=object) for col in header if col}
         return table
-    options = {
-        "sep": delimiter,
-        "header": None,
-        "names": list(range(len(header))),
-        "keep_default_na": False,
-        "quoting": csv.QUOTE_NONE,
-        "skip_blank_lines": False,
-        "engine": "c",
-    }
-    numeric = {i for i, col in enumerate(header) if col in numeric_columns}
-    frame = None
-    if numeric:
-        # Numbers straight from the C parser (the clean, common case); anything it refuses
-        # ("nan", an empty cell, a word) sends the file through the strict text path.
-        try:
-            frame = pd.read_csv(
-                io.StringIO(joined),
-                dtype={i: ("float64" if i in numeric else str) for i in range(len(header))},
-                decimal="," if delimiter != "," else ".",
-                **options,
-            )
-        except ValueError:
-            frame = None
-        if frame is not None and not all(
-            np.isfinite(frame[i].to_numpy(dtype=np.float64)).all() for i in numeric
-        ):
-            frame = None
-    if frame is None:
-        frame = pd.read_csv(io.StringIO(joined), dtype=str, **options)
-        numeric = set()
+    try:
+        frame, numeric = _parse_body(joined, header, delimiter, numeric_columns)
+    except pd.errors.ParserError:
+        if widths is not None:
+            raise
+        frame = None
+    if widths is None and (frame is None or not isinstance(frame.index, pd.RangeIndex)):
+        # A line with more fields than the header (and so one with fewer): counted line by
+        # line to name the first.
+        return _read_plain(text, name, delimiter, numeric_columns, count_each_line=True)
+    assert frame is not None
     # White space around cells only matters when there is some; finding none is cheap.
-    padded = "\r" in joined or " " in joined or (delimiter != "\t" and "\t" in joined)
+    padded = b"\r" in joined or b" " in joined or (delimiter != "\t" and b"\t" in joined)
     for i, col in enumerate(header):
         if not col:
             continue
@@ -329,7 +384,7 @@ def _read_table(
     parser when every cell of them is a finite number (else :func:`_numbers` parses them)."""
     name = os.fspath(path)
     text = _one_newline(_read_text(name, what=what), name, what=what)
-    if not text.strip():
+    if not text or text.isspace():  # blank (strip would copy the whole text to say so)
         raise TurnbenchError(f"empty {what} file: no header and no rows", file=name)
     # The first line with something on it, found without splitting the whole text.
     first = re.search(r"\S", text)

@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from turn_eval.events._order import stable_argsort
 from turn_eval.events.matching import eligible_pairs, overlapping_pairs
 
 __all__ = ["AP_IOUS", "interpolated_ap", "greedy_true_positives", "average_precision"]
@@ -116,7 +117,7 @@ def average_precision(
     score = detections["score"].to_numpy(dtype=np.float64)
     n_det = score.shape[0]
     n_ref = reference.shape[0]
-    ranking = np.argsort(-score, kind="stable")
+    ranking = stable_argsort(-score)  # np.argsort(-score, kind="stable"), faster
     rank = np.empty(n_det, dtype=np.int64)
     rank[ranking] = np.arange(n_det)
     if overlaps is None:

@@ -58,9 +58,13 @@ def unit_sums(
     components (``(events, components)``).
     """
     k = values.shape[1]
-    # One bincount for every component: event e's component j goes to cell (unit, group, j).
-    cell = ((unit * n_groups + group) * k)[:, None] + np.arange(k)
-    out = np.bincount(cell.ravel(), weights=values.ravel(), minlength=n_units * n_groups * k)
+    cell = unit * n_groups + group
+    size = n_units * n_groups
+    out = np.empty((size, k))
+    # One bincount per component (each adds its events in order, as one over every
+    # component would): reads a column-stored ``values`` in order.
+    for j in range(k):
+        out[:, j] = np.bincount(cell, weights=values[:, j], minlength=size)
     return out.reshape(n_units, n_groups, k)
 
 

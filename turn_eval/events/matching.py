@@ -38,6 +38,8 @@ from scipy.optimize import linear_sum_assignment
 from scipy.sparse import coo_array
 from scipy.sparse.csgraph import connected_components
 
+from turn_eval.events._order import lexsort, unit_time_guess
+
 __all__ = [
     "EVENT_COLUMNS",
     "temporal_iou",
@@ -82,7 +84,7 @@ def _overlapping(
     Both sides are searched on (unit, time) keys as complex numbers, which numpy orders
     lexicographically (real part first), so one ``searchsorted`` spans every unit.
     """
-    order = np.lexsort((ref_start, ref_unit))
+    order = lexsort((ref_start, ref_unit), unit_time_guess(ref_unit, ref_start))
     ru = ref_unit[order].astype(np.float64)
     # Reference turns of a unit do not overlap, so in start order their ends are sorted too.
     lo = np.searchsorted(ru + 1j * ref_end[order], det_unit + 1j * det_start, side="right")
@@ -262,7 +264,7 @@ def categorize_events(
     has_ref = ref_row >= 0
     start[has_ref] = rs[ref_row[has_ref]]
     start[~has_ref] = ds[det_row[~has_ref]]
-    order = np.lexsort((det_row, start, unit))
+    order = lexsort((det_row, start, unit), unit_time_guess(unit, start))
     return pd.DataFrame(
         {
             "unit": unit[order],

@@ -76,6 +76,22 @@ def _text_series(values: np.ndarray, frame: pd.DataFrame) -> pd.Series:
     return pd.Series(np.asarray(values, dtype=object), index=frame.index, dtype=object)
 
 
+def _set_texts(frame: pd.DataFrame, columns: Sequence[str]) -> None:
+    """Make ``columns`` of ``frame`` stripped ``str`` objects (:func:`_texts`), in place; a
+    column of the file reader's frame is one already and is left as it is."""
+    for col in columns:
+        if frame.attrs.get("stripped") and frame[col].dtype == object:
+            continue
+        frame[col] = _text_series(_texts(frame, col), frame)
+
+
+def _set_floats(frame: pd.DataFrame, columns: Sequence[str]) -> None:
+    """Make ``columns`` of ``frame`` float64, anything not a number NaN, in place."""
+    for col in columns:
+        if frame[col].dtype != np.float64:
+            frame[col] = pd.to_numeric(frame[col], errors="coerce").astype(np.float64)
+
+
 def _lines_of(frame: pd.DataFrame) -> np.ndarray:
     lines = frame.attrs.get("lines")
     if lines is None or len(lines) != frame.shape[0]:
@@ -95,6 +111,38 @@ def pair_codes(*columns: np.ndarray, split: Sequence[int] = ()) -> list[np.ndarr
     b, uniq_b = pd.factorize(np.asarray(second, dtype=object))
     code = a.astype(np.int64) * max(len(uniq_b), 1) + b
     return np.split(code, list(split))
+
+
+def _factorize_names(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``pandas.factorize``, a missing name (NaN) numbered as a name too (rarely needed, and
+    twice as slow to ask for)."""
+    codes, names = pd.factorize(values)
+    if (codes < 0).any():
+        codes, names = pd.factorize(values, use_na_sentinel=False)
+    return codes, names
+
+
+@dataclass(frozen=True)
+class _Pairs:
+    """The (session, subject) pair of every row of a table, factorised once for its checks,
+    its unit numbers and the lookup of its units: each row's pair number (in order of first
+    appearance) and each number's session and subject."""
+
+    code: np.ndarray
+    sessions: np.ndarray
+    subjects: np.ndarray
+
+    @classmethod
+    def of(cls, frame: pd.DataFrame) -> _Pairs:
+        a, uniq_a = _factorize_names(frame["session"].to_numpy(dtype=object))
+        b, uniq_b = _factorize_names(frame["subject"].to_numpy(dtype=object))
+        width = max(len(uniq_b), 1)
+        code, pairs = pd.factorize(a.astype(np.int64) * width + b)
+        return cls(
+            code=code.astype(np.int64),
+            sessions=np.asarray(uniq_a, dtype=object)[pairs // width],
+            subjects=np.asarray(uniq_b, dtype=object)[pairs % width],
+        )
 
 
 def _path_of(frame: pd.DataFrame, what: str) -> str:
@@ -120,6 +168,15 @@ def _check_text(frame: pd.DataFrame, what: str, columns: Sequence[str]) -> None:
             bad |= pd.isna(values)
         if bad.any():
             i, count = _first(bad)
+            raise _fail(f"{col} is empty", frame, what, i, count)
+
+
+def _check_unit_names(frame: pd.DataFrame, what: str, pairs: _Pairs) -> None:
+    """:func:`_check_text` of ``session`` and ``subject``, through their distinct pairs."""
+    for col, names in (("session", pairs.sessions), ("subject", pairs.subjects)):
+        empty = names == ""
+        if empty.any():
+            i, count = _first(empty[pairs.code])
             raise _fail(f"{col} is empty", frame, what, i, count)
 
 
@@ -156,8 +213,15 @@ def _check_number(
         )
 
 
-def _check_intervals(frame: pd.DataFrame, what: str, unit: Sequence[str], noun: str) -> None:
-    """End after start, no duplicate rows, no two intervals of one unit overlapping."""
+def _check_intervals(
+    frame: pd.DataFrame,
+    what: str,
+    unit: Sequence[str],
+    noun: str,
+    unit_code: np.ndarray | None = None,
+) -> None:
+    """End after start, no duplicate rows, no two intervals of one unit overlapping
+    (``unit_code``: each row's unit, if already numbered)."""
     start = frame["start_s"].to_numpy(dtype=np.float64)
     end = frame["end_s"].to_numpy(dtype=np.float64)
     backwards = end <= start
@@ -166,7 +230,8 @@ def _check_intervals(frame: pd.DataFrame, what: str, unit: Sequence[str], noun: 
         raise _fail(f"end_s {end[i]:g} is not after start_s {start[i]:g}", frame, what, i, count)
     if frame.shape[0] < 2:
         return
-    (unit_code,) = pair_codes(*(frame[c].to_numpy(dtype=object) for c in unit))
+    if unit_code is None:
+        (unit_code,) = pair_codes(*(frame[c].to_numpy(dtype=object) for c in unit))
     # Codes number the units in order of appearance, so a file written unit by unit in time
     # order (what a detector or the labels write) is already sorted: no sort needed.
     step = np.diff(unit_code)
@@ -204,11 +269,13 @@ def _check_intervals(frame: pd.DataFrame, what: str, unit: Sequence[str], noun: 
 
 
 def _check_direction(frame: pd.DataFrame, what: str) -> None:
-    # Lower-cased through the few distinct values, not per row.
-    codes, uniq = pd.factorize(_texts(frame, "direction"))
-    values = np.array([str(u).lower() for u in uniq], dtype=object)[codes]
-    bad = ~np.isin(values, ["", *DIRECTIONS])
-    if bad.any():
+    # Lower-cased and checked through the few distinct values, not per row.
+    texts = _texts(frame, "direction")
+    codes, uniq = pd.factorize(texts)
+    lowered = [str(u).lower() for u in uniq]
+    allowed = ("", *DIRECTIONS)
+    if not all(u in allowed for u in lowered):
+        bad = np.array([u not in allowed for u in lowered])[codes]
         i, count = _first(bad)
         raise _fail(
             f"direction {frame['direction'].iat[i]!r} is not one of {', '.join(DIRECTIONS)} "
@@ -218,7 +285,10 @@ def _check_direction(frame: pd.DataFrame, what: str) -> None:
             i,
             count,
         )
-    frame["direction"] = _text_series(values, frame)
+    if lowered != list(uniq) or not (
+        frame.attrs.get("stripped") and frame["direction"].dtype == object
+    ):
+        frame["direction"] = _text_series(np.array(lowered, dtype=object)[codes], frame)
 
 
 def _missing(frame: pd.DataFrame, required: Sequence[str], what: str) -> None:
@@ -232,22 +302,25 @@ def check_detections(frame: pd.DataFrame, *, what: str = "detections") -> pd.Dat
     the required ones, ``direction`` lower-cased (empty where not given), and ``attrs``
     ``path`` and ``lines`` kept. Raises :class:`TurnbenchError` as the module docstring says.
     """
+    return _checked_detections(frame, what)[0]
+
+
+def _checked_detections(
+    frame: pd.DataFrame, what: str = "detections"
+) -> tuple[pd.DataFrame, _Pairs]:
+    """:func:`check_detections`, and the rows' (session, subject) pairs it factorised."""
     _missing(frame, list(DETECTION_REQUIRED), what)
     cols = [*DETECTION_REQUIRED, *(c for c in DETECTION_OPTIONAL if c in frame.columns)]
     # Shallow: every column this changes is replaced, never written into, so the caller's
     # frame stays as it was without copying its cells.
     out = frame.loc[:, cols].copy(deep=False)
     out.attrs = dict(frame.attrs)
-    for col in _UNIT:
-        out[col] = _text_series(_texts(out, col), out)
-    _check_text(out, what, _UNIT)
-    for col in (
-        "start_s",
-        "end_s",
-        "angle_deg",
-        *(c for c in ("speed_deg_s", "score") if c in out),
-    ):
-        out[col] = pd.to_numeric(out[col], errors="coerce").astype(np.float64)
+    _set_texts(out, _UNIT)
+    pairs = _Pairs.of(out)
+    _check_unit_names(out, what, pairs)
+    _set_floats(
+        out, ("start_s", "end_s", "angle_deg", *(c for c in ("speed_deg_s", "score") if c in out))
+    )
     _check_number(out, what, "start_s")
     _check_number(out, what, "end_s")
     hint = "; angles are magnitudes in degrees, with the sense in direction"
@@ -258,8 +331,8 @@ def check_detections(frame: pd.DataFrame, *, what: str = "detections") -> pd.Dat
         _check_number(out, what, "score", allow_negative=True)
     if "direction" in out:
         _check_direction(out, what)
-    _check_intervals(out, what, _UNIT, "detection")
-    return out.reset_index(drop=True).pipe(_keep_attrs, frame)
+    _check_intervals(out, what, _UNIT, "detection", pairs.code)
+    return out.reset_index(drop=True).pipe(_keep_attrs, frame), pairs
 
 
 def _keep_attrs(out: pd.DataFrame, source: pd.DataFrame) -> pd.DataFrame:
@@ -298,8 +371,10 @@ def _frame_of(
                 table, col, allow_empty=col in allow_empty, allow_negative=True, negative_hint=None
             )
         else:
-            data[col] = pd.Series(table.columns[col], dtype=object)
-    frame = pd.DataFrame(data)
+            data[col] = pd.Series(table.columns[col], dtype=object, copy=False)
+    # The arrays are the reader's own: no copy, and no block of all the text columns copied
+    # together (pandas copies arrays given to a constructor unless told not to).
+    frame = pd.DataFrame(data, copy=False)
     frame.attrs["path"] = table.path
     frame.attrs["lines"] = _shared_lines(table.lines)
     # The reader strips every cell and has no missing text (an empty cell is "").
@@ -309,11 +384,16 @@ def _frame_of(
 
 def read_detections(path: str | os.PathLike[str]) -> pd.DataFrame:
     """Read and validate a detections CSV (:func:`check_detections`); other columns ignored."""
+    return _read_detections(path)[0]
+
+
+def _read_detections(path: str | os.PathLike[str]) -> tuple[pd.DataFrame, _Pairs]:
+    """:func:`read_detections`, and the rows' (session, subject) pairs."""
     numeric = ("start_s", "end_s", "angle_deg", "speed_deg_s", "score")
     table = _read_table(path, what="detections", numeric_columns=numeric)
     _require(table, list(DETECTION_REQUIRED), what="the detections file")
     frame = _frame_of(table, numeric, allow_empty=("speed_deg_s",))
-    return check_detections(frame, what=table.path)
+    return _checked_detections(frame, what=table.path)
 
 
 def check_event_reference(frame: pd.DataFrame, *, what: str = "reference") -> pd.DataFrame:
@@ -323,19 +403,26 @@ def check_event_reference(frame: pd.DataFrame, *, what: str = "reference") -> pd
     Returns ``session, subject, start_s, end_s, angle_deg`` (typed), ``direction`` when the
     reference has it, then every other text column (stripped strings) as possible groupings.
     """
+    return _checked_event_reference(frame, what)[0]
+
+
+def _checked_event_reference(
+    frame: pd.DataFrame, what: str = "reference"
+) -> tuple[pd.DataFrame, _Pairs]:
+    """:func:`check_event_reference`, and the rows' (session, subject) pairs it factorised."""
     frame = frame if "session" in frame.columns else _clip_index_sessions(frame, what)
     _missing(frame, REFERENCE_REQUIRED, what)
     out = frame.copy(deep=False)
-    for col in _UNIT:
-        out[col] = _text_series(_texts(out, col), out)
-    _check_text(out, what, _UNIT)
+    _set_texts(out, _UNIT)
+    pairs = _Pairs.of(out)
+    _check_unit_names(out, what, pairs)
     for col in ("start_s", "end_s", "angle_deg"):
-        out[col] = pd.to_numeric(out[col], errors="coerce").astype(np.float64)
+        _set_floats(out, (col,))
         high = MAX_ANGLE_DEG if col == "angle_deg" else np.inf
         _check_number(out, what, col, high=high)
     if "direction" in out:
         _check_direction(out, what)
-    _check_intervals(out, what, _UNIT, "reference turn")
+    _check_intervals(out, what, _UNIT, "reference turn", pairs.code)
     numeric = {"start_s", "end_s", "angle_deg"}
     rest = [
         c
@@ -344,10 +431,9 @@ def check_event_reference(frame: pd.DataFrame, *, what: str = "reference") -> pd
         and c not in numeric
         and (out[c].dtype == object or pd.api.types.is_string_dtype(out[c]))
     ]
-    for c in rest:
-        out[c] = _text_series(_texts(out, c), out)
+    _set_texts(out, rest)
     cols = [*REFERENCE_REQUIRED, *(["direction"] if "direction" in out else []), *rest]
-    return out.loc[:, cols].reset_index(drop=True).pipe(_keep_attrs, frame)
+    return out.loc[:, cols].reset_index(drop=True).pipe(_keep_attrs, frame), pairs
 
 
 def _clip_index_sessions(frame: pd.DataFrame, what: str) -> pd.DataFrame:
@@ -363,10 +449,15 @@ def _clip_index_sessions(frame: pd.DataFrame, what: str) -> pd.DataFrame:
 
 def read_event_reference(path: str | os.PathLike[str]) -> pd.DataFrame:
     """Read and validate a reference CSV (:func:`check_event_reference`)."""
+    return _read_event_reference(path)[0]
+
+
+def _read_event_reference(path: str | os.PathLike[str]) -> tuple[pd.DataFrame, _Pairs]:
+    """:func:`read_event_reference`, and the rows' (session, subject) pairs."""
     numeric = ("start_s", "end_s", "angle_deg")
     table = _read_table(path, what="reference", numeric_columns=numeric)
     frame = _frame_of(table, numeric)
-    return check_event_reference(frame, what=table.path)
+    return _checked_event_reference(frame, what=table.path)
 
 
 def check_context(frame: pd.DataFrame, *, what: str = "context") -> pd.DataFrame:
@@ -380,11 +471,10 @@ def check_context(frame: pd.DataFrame, *, what: str = "context") -> pd.DataFrame
     out = frame.copy(deep=False)
     if "subject" not in out:
         out["subject"] = ""
-    for col in ("session", "subject", "scenario", "location"):
-        out[col] = _text_series(_texts(out, col), out)
+    _set_texts(out, ("session", "subject", "scenario", "location"))
     _check_text(out, what, ("session",))
     for col in ("start_s", "end_s"):
-        out[col] = pd.to_numeric(out[col], errors="coerce").astype(np.float64)
+        _set_floats(out, (col,))
         _check_number(out, what, col)
     _check_intervals(out, what, _UNIT, "context interval")
     return out.loc[:, list(CONTEXT_COLUMNS)].reset_index(drop=True).pipe(_keep_attrs, frame)
@@ -401,10 +491,9 @@ def check_sessions(frame: pd.DataFrame, *, what: str = "sessions") -> pd.DataFra
     per (session, subject)."""
     _missing(frame, list(SESSIONS_COLUMNS), what)
     out = frame.copy(deep=False)
-    for col in _UNIT:
-        out[col] = _text_series(_texts(out, col), out)
+    _set_texts(out, _UNIT)
     _check_text(out, what, _UNIT)
-    out["duration_s"] = pd.to_numeric(out["duration_s"], errors="coerce").astype(np.float64)
+    _set_floats(out, ("duration_s",))
     _check_number(out, what, "duration_s")
     zero = out["duration_s"].to_numpy() <= 0
     if zero.any():
@@ -473,9 +562,16 @@ def units_of(
     reference: pd.DataFrame, sessions: pd.DataFrame | None = None
 ) -> tuple[Units, np.ndarray]:
     """:func:`known_units` and each reference row's unit number, from one factorisation."""
-    parts = [reference] if sessions is None else [reference, sessions]
-    sessions_all = np.concatenate([p["session"].to_numpy(dtype=object) for p in parts])
-    subjects_all = np.concatenate([p["subject"].to_numpy(dtype=object) for p in parts])
+    return _units_of_pairs(_Pairs.of(reference), sessions)
+
+
+def _units_of_pairs(pairs: _Pairs, sessions: pd.DataFrame | None) -> tuple[Units, np.ndarray]:
+    """:func:`units_of` from the reference's pairs: only its distinct pairs and the sessions
+    table's rows are numbered, not every reference row again."""
+    sessions_all, subjects_all = pairs.sessions, pairs.subjects
+    if sessions is not None:
+        sessions_all = np.concatenate([sessions_all, sessions["session"].to_numpy(dtype=object)])
+        subjects_all = np.concatenate([subjects_all, sessions["subject"].to_numpy(dtype=object)])
     (code,) = pair_codes(sessions_all, subjects_all)
     _, first, inverse = np.unique(code, return_index=True, return_inverse=True)
     # Units in sorted (session, subject) order: rank the distinct pairs by their names.
@@ -486,7 +582,7 @@ def units_of(
     rank[order] = np.arange(first.shape[0])
     chosen = first[order]
     units = Units(sessions=sessions_all[chosen], subjects=subjects_all[chosen])
-    return units, rank[inverse.reshape(-1)][: reference.shape[0]]
+    return units, rank[inverse.reshape(-1)][: pairs.sessions.shape[0]][pairs.code]
 
 
 def drop_unknown(
@@ -495,13 +591,18 @@ def drop_unknown(
     *,
     ignore_unknown: bool,
     warn: Callable[[str], None] | None = None,
+    pairs: _Pairs | None = None,
 ) -> tuple[pd.DataFrame, np.ndarray, int]:
     """The detections of annotated units, their unit numbers, and how many were dropped.
 
     A detection of a unit the reference lacks is an error naming its line, unless
     ``ignore_unknown``: then such rows are dropped and counted (and ``warn`` told).
+    ``pairs`` (the detections' own, if factorised) has each distinct pair looked up once.
     """
-    codes = units.codes(detections)
+    if pairs is None:
+        codes = units.codes(detections)
+    else:
+        codes = units.lookup(pairs.sessions, pairs.subjects)[pairs.code]
     unknown = codes < 0
     if not unknown.any():
         return detections, codes, 0

@@ -55,16 +55,17 @@ from turn_eval.events.contract import CONTEXT_GROUPS
 from turn_eval.events.matching import categorize_events, overlapping_pairs
 from turn_eval.events.reading import (
     Units,
+    _checked_detections,
+    _checked_event_reference,
+    _read_detections,
+    _read_event_reference,
+    _units_of_pairs,
     check_context,
-    check_detections,
-    check_event_reference,
     check_sessions,
     drop_unknown,
+    pair_codes,
     read_context,
-    read_detections,
-    read_event_reference,
     read_sessions,
-    units_of,
 )
 from turn_eval.metrics import (
     CONFIDENCE,
@@ -191,25 +192,41 @@ def _groupings(
 
 
 def _context_at(
-    context: pd.DataFrame, session: np.ndarray, subject: np.ndarray, time_s: np.ndarray
+    context: pd.DataFrame, units: Units, unit: np.ndarray, time_s: np.ndarray
 ) -> dict[str, np.ndarray]:
-    """Each column of :data:`CONTEXT_GROUPS` at the given times ("" where none covers it):
-    the participant's own intervals first, then the session's shared ones."""
+    """Each column of :data:`CONTEXT_GROUPS` at the given times of the given units ("" where
+    none covers it): the participant's own intervals first, then the session's shared ones."""
     out = {c: np.full(time_s.shape[0], "", dtype=object) for c in CONTEXT_GROUPS}
     if context.shape[0] == 0 or time_s.shape[0] == 0:
         return out
-    keys = pd.MultiIndex.from_arrays(
-        [context["session"].to_numpy(dtype=object), context["subject"].to_numpy(dtype=object)]
+    # One numbering of the (session, subject) pairs of the context's rows and of the units,
+    # each unit with its own subject and with the session's shared "" (a few thousand names,
+    # not one per time).
+    n_ctx, n_units = context.shape[0], len(units)
+    ctx_key, own, shared = (
+        codes.astype(np.float64)
+        for codes in pair_codes(
+            np.concatenate(
+                [context["session"].to_numpy(dtype=object), units.sessions, units.sessions]
+            ),
+            np.concatenate(
+                [
+                    context["subject"].to_numpy(dtype=object),
+                    units.subjects,
+                    np.full(n_units, "", dtype=object),
+                ]
+            ),
+            split=[n_ctx, n_ctx + n_units],
+        )
     )
-    uniq = keys.unique()
-    ctx_key = uniq.get_indexer(keys).astype(np.float64)
     start = context["start_s"].to_numpy(dtype=np.float64)
     end = context["end_s"].to_numpy(dtype=np.float64)
     order = np.lexsort((start, ctx_key))
     sorted_keys = ctx_key[order] + 1j * start[order]
-    for who in (subject, np.full(subject.shape[0], "", dtype=object)):
-        key = uniq.get_indexer(pd.MultiIndex.from_arrays([session, who])).astype(np.float64)
-        todo = (out[CONTEXT_GROUPS[0]] == "") & (out[CONTEXT_GROUPS[1]] == "") & (key >= 0)
+    for unit_key in (own, shared):
+        # A pair the context lacks has a number no context row has: never a hit.
+        key = unit_key[unit]
+        todo = (out[CONTEXT_GROUPS[0]] == "") & (out[CONTEXT_GROUPS[1]] == "")
         pos = np.searchsorted(sorted_keys, key + 1j * time_s, side="right") - 1
         row = order[np.maximum(pos, 0)]
         hit = todo & (pos >= 0) & (ctx_key[row] == key) & (end[row] > time_s)
@@ -262,13 +279,18 @@ def _partition(name: str, parts: Sequence[tuple[np.ndarray, list[str]]]) -> Part
     for part_codes, names in parts:
         mapping = np.array([index.setdefault(n, len(index)) for n in names], dtype=np.int64)
         codes.append(mapping[part_codes] if mapping.size else part_codes.astype(np.int64))
-    # Only the names some event has: a group with no event is no group.
-    used, merged = np.unique(np.concatenate(codes), return_inverse=True)
+    # Only the names some event has: a group with no event is no group. (np.unique's
+    # numbering, by counting: the codes are small.)
+    merged = np.concatenate(codes)
+    used = np.flatnonzero(np.bincount(merged, minlength=len(index)))
+    renumber = np.zeros(len(index), dtype=np.int64)
+    renumber[used] = np.arange(used.shape[0])
+    merged = renumber[merged]
     names = [list(index)[i] for i in used]
     order = sorted(range(len(names)), key=lambda i: natural_key(names[i]))
     rank = np.empty(len(names), dtype=np.int64)
     rank[order] = np.arange(len(names))
-    return Partition(name, tuple(names[i] for i in order), rank[merged.reshape(-1)])
+    return Partition(name, tuple(names[i] for i in order), rank[merged])
 
 
 def _event_groups(
@@ -300,7 +322,7 @@ def _event_groups(
     fp_unit = events["unit"].to_numpy()[is_fp]
     ctx = None
     if context is not None:
-        ctx = _context_at(context, units.sessions[fp_unit], units.subjects[fp_unit], (ds + de) / 2)
+        ctx = _context_at(context, units, fp_unit, (ds + de) / 2)
     subject, subjects = _factorize(reference, "subject", cache)
     unit_subject = pd.Index(subjects).get_indexer(units.subjects)
     out: list[Partition] = []
@@ -325,6 +347,16 @@ def _float(value) -> float | None:
     return float(value) if value is not None and np.isfinite(value) else None
 
 
+def _kinds(events: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Which events are TP, FP and FN, read off their rows as :func:`categorize_events` sets
+    the kinds (a TP has a detection and a reference turn, an FP no reference turn, an FN no
+    detection): integer comparisons, not one of text per event."""
+    det_row = events["det_row"].to_numpy()
+    ref_row = events["ref_row"].to_numpy()
+    fp, fn = ref_row < 0, det_row < 0
+    return ~(fp | fn), fp, fn
+
+
 def _matched_block(
     events: pd.DataFrame,
     detections: pd.DataFrame,
@@ -332,7 +364,7 @@ def _matched_block(
     bin_width_deg: float,
 ):
     """The TP pairs' outcomes (harness code) and the extra per-pair quantities."""
-    tp = events["kind"].to_numpy() == "TP"
+    tp = _kinds(events)[0]
     d = events["det_row"].to_numpy()[tp]
     r = events["ref_row"].to_numpy()[tp]
     ref_start = reference["start_s"].to_numpy(dtype=np.float64)[r]
@@ -371,28 +403,72 @@ def _matched_entry(values: Mapping[str, np.ndarray], g: int, extra: Mapping[str,
     return entry
 
 
-def _pair_stats(codes: np.ndarray, n_groups: int, agree, dstart, dend) -> list[dict[str, Any]]:
-    """Per group of matched pairs: direction agreement and the medians of |Δstart|, |Δend|
-    (one sort per grouping, not a pass over every pair per group)."""
+def _group_medians(
+    codes: np.ndarray, count: np.ndarray, values: np.ndarray, ascending: np.ndarray
+) -> np.ndarray:
+    """``numpy.median`` of finite ``values`` per group (NaN for an empty one), ``ascending``
+    being ``numpy.argsort(values)``.
+
+    The values' one sort serves every grouping: a stable sort of their codes in that order
+    leaves each group's values contiguous and ascending, and its median is read off the
+    middle, ``(a + b) / 2`` of the middle two (one twice for an odd count), the mean that
+    ``numpy.median`` takes, so the same bits."""
+    if values.shape[0] == 0:
+        return np.full(count.shape[0], np.nan)
     # Small integer codes sort by radix (numpy's stable sort of 16-bit keys): linear time.
-    small = codes.astype(np.int16) if n_groups < 2**15 else codes
-    order = np.argsort(small, kind="stable")
-    cuts = np.searchsorted(codes[order], np.arange(1, n_groups))
-    out = []
-    for rows in np.split(order, cuts):
-        direction = None
-        if agree is not None:
-            a = agree[rows]
-            a = a[np.isfinite(a)]
-            direction = float(a.mean()) if a.size else None
-        out.append(
-            {
-                "direction_agreement": direction,
-                "median_abs_dstart_s": float(np.median(dstart[rows])) if rows.size else None,
-                "median_abs_dend_s": float(np.median(dend[rows])) if rows.size else None,
-            }
+    small = codes.astype(np.int16) if count.shape[0] < 2**15 else codes
+    grouped = values[ascending[np.argsort(small[ascending], kind="stable")]]
+    start = np.cumsum(count) - count
+    last = grouped.shape[0] - 1
+    low = np.minimum(start + (count - 1) // 2, last)
+    high = np.minimum(start + count // 2, last)
+    return np.where(count > 0, (grouped[low] + grouped[high]) / 2, np.nan)
+
+
+def _pair_stats(
+    codes: np.ndarray, n_groups: int, agree, dstart, dend, ascending
+) -> list[dict[str, Any]]:
+    """Per group of matched pairs: direction agreement and the medians of |Δstart|, |Δend|
+    (``ascending``: ``numpy.argsort`` of each of those two, computed once for every
+    grouping)."""
+    count = np.bincount(codes, minlength=n_groups)
+    median_start = _group_medians(codes, count, dstart, ascending[0])
+    median_end = _group_medians(codes, count, dend, ascending[1])
+    direction = np.full(n_groups, np.nan)
+    if agree is not None:
+        # The mean of each group's 0/1 agreements (NaN left out): sums of 0s and 1s are exact
+        # in any order, so a count is the mean numpy.mean takes.
+        known = np.isfinite(agree)
+        n_known = np.bincount(codes[known], minlength=n_groups)
+        agreed = np.bincount(codes[known], weights=agree[known], minlength=n_groups)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            direction = np.where(n_known > 0, agreed / n_known, np.nan)
+    return [
+        {
+            "direction_agreement": _float(direction[g]) if agree is not None else None,
+            "median_abs_dstart_s": float(median_start[g]) if count[g] else None,
+            "median_abs_dend_s": float(median_end[g]) if count[g] else None,
+        }
+        for g in range(n_groups)
+    ]
+
+
+def _matched_by_group(
+    partitions: Sequence[Partition], tp: np.ndarray, outcomes, agree, dstart, dend
+) -> tuple[list[dict[str, np.ndarray]], list[list[dict[str, Any]]]]:
+    """Per grouping, the harness's own metrics of each group's matched pairs (as `score`
+    computes them) and the pairs' direction agreement and boundary medians."""
+    matched: list[dict[str, np.ndarray]] = [{} for _ in partitions]
+    if outcomes.n > 0:
+        matched = grouped_metrics(
+            outcomes, [Partition(p.name, p.labels, p.codes[tp]) for p in partitions]
         )
-    return out
+    # |Δstart| and |Δend| sorted once for every grouping's medians.
+    ascending = (np.argsort(dstart), np.argsort(dend))
+    pair_stats = [
+        _pair_stats(p.codes[tp], len(p.labels), agree, dstart, dend, ascending) for p in partitions
+    ]
+    return matched, pair_stats
 
 
 def _rates(
@@ -515,13 +591,14 @@ def _average(groups: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
 
 def _event_components(events: pd.DataFrame, tp: np.ndarray, outcomes) -> np.ndarray:
     """Each event's additive components (:data:`COMPONENTS`): TP, FP, FN, matched-right,
-    matched absolute angle error."""
-    kind = events["kind"].to_numpy()
-    correct = np.zeros(events.shape[0])
-    error = np.zeros(events.shape[0])
-    correct[tp] = outcomes.correct
-    error[tp] = outcomes.abs_error_deg
-    return np.stack([tp, kind == "FP", kind == "FN", correct, error], axis=1).astype(np.float64)
+    matched absolute angle error (column by column in memory, as :func:`unit_sums` reads
+    them)."""
+    _, fp, fn = _kinds(events)
+    out = np.zeros((events.shape[0], len(COMPONENTS)), order="F")
+    out[:, 0], out[:, 1], out[:, 2] = tp, fp, fn
+    out[tp, 3] = outcomes.correct
+    out[tp, 4] = outcomes.abs_error_deg
+    return out
 
 
 class _Entries:
@@ -628,14 +705,17 @@ def score_events(
         raise TurnbenchError(f"--iou must be in (0, 1], got {iou}")
     if n_resamples < 0 or seed < 0:
         raise TurnbenchError("--bootstrap and --seed must be 0 or more")
-    det = _load(detections, read_detections, check_detections)
-    ref = _load(reference, read_event_reference, check_event_reference)
+    # The (session, subject) pairs of every row are factorised once, by the validation.
+    det, det_pairs = _load(detections, _read_detections, _checked_detections)
+    ref, ref_pairs = _load(reference, _read_event_reference, _checked_event_reference)
     ctx = _load(context, read_context, check_context)
     ses = _load(sessions, read_sessions, check_sessions)
     factorized: _Factorized = {}
     groupings = _groupings(ref, by, factorized)
-    units, ref_unit = units_of(ref, ses)
-    det, det_unit, n_dropped = drop_unknown(det, units, ignore_unknown=ignore_unknown, warn=warn)
+    units, ref_unit = _units_of_pairs(ref_pairs, ses)
+    det, det_unit, n_dropped = drop_unknown(
+        det, units, ignore_unknown=ignore_unknown, warn=warn, pairs=det_pairs
+    )
 
     overlaps = overlapping_pairs(det, det_unit, ref, ref_unit)
     events = categorize_events(det, det_unit, ref, ref_unit, iou=iou, overlaps=overlaps)
@@ -653,14 +733,7 @@ def score_events(
     if n_resamples > 0 and len(units) > 0:
         resampled = cluster_bootstrap(sums, n_resamples=n_resamples, seed=seed, progress=progress)
         distributions = {name: _intervals(d) for name, d in resampled.items()}
-    # The harness's own metrics of the matched pairs of every group (as `score` computes).
-    matched: list[dict[str, np.ndarray]] = [{} for _ in partitions]
-    if outcomes.n > 0:
-        matched = grouped_metrics(
-            outcomes, [Partition(p.name, p.labels, p.codes[tp]) for p in partitions]
-        )
-
-    pair_stats = [_pair_stats(p.codes[tp], len(p.labels), agree, dstart, dend) for p in partitions]
+    matched, pair_stats = _matched_by_group(partitions, tp, outcomes, agree, dstart, dend)
     entry = _Entries(partitions, sums, matched, pair_stats, distributions)
     overall = entry(0, 0)
     rates = None

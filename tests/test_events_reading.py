@@ -1,0 +1,138 @@
+"""The files of score-events read from CSV equal the same tables checked as frames: the file
+reader's shortcuts (text already stripped, numbers already parsed) change nothing."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from turn_datasets.errors import TurnbenchError
+from turn_eval.events.reading import (
+    _Pairs,
+    check_context,
+    check_detections,
+    check_event_reference,
+    check_sessions,
+    read_context,
+    read_detections,
+    read_event_reference,
+    read_sessions,
+    units_of,
+)
+
+# Padded cells, upper-case directions, an empty speed and direction, an extra column.
+DETECTIONS = """session, subject ,start_s,end_s,angle_deg,direction,speed_deg_s,score,note
+ s1 ,P1,0.0,2.0,80,LEFT,40,0.9,a
+s1, P1 ,10.5,12,200,Right,,0.8,b
+s1,P1,30,31,90,,90.5,0.7,
+s2,P2,0.5,3,135,left,54,0.3,c
+"""
+REFERENCE = """clip_id,session,subject,start_s,end_s,angle_deg,cohort,scenario,location,direction
+c1,s1,P1,0,2,90, PD ,scripted,kitchen,Left
+c2,s1,P1,10,12,180,PD,scripted ,kitchen,right
+c3,s1,P1,20,22,90,PD,free-living,kitchen,
+c4,s2,P2,0,3,135,HC,scripted, hall,left
+"""
+CONTEXT = """session,subject,start_s,end_s,scenario,location
+s1,,0,15,scripted,kitchen
+s1,P1,15,40, free-living,
+s2,P2,0,10,scripted,hall
+"""
+SESSIONS = """session,subject,duration_s
+s1,P1,3600
+ s2,P2 ,1800.5
+"""
+
+
+def _as_text_frame(path) -> pd.DataFrame:
+    # What a caller might pass: every cell as pandas read it, text and all.
+    frame = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=False)
+    frame.columns = [c.strip().lower() for c in frame.columns]
+    return frame
+
+
+@pytest.mark.parametrize(
+    ("text", "reader", "checker"),
+    [
+        (DETECTIONS, read_detections, check_detections),
+        (REFERENCE, read_event_reference, check_event_reference),
+        (CONTEXT, read_context, check_context),
+        (SESSIONS, read_sessions, check_sessions),
+    ],
+)
+def test_a_file_reads_as_its_frame_checks(tmp_path, text, reader, checker):
+    path = tmp_path / "table.csv"
+    path.write_text(text, encoding="utf-8")
+    read = reader(path)
+    checked = checker(_as_text_frame(path))
+    assert list(read.columns) == list(checked.columns)
+    for col in read.columns:
+        assert read[col].dtype == checked[col].dtype, col
+        a, b = read[col].to_numpy(), checked[col].to_numpy()
+        if a.dtype == object:
+            assert all(type(v) is str for v in a), col
+            assert a.tolist() == b.tolist(), col
+        else:
+            np.testing.assert_array_equal(a, b, err_msg=col)
+    assert list(read.attrs["lines"]) == list(range(2, 2 + read.shape[0]))
+
+
+def test_directions_are_lower_cased_from_a_file(tmp_path):
+    path = tmp_path / "det.csv"
+    path.write_text(DETECTIONS, encoding="utf-8")
+    assert read_detections(path)["direction"].tolist() == ["left", "right", "", "left"]
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    rows=st.lists(
+        st.tuples(st.sampled_from(["s1", "s2", "s10", ""]), st.sampled_from(["P1", "P2", ""])),
+        min_size=1,
+        max_size=30,
+    ),
+    extra=st.lists(
+        st.tuples(st.sampled_from(["s1", "s3"]), st.sampled_from(["P1", "P3"])),
+        max_size=4,
+        unique=True,
+    ),
+    queries=st.lists(
+        st.tuples(st.sampled_from(["s1", "s2", "s3", "s9"]), st.sampled_from(["P1", "P3"])),
+        min_size=1,
+        max_size=10,
+    ),
+)
+def test_units_and_their_lookup_from_the_factorised_pairs(rows, extra, queries):
+    # Units are the distinct (session, subject) pairs of the reference's rows and of the
+    # sessions table, in sorted order; a row's unit is its pair's place among them; a
+    # detection's is -1 where the pair is not one of them. Worked out with Python's own set,
+    # sort and index, against the factorised pairs the scoring passes along.
+    reference = pd.DataFrame(rows, columns=["session", "subject"])
+    sessions = pd.DataFrame(extra, columns=["session", "subject"]) if extra else None
+    names = sorted(set(rows) | set(extra))
+    units, ref_unit = units_of(reference, sessions)
+    assert list(zip(units.sessions, units.subjects, strict=True)) == names
+    assert ref_unit.tolist() == [names.index(r) for r in rows]
+    detections = pd.DataFrame(queries, columns=["session", "subject"])
+    expected = [names.index(q) if q in names else -1 for q in queries]
+    assert units.codes(detections).tolist() == expected
+    pairs = _Pairs.of(detections)
+    assert units.lookup(pairs.sessions, pairs.subjects)[pairs.code].tolist() == expected
+
+
+def test_an_empty_subject_of_the_reference_names_its_line(tmp_path):
+    path = tmp_path / "ref.csv"
+    path.write_text(REFERENCE.replace("c3,s1,P1", "c3,s1,  "), encoding="utf-8")
+    with pytest.raises(TurnbenchError, match="subject is empty") as err:
+        read_event_reference(path)
+    assert err.value.where.row == 4
+
+
+def test_pairs_number_a_missing_name_as_a_name():
+    frame = pd.DataFrame({"session": ["s1", np.nan, "s1", np.nan], "subject": ["P1"] * 4})
+    pairs = _Pairs.of(frame)
+    assert pairs.code.tolist() == [0, 1, 0, 1]
+    assert pairs.sessions[0] == "s1" and pd.isna(pairs.sessions[1])
+    assert pairs.subjects.tolist() == ["P1", "P1"]
