@@ -14,6 +14,7 @@ from turn_eval.events.matching import (
     categorize_events,
     eligible_pairs,
     match_pairs,
+    overlapping_pairs,
     temporal_iou,
 )
 
@@ -159,7 +160,7 @@ def test_matching_equals_brute_force(det_cuts, ref_cuts, iou):
 def test_eligible_pairs_and_match_pairs_are_frames():
     d, du = _frame([(0.0, 2.0), (3.0, 4.0)])
     r, ru = _frame([(0.0, 1.0), (1.0, 2.0), (3.0, 4.5)])
-    pairs = eligible_pairs(d, du, r, ru, iou=0.5)
+    pairs = eligible_pairs(overlapping_pairs(d, du, r, ru), iou=0.5)
     assert pairs.columns.tolist() == ["det_row", "ref_row", "unit", "iou"]
     assert sorted(zip(pairs["det_row"], pairs["ref_row"], strict=True)) == [(0, 0), (0, 1), (1, 2)]
     matched = match_pairs(pairs)

@@ -125,9 +125,7 @@ def average_precision(
     by_iou: dict[str, float | None] = {}
     curves: dict[str, dict[str, np.ndarray]] = {}
     for threshold in ious:
-        pairs = eligible_pairs(
-            detections, det_unit, reference, ref_unit, iou=threshold, overlaps=overlaps
-        )
+        pairs = eligible_pairs(overlaps, iou=threshold)
         tp = greedy_true_positives(pairs, rank, n_det)[ranking]
         cum_tp = np.cumsum(tp)
         precision = cum_tp / np.arange(1, n_det + 1)

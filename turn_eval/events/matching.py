@@ -123,19 +123,10 @@ def overlapping_pairs(
     )
 
 
-def eligible_pairs(
-    detections: pd.DataFrame,
-    det_unit: np.ndarray,
-    reference: pd.DataFrame,
-    ref_unit: np.ndarray,
-    *,
-    iou: float = 0.5,
-    overlaps: pd.DataFrame | None = None,
-) -> pd.DataFrame:
-    """Every (detection, reference turn) pair of one unit with temporal IoU at least ``iou``.
+def eligible_pairs(overlaps: pd.DataFrame, *, iou: float = 0.5) -> pd.DataFrame:
+    """The pairs of :func:`overlapping_pairs` whose temporal IoU is at least ``iou``.
 
-    ``overlaps`` (:func:`overlapping_pairs` of the same frames) saves the sweep when several
-    thresholds are tried.
+    One sweep serves every threshold (AP tries five).
 
     Returns
     -------
@@ -144,8 +135,6 @@ def eligible_pairs(
     """
     if not 0.0 < iou <= 1.0:
         raise ValueError(f"iou must be in (0, 1], got {iou}")
-    if overlaps is None:
-        overlaps = overlapping_pairs(detections, det_unit, reference, ref_unit)
     keep = overlaps["iou"].to_numpy() >= iou
     return overlaps.loc[keep].reset_index(drop=True)
 
@@ -240,9 +229,9 @@ def categorize_events(
         unmatched detection, an FN row per unmatched turn (``iou`` NaN for both), ordered by
         unit, then by the start of the reference turn or else of the detection.
     """
-    pairs = match_pairs(
-        eligible_pairs(detections, det_unit, reference, ref_unit, iou=iou, overlaps=overlaps)
-    )
+    if overlaps is None:
+        overlaps = overlapping_pairs(detections, det_unit, reference, ref_unit)
+    pairs = match_pairs(eligible_pairs(overlaps, iou=iou))
     n_det, n_ref = detections.shape[0], reference.shape[0]
     det_used = np.zeros(n_det, dtype=bool)
     ref_used = np.zeros(n_ref, dtype=bool)
