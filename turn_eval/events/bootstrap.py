@@ -17,8 +17,10 @@ chunk; the metrics follow with array arithmetic (:func:`event_metrics`).
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping
+from functools import cache
 
 import numpy as np
+from threadpoolctl import ThreadpoolController
 
 from turn_eval.metrics import chunk_rows, resample_indices
 
@@ -68,6 +70,12 @@ def unit_sums(
     return out.reshape(n_units, n_groups, k)
 
 
+@cache
+def _blas() -> ThreadpoolController:
+    """The BLAS libraries numpy and scipy loaded (found once: the search reads every one)."""
+    return ThreadpoolController()
+
+
 def cluster_bootstrap(
     sums: Mapping[str, np.ndarray],
     *,
@@ -106,13 +114,17 @@ def cluster_bootstrap(
     else:
         chunks = indices
     totals = []
-    for chunk in chunks:
-        # How often each resample drew each unit: one bincount over the whole chunk, each
-        # row's draws offset into its own block of n_units counts.
-        rows = chunk.shape[0]
-        cells = chunk.astype(np.int64) + (np.arange(rows, dtype=np.int64) * n_units)[:, None]
-        counts = np.bincount(cells.ravel(), minlength=rows * n_units).reshape(rows, n_units)
-        totals.append(counts.astype(np.float64) @ flat)
+    # One BLAS thread: a chunk's product is a few tens of milliseconds, and OpenBLAS's other
+    # threads spin for as long again after it, busy on a core for nothing (measured: a
+    # quarter of score-events' CPU time). Nor do the sums then depend on the thread count.
+    with _blas().limit(limits=1, user_api="blas"):
+        for chunk in chunks:
+            # How often each resample drew each unit: one bincount over the whole chunk, each
+            # row's draws offset into its own block of n_units counts.
+            rows = chunk.shape[0]
+            cells = chunk.astype(np.int64) + (np.arange(rows, dtype=np.int64) * n_units)[:, None]
+            counts = np.bincount(cells.ravel(), minlength=rows * n_units).reshape(rows, n_units)
+            totals.append(counts.astype(np.float64) @ flat)
     drawn = np.concatenate(totals, axis=0) if totals else np.zeros((0, flat.shape[1]))
     out: dict[str, dict[str, np.ndarray]] = {}
     start = 0
