@@ -14,7 +14,7 @@ from turn_datasets import __version__
 from turn_datasets.cli import CONTEXT_SETTINGS, remap
 from turn_datasets.cli.common import (
     KAPPA,
-    SEED,
+    bootstrap_options,
     check_out_dir,
     check_stdout,
     counted,
@@ -22,7 +22,6 @@ from turn_datasets.cli.common import (
     info,
     one_run,
     progress,
-    resamples,
     warn,
     warn_below,
     wrote,
@@ -93,14 +92,7 @@ REVIEW_DIR = "review"
     is_flag=True,
     help="Keep the header (media paths, author, date) in the review copies (emptied by default).",
 )
-@click.option(
-    "--bootstrap",
-    type=resamples(),
-    default=1000,
-    show_default=True,
-    help="Bootstrap resamples of the matched pairs for the 95% CI (0: no CI).",
-)
-@click.option("--seed", type=SEED, default=0, show_default=True, help="Bootstrap seed.")
+@bootstrap_options("Bootstrap resamples of the matched pairs for the 95% CI (0: no CI).")
 def agreement(
     inputs: tuple[Path, ...],
     schema_path: Path | None,
@@ -111,7 +103,7 @@ def agreement(
     out_dir: Path | None,
     review_eaf: bool,
     keep_media_paths: bool,
-    bootstrap: int,
+    n_resamples: int,
     seed: int,
 ) -> None:
     """Audit inter-rater agreement of turn labels in ELAN files (EAF_OR_DIR...).
@@ -145,7 +137,7 @@ def agreement(
         labels_deg=schema.angles_deg,
         consensus_annotator=schema.consensus_annotator,
         min_overlap=min_overlap,
-        n_bootstrap=bootstrap,
+        n_bootstrap=n_resamples,
         seed=seed,
     )
     info(f"read {counted(len(paths), 'ELAN file')}")

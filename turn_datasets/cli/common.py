@@ -47,6 +47,8 @@ __all__ = [
     "FILE",
     "file_option",
     "writing",
+    "bootstrap_options",
+    "DEFAULT_RESAMPLES",
     "check_out_dir",
     "one_run",
     "layout_option",
@@ -386,6 +388,33 @@ def resamples(min_resamples: int = 0) -> Number:
         max=limits.MAX_RESAMPLES,
         why="each resample recomputes every metric; 1000 to 10000 is usual",
     )
+
+
+#: Resamples of every bootstrap unless ``--bootstrap`` says otherwise (sacrebleu's default).
+DEFAULT_RESAMPLES = 1000
+
+
+def bootstrap_options(resamples_help: str, *, seed_help: str = "Bootstrap seed.", min_resamples=0):
+    """Decorator: ``--bootstrap`` (into ``n_resamples``) and ``--seed``, in that order.
+
+    Declared once for every command that resamples: the default count
+    (:data:`DEFAULT_RESAMPLES`), its bounds (:func:`resamples`) and seed 0; each command says
+    in ``resamples_help`` what it resamples.
+    """
+
+    def decorator(f):
+        # click collects options bottom-up: the last one first keeps this order in --help
+        f = click.option("--seed", type=SEED, default=0, show_default=True, help=seed_help)(f)
+        return click.option(
+            "--bootstrap",
+            "n_resamples",
+            type=resamples(min_resamples),
+            default=DEFAULT_RESAMPLES,
+            show_default=True,
+            help=resamples_help,
+        )(f)
+
+    return decorator
 
 
 class _NonEmptyPath(click.Path):

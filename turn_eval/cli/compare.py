@@ -9,11 +9,10 @@ import click
 from turn_datasets.cli.common import (
     CONTEXT_SETTINGS,
     FILE,
-    SEED,
+    bootstrap_options,
     emit,
     file_option,
     format_option,
-    resamples,
     warn,
     writing,
     wrote,
@@ -95,20 +94,10 @@ def _markdown(result: Comparison, *, a: str, b: str, reference: str, n_missing: 
     required=True,
     help="Reference CSV (clip index or labels): clip_id, angle_deg, ...",
 )
-@click.option(
-    "--bootstrap",
-    "n_resamples",
-    type=resamples(1),
-    default=1000,
-    show_default=True,
-    help="Paired bootstrap resamples of the clips.",
-)
-@click.option(
-    "--seed",
-    type=SEED,
-    default=0,
-    show_default=True,
-    help="Seed of the resampling (printed in the signature).",
+@bootstrap_options(
+    "Paired bootstrap resamples of the clips.",
+    seed_help="Seed of the resampling (printed in the signature).",
+    min_resamples=1,
 )
 @format_option(default="md", choices=("md", "json"))
 @click.option(

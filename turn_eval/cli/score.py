@@ -14,13 +14,12 @@ import click
 from turn_datasets.cli.common import (
     BIN_WIDTH_DEG,
     CONTEXT_SETTINGS,
-    SEED,
+    bootstrap_options,
     bootstrap_progress,
     check_out_dir,
     emit,
     format_option,
     one_run,
-    resamples,
     warn,
     wrote,
 )
@@ -67,20 +66,8 @@ PLOT_FILES = ("confusion_matrix.png", "predicted_by_bin.png", "abs_error.png", "
     is_flag=True,
     help="Take negative angles (signed rotations) as their magnitudes.",
 )
-@click.option(
-    "--bootstrap",
-    "n_resamples",
-    type=resamples(),
-    default=1000,
-    show_default=True,
-    help="Bootstrap resamples for the 95% intervals (0: none).",
-)
-@click.option(
-    "--seed",
-    type=SEED,
-    default=0,
-    show_default=True,
-    help="Seed of the bootstrap.",
+@bootstrap_options(
+    "Bootstrap resamples for the 95% intervals (0: none).", seed_help="Seed of the bootstrap."
 )
 @click.option(
     "--bin-width-deg",

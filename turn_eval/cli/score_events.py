@@ -13,13 +13,12 @@ import click
 from turn_datasets.cli.common import (
     CONTEXT_SETTINGS,
     FRACTION,
-    SEED,
+    bootstrap_options,
     bootstrap_progress,
     check_out_dir,
     emit,
     format_option,
     one_run,
-    resamples,
     warn,
     wrote,
 )
@@ -84,16 +83,9 @@ _path = click.Path(dir_okay=True, path_type=Path)
     help=f"Group by these reference columns. Default: those of {', '.join(DEFAULT_BY)} the "
     "reference has.",
 )
-@click.option(
-    "--bootstrap",
-    "n_resamples",
-    type=resamples(),
-    default=1000,
-    show_default=True,
-    help="Cluster-bootstrap resamples of the (session, subject) units for the 95% intervals "
-    "(0: none).",
+@bootstrap_options(
+    "Cluster-bootstrap resamples of the (session, subject) units for the 95% intervals (0: none)."
 )
-@click.option("--seed", type=SEED, default=0, show_default=True, help="Bootstrap seed.")
 @click.option(
     "--ignore-unknown",
     is_flag=True,
