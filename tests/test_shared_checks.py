@@ -39,14 +39,15 @@ def test_skip_bad_reports_or_raises() -> None:
         next(seen)
 
 
-def test_unreadable_names_the_file_and_keeps_our_own_errors_out() -> None:
+def test_unreadable_names_the_file_and_lets_our_own_errors_pass() -> None:
     with pytest.raises(TurnbenchError) as err:
         with unreadable("this array", Path("a.npz"), item="k", guess="pickled?"):
             raise KeyError("zlib")
     assert str(err.value) == "a.npz, k: cannot read this array (pickled?): 'zlib'"
-    with unreadable("HDF5", Path("a.h5")):
-        value = 1  # nothing raised: nothing reported
-    assert value == 1
+    with pytest.raises(TurnbenchError) as ours:
+        with unreadable("HDF5", Path("a.h5")):
+            raise TurnbenchError("no dataset 'x'", file="a.h5")
+    assert str(ours.value) == "a.h5: no dataset 'x'"  # not reworded as an unreadable file
 
 
 def test_check_joint_count() -> None:

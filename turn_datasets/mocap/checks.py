@@ -48,11 +48,13 @@ def unreadable(
 ) -> Iterator[None]:
     """Report anything the library call inside raises (:data:`CORRUPT`) as one error.
 
-    Wrap the library call alone: the message is ``cannot read <what> (<guess>): <exc>``,
-    naming ``path`` and ``item``.
+    The message is ``cannot read <what> (<guess>): <exc>``, naming ``path`` and ``item``. A
+    :class:`TurnbenchError` raised inside is already ours and passes unchanged.
     """
     try:
         yield
+    except TurnbenchError:
+        raise
     except CORRUPT as exc:
         raise TurnbenchError(f"cannot read {what} ({guess}): {exc}", file=path, item=item) from None
 

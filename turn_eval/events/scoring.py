@@ -406,8 +406,8 @@ def _matched_entry(values: Mapping[str, np.ndarray], g: int, extra: Mapping[str,
 def _group_medians(
     codes: np.ndarray, count: np.ndarray, values: np.ndarray, ascending: np.ndarray
 ) -> np.ndarray:
-    """``numpy.median`` of finite ``values`` per group (NaN for an empty one), ``ascending``
-    being ``numpy.argsort(values)``.
+    """``numpy.median`` of ``values`` per group (NaN for an empty one), ``ascending`` being
+    ``numpy.argsort(values)``; the values are finite (|Δstart|, |Δend| of validated times).
 
     The values' one sort serves every grouping: a stable sort of their codes in that order
     leaves each group's values contiguous and ascending, and its median is read off the
