@@ -416,6 +416,43 @@ def test_two_d_files_and_alphapose_are_refused_with_the_lifter_advice(tmp_path, 
     assert code == EXIT_BAD_INPUT and "(frames, 17, 3)" in err
 
 
+def test_damaged_estimator_files_are_one_line_each(tmp_path, capsys):
+    # A truncated zip, a damaged deflate stream and a text file named .npz: zipfile and zlib
+    # raise BadZipFile and zlib.error, which went past the --from readers as a traceback.
+    good = tmp_path / "good.npz"
+    np.savez_compressed(good, reconstruction=np.random.default_rng(0).random((1, 40, 17, 3)))
+    data = good.read_bytes()
+    truncated = tmp_path / "truncated" / "clip.npz"
+    damaged = tmp_path / "damaged" / "clip.npz"
+    text = tmp_path / "text" / "clip.npz"
+    for path in (truncated, damaged, text):
+        path.parent.mkdir()
+    truncated.write_bytes(data[: len(data) // 2])
+    middle = len(data) // 3  # inside the member's compressed bytes
+    damaged.write_bytes(data[:middle] + bytes(b ^ 0xFF for b in data[middle : middle + 64])
+                        + data[middle + 64 :])  # fmt: skip
+    text.write_text("not an archive\n")
+    for path in (truncated, damaged, text):
+        for args in (
+            ["predict", path, "--from", "videopose3d", "--out", tmp_path / "p.csv"],
+            ["detect", path.parent, "--from", "videopose3d", "--fps", "30",
+             "--out", tmp_path / "d.csv"],
+        ):  # fmt: skip
+            code, out, err = run(cli, args, capsys)
+            assert code == EXIT_BAD_INPUT and out == "" and "Traceback" not in err, err
+            last = err.strip().splitlines()[-1]
+            assert last.startswith("turn-eval: error:") and str(path) in last, err
+            assert "cannot read" in last or "cannot open" in last, err
+    assert not (tmp_path / "p.csv").exists() and not (tmp_path / "d.csv").exists()
+    # complex numbers are not positions (their imaginary part was dropped without a word)
+    complex_npy = tmp_path / "X3D.npy"
+    np.save(complex_npy, np.zeros((10, 17, 3), dtype=np.complex128))
+    code, _, err = run(
+        cli, ["predict", complex_npy, "--from", "motionbert", "--out", tmp_path / "p.csv"], capsys
+    )
+    assert code == EXIT_BAD_INPUT and "dtype complex128, expected numbers" in err
+
+
 # --- the CLI without the extra -------------------------------------------------------------
 
 

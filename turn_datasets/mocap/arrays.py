@@ -34,6 +34,7 @@ __all__ = [
     "UNITS",
     "ARRAY_SUFFIXES",
     "iter_arrays",
+    "load_numpy",
     "read_arrays",
 ]
 
@@ -156,6 +157,20 @@ def _np_load(p: Path, suffix: str):
     """``np.load`` without pickles; a file it cannot read is a :class:`TurnbenchError`."""
     with unreadable(suffix, p):
         return np.load(p, allow_pickle=False)
+
+
+def load_numpy(path: str | os.PathLike[str]):
+    """``np.load`` of an ``.npy`` (an array) or ``.npz`` (an ``NpzFile``), the one guarded way.
+
+    The file's first bytes are checked against its suffix before NumPy guesses, nothing is
+    unpickled, and anything NumPy, zipfile or zlib raises is one :class:`TurnbenchError`
+    naming the file. An ``.npz`` member read later may still be corrupt: read it inside
+    :func:`turn_datasets.mocap.checks.unreadable`.
+    """
+    p = Path(path)
+    suffix = p.suffix.lower()
+    _check_numpy_container(p, suffix)
+    return _np_load(p, suffix)
 
 
 def iter_arrays(

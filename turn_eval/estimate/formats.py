@@ -42,7 +42,8 @@ from types import MappingProxyType
 import numpy as np
 
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.mocap.arrays import iter_arrays
+from turn_datasets.mocap.arrays import iter_arrays, load_numpy
+from turn_datasets.mocap.checks import unreadable
 from turn_datasets.skeleton import H36M17
 
 __all__ = ["ESTIMATOR_FORMATS", "EstimatorFormat", "FORMAT_CHOICES", "read_estimator_output"]
@@ -114,20 +115,19 @@ def _as_h36m17(array: np.ndarray, path: Path, key: str) -> np.ndarray:
             file=path,
             item=key,
         )
-    if not np.issubdtype(a.dtype, np.number):
+    if not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
         raise TurnbenchError(f"array has dtype {a.dtype}, expected numbers", file=path, item=key)
     return a.astype(np.float64)
 
 
 def _npz_arrays(path: Path) -> dict[str, np.ndarray]:
-    try:
-        with np.load(path, allow_pickle=False) as archive:
-            return {k: archive[k] for k in sorted(archive.files)}
-    except (OSError, ValueError, EOFError) as exc:
-        # ValueError also covers a pickled array (an object array needs allow_pickle)
-        raise TurnbenchError(
-            f"cannot read this .npz (pickled, truncated or corrupt?): {exc}", file=path
-        ) from None
+    out = {}
+    with load_numpy(path) as archive:
+        for key in sorted(archive.files):
+            # a pickled member (an object array needs allow_pickle) or a damaged one
+            with unreadable("this array", path, item=key, guess="pickled, truncated or corrupt?"):
+                out[key] = archive[key]
+    return out
 
 
 def _read(path: Path, fmt: EstimatorFormat) -> Iterator[tuple[str, np.ndarray]]:
@@ -136,13 +136,7 @@ def _read(path: Path, fmt: EstimatorFormat) -> Iterator[tuple[str, np.ndarray]]:
             yield key, _as_h36m17(array, path, key)
         return
     if path.suffix.lower() == ".npy":
-        try:
-            array = np.load(path, allow_pickle=False)
-        except (OSError, ValueError, EOFError) as exc:
-            raise TurnbenchError(
-                f"cannot read this .npy (pickled, truncated or corrupt?): {exc}", file=path
-            ) from None
-        yield _clip_name(path), _as_h36m17(array, path, path.stem)
+        yield _clip_name(path), _as_h36m17(load_numpy(path), path, path.stem)
         return
     members = _npz_arrays(path)
     for two_d in ("positions_2d", "keypoints"):
