@@ -507,6 +507,7 @@ def test_detect_reads_estimate_and_other_estimators_files_by_name(tmp_path, caps
     (tmp_path / "mb" / "home02").mkdir(parents=True)
     np.save(tmp_path / "mb" / "home02" / "X3D.npy", camera)
     found = {}
+    own_axis = {"turnbench": "-y", "motionbert": "-y"}  # each format's documented axes
     for source, fmt in ((tmp_path / "est", "turnbench"), (tmp_path / "mb", "motionbert")):
         out = tmp_path / f"{fmt}.csv"
         code, _, err = run(
@@ -515,7 +516,10 @@ def test_detect_reads_estimate_and_other_estimators_files_by_name(tmp_path, caps
         assert code == 0, err
         found[fmt] = pd.read_csv(out)
         manifest = json.loads(out.with_name(f"{fmt}.manifest.json").read_text())
-        assert manifest["reading"]["from"] == fmt and manifest["reading"]["up_axis"] is None
+        assert manifest["reading"]["from"] == fmt
+        assert (
+            manifest["reading"]["up_axis"] == own_axis[fmt]
+        )  # the axis the streams were turned by
     assert found["turnbench"][["session", "subject"]].values.tolist() == [["home01", "home01"]]
     assert found["motionbert"][["session", "subject"]].values.tolist() == [["home02", "home02"]]
     for table in found.values():

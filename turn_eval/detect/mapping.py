@@ -313,8 +313,13 @@ def build_manifest(
     """What ``turn-eval detect`` writes beside its detections: the tool's version, the
     detector and every parameter, the reading options, every input with its sha256 and the
     frame count of each stream, the skipped files and the counts. No timestamp, so that the
-    same inputs give the same bytes (serial or on a cluster alike)."""
+    same inputs give the same bytes (serial or on a cluster alike). ``reading.up_axis`` is
+    the axis the streams were turned by: the one given, else a named format's own."""
     from turn_datasets import __version__
+    from turn_eval.estimate.formats import ESTIMATOR_FORMATS
+
+    if up_axis is None and source_format in ESTIMATOR_FORMATS:
+        up_axis = ESTIMATOR_FORMATS[source_format].up_axis
 
     n_frames = sum(s["n_frames"] for f in run.inputs for s in f["streams"])
     return {
