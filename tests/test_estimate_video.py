@@ -149,3 +149,25 @@ def test_variable_frame_rate_video_is_resampled_and_recorded(tmp_path):
     with np.load(tmp_path / "vfr.npz") as archive:
         assert archive["vfr"].shape == (40, 17, 3)  # grey frames: nobody, all NaN
         assert np.isnan(archive["vfr"]).all()
+
+
+def test_errors_and_summary_are_not_buried_in_mediapipe_chatter(sports2d_video, tmp_path, capfd):
+    # MediaPipe's C++ side writes to file descriptor 2 itself (TFLite's XNNPACK line, absl
+    # warnings): capfd sees what a terminal sees. A video that cannot be decoded is refused
+    # before the pose model is built, in one line; a good one's set-up chatter is held back.
+    require_mediapipe()
+    not_video = tmp_path / "notes.mp4"
+    not_video.write_text("not a video\n")
+    truncated = tmp_path / "cut.mp4"
+    truncated.write_bytes(Path(sports2d_video).read_bytes()[:3000])
+    for bad in (not_video, truncated):
+        code, _ = estimate([bad, "--out", tmp_path / "x.npz"])
+        err = capfd.readouterr().err
+        lines = err.strip().splitlines()
+        assert code == 2 and len(lines) == 1, err
+        assert lines[0].startswith(f"turn-eval: error: {bad}: cannot decode this video"), err
+        assert not (tmp_path / "x.npz").exists()
+    code, _ = estimate([sports2d_video, "--out", tmp_path / "ok.npz"])
+    err = capfd.readouterr().err
+    assert code == 0 and "XNNPACK" not in err and "absl::InitializeLog" not in err, err
+    assert err.strip().splitlines()[-1].startswith("wrote skeletons")

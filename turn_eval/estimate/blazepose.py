@@ -18,6 +18,9 @@ fractions of the image's width and height), or nothing when no person is found.
 
 from __future__ import annotations
 
+import os
+import sys
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -83,6 +86,32 @@ def load_mediapipe() -> ModuleType:
     return mediapipe
 
 
+class _HeldNativeStderr:
+    """MediaPipe's C++ libraries write set-up chatter (TFLite's "Created TensorFlow Lite
+    XNNPACK delegate", absl's warnings) straight to file descriptor 2, past ``sys.stderr``
+    and past any log level, where it stood before a command's one-line error or summary.
+    It is held in a temporary file from the graph's construction to its first result, then
+    dropped, or shown after all when something fails meanwhile."""
+
+    def __init__(self) -> None:
+        sys.stderr.flush()
+        self._file = tempfile.TemporaryFile()
+        self._saved: int | None = os.dup(2)
+        os.dup2(self._file.fileno(), 2)
+
+    def release(self, *, show: bool = False) -> None:
+        if self._saved is None:
+            return
+        os.dup2(self._saved, 2)
+        os.close(self._saved)
+        self._saved = None
+        if show:
+            self._file.seek(0)
+            sys.stderr.write(self._file.read().decode("utf-8", errors="replace"))
+            sys.stderr.flush()
+        self._file.close()
+
+
 class BlazePose:
     """One tracking session of MediaPipe Pose over the frames of one video, in order.
 
@@ -95,23 +124,39 @@ class BlazePose:
         self.params = params or PoseParams()
         mp = load_mediapipe()
         self.version = str(getattr(mp, "__version__", "unknown"))
-        self._pose = mp.solutions.pose.Pose(
-            static_image_mode=False,
-            model_complexity=self.params.model_complexity,
-            smooth_landmarks=self.params.smooth_landmarks,
-            enable_segmentation=False,
-            min_detection_confidence=self.params.min_detection_confidence,
-            min_tracking_confidence=self.params.min_tracking_confidence,
-        )
+        self._held: _HeldNativeStderr | None = _HeldNativeStderr()
+        try:
+            self._pose = mp.solutions.pose.Pose(
+                static_image_mode=False,
+                model_complexity=self.params.model_complexity,
+                smooth_landmarks=self.params.smooth_landmarks,
+                enable_segmentation=False,
+                min_detection_confidence=self.params.min_detection_confidence,
+                min_tracking_confidence=self.params.min_tracking_confidence,
+            )
+        except BaseException:
+            self._release(show=True)
+            raise
+
+    def _release(self, *, show: bool = False) -> None:
+        if self._held is not None:
+            self._held.release(show=show)
+            self._held = None
 
     def __enter__(self) -> BlazePose:
         return self
 
-    def __exit__(self, *exc: object) -> None:
+    def __exit__(self, exc_type: object, *rest: object) -> None:
+        self._release(show=exc_type is not None)
         self._pose.close()
 
     def process(self, rgb: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        result = self._pose.process(rgb)
+        try:
+            result = self._pose.process(rgb)
+        except BaseException:
+            self._release(show=True)
+            raise
+        self._release()  # the graph has run once: its set-up chatter is over
         if result.pose_world_landmarks is None or result.pose_landmarks is None:
             return np.full((33, 3), np.nan), np.full((33, 2), np.nan), np.full(33, np.nan)
         world = np.array(

@@ -25,6 +25,7 @@ is tested on synthetic landmarks.
 
 from __future__ import annotations
 
+import itertools
 import os
 import time
 from collections.abc import Callable
@@ -221,8 +222,14 @@ def estimate_video(
     writer: PreviewWriter | None = None
     size = (0, 0)
     try:
+        # The first frame before the pose model: a video that cannot be decoded is refused
+        # before MediaPipe builds (and logs) anything.
+        frames = iter(stream)
+        first = next(frames, None)
+        if first is None:
+            raise TurnbenchError("the video has no decodable frame", file=src)
         with BlazePose(prm.pose) as pose:
-            for rgb, pts_s in stream:
+            for rgb, pts_s in itertools.chain([first], frames):
                 w, i, _ = pose.process(rgb)
                 world.append(w)
                 image.append(i)
@@ -245,8 +252,6 @@ def estimate_video(
         stream.close()
         if writer is not None:
             writer.close()
-    if not pts:
-        raise TurnbenchError("the video has no decodable frame", file=src)
     elapsed = time.perf_counter() - started
     try:
         result = skeletons_from_landmarks(
