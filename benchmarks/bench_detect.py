@@ -2,7 +2,7 @@
 
 The corpus is what home monitoring produces: 20 hours of 30 fps, 17-joint streams (float32,
 camera axes, metres) in 120 files of 10 minutes, one person each, written as the project
-writes streams (:func:`turn_datasets.synthetic.demo_corpus.write_clip_npz`: a zip of
+writes streams (:func:`turn_datasets.fileio.write_npz`: a zip of
 ``.npy`` members, deflate level 1). It is made cheaply, once, and cached in the temporary
 folder: eight 10-minute streams of :mod:`turn_datasets.synthetic.untrimmed` (turns, decoys,
 swaps, dropouts, bystanders), each file one of them rotated about the vertical by its own
@@ -38,8 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
+from turn_datasets.fileio import write_npz
 from turn_datasets.skeleton import H36M17
-from turn_datasets.synthetic.demo_corpus import write_clip_npz
 from turn_datasets.synthetic.untrimmed import write_untrimmed_corpus
 from turn_eval.detect.mapping import detect_files
 from turn_eval.detect.rule import MinerRule
@@ -72,7 +72,7 @@ def corpus_dir() -> Path:
         rot = np.array([[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]])
         shift = int(rng.integers(0, 60)) * int(FPS_HZ)
         arr = np.roll(src @ rot.T.astype(np.float32), shift, axis=0).astype(np.float32)
-        write_clip_npz(files / f"home{i:03d}.npz", {f"P{i:03d}": arr})
+        write_npz(files / f"home{i:03d}.npz", {f"P{i:03d}": arr})
     return files
 
 

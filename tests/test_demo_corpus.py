@@ -15,6 +15,7 @@ import pandas as pd
 import pytest
 
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.fileio import write_npz
 from turn_datasets.geometry import turning_angle
 from turn_datasets.mocap.arrays import iter_arrays
 from turn_datasets.mocap.readers import discover, read_source
@@ -24,7 +25,6 @@ from turn_datasets.synthetic.demo_corpus import (
     DEMO_SEED,
     H36M_BIN_MIX,
     camera_axes_m,
-    write_clip_npz,
     write_h36m_corpus,
     write_h36m_estimates,
     write_remap_corpus,
@@ -132,8 +132,8 @@ def test_camera_axes_invert_to_z_up() -> None:
 
 def test_clip_npz_is_reproducible_and_readable(tmp_path: Path) -> None:
     arrays = {"b": np.ones((3, 17, 3), np.float32), "a": np.zeros((2, 17, 3), np.float32)}
-    write_clip_npz(tmp_path / "x.npz", arrays)
-    write_clip_npz(tmp_path / "y.npz", arrays)
+    write_npz(tmp_path / "x.npz", arrays)
+    write_npz(tmp_path / "y.npz", arrays)
     assert (tmp_path / "x.npz").read_bytes() == (tmp_path / "y.npz").read_bytes()
     back = dict(iter_arrays(tmp_path / "x.npz"))
     assert sorted(back) == ["a", "b"]

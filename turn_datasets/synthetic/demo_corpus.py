@@ -43,9 +43,7 @@ argument and :mod:`turn_eval.demo` passes it in.
 
 from __future__ import annotations
 
-import io
 import os
-import zipfile
 import zlib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -56,7 +54,7 @@ import numpy as np
 import pandas as pd
 
 from turn_datasets.errors import TurnbenchError, require_columns
-from turn_datasets.fileio import atomic_path, typed_frame, write_csv
+from turn_datasets.fileio import typed_frame, write_csv, write_npz
 from turn_datasets.geometry import direction_of, quantise_deg
 from turn_datasets.mocap.readers import discover, read_source
 from turn_datasets.skeleton import H36M17, H36M17_FROM_32
@@ -76,7 +74,6 @@ __all__ = [
     "write_remap_corpus",
     "write_h36m_estimates",
     "write_remap_estimates",
-    "write_clip_npz",
     "camera_axes_m",
 ]
 
@@ -358,22 +355,6 @@ def camera_axes_m(positions_mm: np.ndarray) -> np.ndarray:
     return np.stack([p[..., 0], -p[..., 2], p[..., 1]], axis=-1).astype(np.float32)
 
 
-def write_clip_npz(path: str | os.PathLike[str], arrays: Mapping[str, np.ndarray]) -> Path:
-    """One ``.npy`` member per clip id in a zip, atomically, with fixed timestamps, so the
-    same arrays give the same bytes (``np.savez`` stamps the current time)."""
-    target = Path(path)
-    with atomic_path(target) as tmp:
-        # level 1: noisy float32 hardly compresses further, and the demo is timed
-        with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_DEFLATED) as zf:
-            for key in sorted(arrays):
-                info = zipfile.ZipInfo(f"{key}.npy", date_time=(1980, 1, 1, 0, 0, 0))
-                info.compress_type = zipfile.ZIP_DEFLATED
-                buffer = io.BytesIO()
-                np.lib.format.write_array(buffer, np.asarray(arrays[key]), allow_pickle=False)
-                zf.writestr(info, buffer.getvalue(), compresslevel=1)
-    return target
-
-
 def write_h36m_estimates(
     index: str | os.PathLike[str] | pd.DataFrame,
     sources: Sequence[str | os.PathLike[str]],
@@ -462,7 +443,7 @@ def write_h36m_estimates(
             f"{len(lost)} sequences of the index are not in the sources, e.g. {lost[0]}",
             file=where,
         )
-    return write_clip_npz(out_npz, arrays)
+    return write_npz(out_npz, arrays)
 
 
 def _around(n_frames: int, *, fps_hz: float, speed_m_s: float) -> Segment:
@@ -592,4 +573,4 @@ def write_remap_estimates(
             ).positions
             for clip_id, a, b in mine:
                 arrays[clip_id] = camera_axes_m(degraded[a - lo : b - lo])
-    return write_clip_npz(out_npz, arrays)
+    return write_npz(out_npz, arrays)

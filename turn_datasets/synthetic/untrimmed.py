@@ -63,12 +63,11 @@ from types import MappingProxyType
 import numpy as np
 import pandas as pd
 
-from turn_datasets.fileio import typed_frame, write_csv
+from turn_datasets.fileio import typed_frame, write_csv, write_npz
 from turn_datasets.remap.context import CONTEXT_COLUMNS, SESSIONS_COLUMNS
 from turn_datasets.remap.labels import LABEL_COLUMNS, clip_id_for
 from turn_datasets.skeleton import H36M17, H36M17_FROM_32
 from turn_datasets.synthetic.degrade import degrade_skeleton
-from turn_datasets.synthetic.demo_corpus import write_clip_npz
 from turn_datasets.synthetic.mocap import THIGH_MM, Segment, generate_sequence
 
 __all__ = [
@@ -703,7 +702,7 @@ def write_untrimmed_corpus(
             sessions.append((session, subject, duration_s))
             people.append((subject, cohort))
             contexts.append(context.assign(subject=subject))
-        write_clip_npz(out / "streams" / f"{session}.npz", arrays)
+        write_npz(out / "streams" / f"{session}.npz", arrays)
     paths = {"streams": out / "streams"}
     tables = {
         "labels.csv": typed_frame(pd.concat(labels, ignore_index=True), LABEL_COLUMNS),
@@ -811,7 +810,7 @@ def write_streams_for_labels(
                 artefacts=artefacts,
             )
             arrays[str(subject)] = stream.positions
-        written.append(write_clip_npz(out / f"{session}.npz", arrays))
+        written.append(write_npz(out / f"{session}.npz", arrays))
     return written
 
 

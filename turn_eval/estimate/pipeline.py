@@ -38,8 +38,7 @@ import numpy as np
 
 from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.fileio import sha256_file, write_json
-from turn_datasets.synthetic.demo_corpus import write_clip_npz
+from turn_datasets.fileio import sha256_file, write_json, write_npz
 from turn_eval.estimate.blazepose import BlazePose, PoseParams
 from turn_eval.estimate.guard import IdentityGuardParams, identity_breaks, tracks
 from turn_eval.estimate.joints import blazepose_to_h36m17
@@ -294,6 +293,6 @@ def manifest_path(npz: str | os.PathLike[str]) -> Path:
 
 def write_estimate(result: SkeletonEstimate, out_npz: str | os.PathLike[str]) -> tuple[Path, Path]:
     """Write the arrays (fixed zip timestamps) and the manifest, without its speed block."""
-    npz = write_clip_npz(out_npz, result.arrays)
+    npz = write_npz(out_npz, result.arrays)
     manifest = {k: v for k, v in result.manifest.items() if k != "speed"}
     return npz, write_json(manifest_path(npz), manifest)
