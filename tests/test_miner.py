@@ -496,3 +496,26 @@ def test_cmu_turns_are_found_with_their_direction(cmu_dir) -> None:
         s, e = clips.start_frame[0], clips.end_frame[0]
         raw = turning_angle(seq.positions[s:e], seq.layout, method="net")
         assert clips.hip_rotation_deg[0] == pytest.approx(raw.angle_deg, abs=1.0), name
+
+
+def test_match_turns_maximises_shared_frames_of_same_direction_pairs():
+    # Worked by hand. P0 [0, 100) and P1 [100, 200) turn left. M0 [20, 170) shares 80 frames
+    # with P0 and 70 with P1; M1 [25, 100) shares 75 with P0 only. Taking the largest overlap
+    # first (P0-M0) leaves M1 alone: 80 frames; the best matching is P0-M1 and P1-M0, 145.
+    # P2 turns right and M2 left over the same frames: no pair. M3 overlaps nothing.
+    planted = pd.DataFrame(
+        {
+            "start_frame": [0, 100, 300],
+            "end_frame": [100, 200, 400],
+            "heading_deg": [90.0, 90.0, -90.0],
+        }
+    )
+    mined = pd.DataFrame(
+        {
+            "start_frame": [20, 25, 300, 500],
+            "end_frame": [170, 100, 400, 600],
+            "net_deg": [85.0, 80.0, 90.0, 90.0],
+        }
+    )
+    assert match_turns(planted, mined) == [(0, 1), (1, 0)]
+    assert match_turns(planted.iloc[:0], mined) == []
