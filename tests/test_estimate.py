@@ -323,6 +323,15 @@ def test_skeletons_from_landmarks_tracks_manifest_and_bytes(tmp_path):
     assert a[1].name == "clinic_01.manifest.json"
     assert a[0].read_bytes() == b[0].read_bytes() and a[1].read_bytes() == b[1].read_bytes()
     assert json.loads(a[1].read_text())["tracks"][1]["start_frame"] == 40
+    # A phone file whose first frame is shown at 10 s: the break and the second track start
+    # at frame 40, 40 / 30 s from the first frame, on one clock (time.start_s says 10 s).
+    late = skeletons_from_landmarks(
+        world33, image33, pts + 10.0, session="c", width_px=1000, height_px=500,
+        declared_fps_hz=30.0,
+    ).manifest  # fmt: skip
+    assert late["time"]["start_s"] == pytest.approx(10.0)
+    assert late["identity_breaks"][0]["time_s"] == pytest.approx(40 / 30, abs=1e-6)
+    assert late["tracks"][1]["start_s"] == pytest.approx(40 / 30, abs=1e-6)
 
 
 def test_estimate_files_feed_predict_and_mine_with_the_documented_options(tmp_path, capsys):

@@ -128,8 +128,10 @@ def skeletons_from_landmarks(
     world = resample(blazepose_to_h36m17(world33), grid)
     image = resample(image33, grid)
     detected = np.isfinite(world).all(axis=(1, 2))
+    # Every time of the manifest counts from the first frame, as the tracks' and the
+    # detections' do (time.start_s is that frame's presentation time).
     breaks = identity_breaks(
-        image, grid.times_s, width_px=width_px, height_px=height_px, params=prm.guard
+        image, grid.times_s - grid.start_s, width_px=width_px, height_px=height_px, params=prm.guard
     )
     spans = tracks(detected, breaks)
     levelling = None

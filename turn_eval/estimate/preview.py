@@ -6,6 +6,11 @@ the colour of its track (the colour changes at each identity break the guard fin
 jump to a bystander is visible), and a red border on frames where nobody was found. It is
 the only image data turnbench writes; it is written only when asked (``--preview DIR``),
 on the local disk, with the ffmpeg inside imageio-ffmpeg (H.264, yuv420p).
+
+The preview is drawn while the video is decoded, so its colours come from the guard's rule
+(:func:`turn_eval.estimate.guard.is_break`) run on the decoded frames as they come; the
+manifest's tracks come from the frames put on the time grid. For a constant-rate video the
+two agree; for a variable-rate one a break may show a frame earlier or later in the preview.
 """
 
 from __future__ import annotations
