@@ -162,3 +162,28 @@ def test_bad_options_fail_before_reading(kwargs, message):
     options = {"layout": "h36m17", **kwargs}
     with pytest.raises(TurnbenchError, match=message):
         predict_angles(never(), **options)
+
+
+def test_clip_arrays_reads_generic_or_named_files_with_their_up_axis(tmp_path):
+    from turn_eval.predict import clip_arrays
+
+    array = np.zeros((5, 17, 3))
+    np.savez(tmp_path / "two.npz", a=array, b=array)
+    (tmp_path / "clip7").mkdir()
+    np.save(tmp_path / "clip7" / "X3D.npy", array)
+    generic, axis = clip_arrays(
+        tmp_path / "two.npz", source_format="arrays", layout=H36M17, up_axis=None
+    )
+    assert [k for k, _ in generic] == ["a", "b"] and axis == "z"  # generic arrays: z unless told
+    named, axis = clip_arrays(
+        tmp_path / "clip7" / "X3D.npy", source_format="motionbert", layout=H36M17, up_axis=None
+    )
+    assert [k for k, _ in named] == ["clip7"] and axis == "-y"  # MotionBERT's camera axes
+    _, axis = clip_arrays(
+        tmp_path / "clip7" / "X3D.npy", source_format="motionbert", layout=H36M17, up_axis="y"
+    )
+    assert axis == "y"  # the caller's word wins
+    with pytest.raises(TurnbenchError, match="16 joints but layout 'h36m17' has 17"):
+        np.save(tmp_path / "short.npy", np.zeros((5, 16, 3)))
+        list(clip_arrays(tmp_path / "short.npy", source_format="arrays", layout=H36M17,
+                         up_axis=None)[0])  # fmt: skip

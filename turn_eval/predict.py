@@ -13,6 +13,7 @@ an angle, so the miner that built Turn-H3.6M and this estimator cannot drift apa
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterable, Sequence
 
 import numpy as np
@@ -21,9 +22,10 @@ import pandas as pd
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import typed_frame
 from turn_datasets.geometry import METHODS, angular_speed_deg_s, parse_joints, turning_angle
+from turn_datasets.mocap.arrays import iter_arrays
 from turn_datasets.skeleton import UP_AXES, Layout, get_layout, to_z_up
 
-__all__ = ["PREDICTION_DTYPES", "SPEED_DTYPES", "predict_angle", "predict_angles"]
+__all__ = ["PREDICTION_DTYPES", "SPEED_DTYPES", "clip_arrays", "predict_angle", "predict_angles"]
 
 #: Columns and dtypes of :func:`predict_angles` without ``fps_hz``.
 PREDICTION_DTYPES: dict[str, str] = {
@@ -84,6 +86,25 @@ def predict_angle(
         duration_s = result.n_frames / fps_hz
         out["speed_deg_s"] = float(angular_speed_deg_s(result.angle_deg, duration_s))
     return out
+
+
+def clip_arrays(
+    path: str | os.PathLike[str], *, source_format: str, layout: Layout, up_axis: str | None
+) -> tuple[Iterable[tuple[str, np.ndarray]], str]:
+    """The ``(clip id, array)`` pairs of one skeleton file and the axis that points up in it.
+
+    ``source_format`` ``arrays``: a generic ``.npy``/``.npz``/``.h5`` whose arrays must have
+    ``layout``'s joints, read one at a time, z up unless ``up_axis`` says otherwise. Else an
+    estimator's own file by name (:func:`turn_eval.estimate.formats.read_estimator_output`),
+    its own axis unless ``up_axis`` is given.
+    """
+    if source_format == "arrays":
+        return iter_arrays(path, layout=layout), up_axis or "z"
+    # imported here: the estimate package is only needed for an estimator's own files
+    from turn_eval.estimate.formats import read_estimator_output
+
+    spec, named = read_estimator_output(path, source_format)
+    return named, up_axis or spec.up_axis
 
 
 def predict_angles(

@@ -19,11 +19,10 @@ from turn_datasets.cli.common import (
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, write_csv
 from turn_datasets.geometry import METHODS, parse_joints
-from turn_datasets.mocap.arrays import iter_arrays
 from turn_eval.cli import cli
 from turn_eval.cli.common import SkeletonSource, skeleton_source_options
-from turn_eval.estimate.formats import read_estimator_output
-from turn_eval.predict import predict_angles
+from turn_eval.estimate.formats import refuse_2d
+from turn_eval.predict import clip_arrays, predict_angles
 
 
 @cli.command("predict", context_settings=CONTEXT_SETTINGS)
@@ -90,9 +89,7 @@ def predict_command(
       turn-eval predict S9_*.npy --layout h36m32 --joints hip,knee --fps 50 --out pred.csv
       turn-eval score pred.csv --reference turn-h36m.csv
     """
-    for path in skeletons:
-        if path.suffix.lower() == ".json":  # AlphaPose's 2D output: say so before anything else
-            read_estimator_output(path, "alphapose")
+    refuse_2d(skeletons)  # AlphaPose's 2D output: said before anything else
     layout = source.layout(need_up_axis=False)
     names = parse_joints(joints)
     check_not_input(out, skeletons)
@@ -100,13 +97,9 @@ def predict_command(
     first_file: dict[str, Path] = {}
     for path in progress(skeletons, label="predicting", length=len(skeletons)):
         try:
-            # any .json (AlphaPose's) goes to the named readers, which say why it is refused
-            if source.format == "arrays" and path.suffix.lower() != ".json":
-                arrays = iter_arrays(path, layout=layout)
-                file_up_axis = source.up_axis or "z"
-            else:
-                spec, named = read_estimator_output(path, source.format)
-                arrays, file_up_axis = iter(named), source.up_axis or spec.up_axis
+            arrays, file_up_axis = clip_arrays(
+                path, source_format=source.format, layout=layout, up_axis=source.up_axis
+            )
             table = predict_angles(
                 arrays,
                 layout=layout,

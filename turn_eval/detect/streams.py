@@ -103,10 +103,9 @@ def stream_files(paths: Iterable[str | os.PathLike[str]]) -> list[Path]:
                 )
             out.extend(found)
         elif path.is_file():
-            if path.suffix.lower() == ".json":  # AlphaPose's 2D output: say why it cannot serve
-                from turn_eval.estimate.formats import read_estimator_output
+            from turn_eval.estimate.formats import refuse_2d
 
-                read_estimator_output(path, "alphapose")
+            refuse_2d([path])  # AlphaPose's 2D output: say why it cannot serve
             if path.suffix.lower() not in STREAM_SUFFIXES:
                 raise TurnbenchError(
                     f"not a skeleton stream file (expected one of {', '.join(STREAM_SUFFIXES)})",

@@ -34,7 +34,7 @@ own unit is kept and stated.
 from __future__ import annotations
 
 import os
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
@@ -46,7 +46,13 @@ from turn_datasets.mocap.arrays import iter_arrays, load_numpy
 from turn_datasets.mocap.checks import unreadable
 from turn_datasets.skeleton import H36M17
 
-__all__ = ["ESTIMATOR_FORMATS", "EstimatorFormat", "FORMAT_CHOICES", "read_estimator_output"]
+__all__ = [
+    "ESTIMATOR_FORMATS",
+    "EstimatorFormat",
+    "FORMAT_CHOICES",
+    "read_estimator_output",
+    "refuse_2d",
+]
 
 _LIFTER_HINT = (
     "turnbench needs 3D skeletons: lift the 2D keypoints with a 3D lifter (Strided "
@@ -96,6 +102,14 @@ def _refuse_json(path: Path) -> TurnbenchError:
         file=path,
         hint=_LIFTER_HINT,
     )
+
+
+def refuse_2d(paths: Iterable[str | os.PathLike[str]]) -> None:
+    """Refuse the first ``.json`` among ``paths`` (AlphaPose's 2D keypoints), saying what
+    would serve, before any other file is read."""
+    for path in paths:
+        if Path(path).suffix.lower() == ".json":
+            raise _refuse_json(Path(path))
 
 
 def _as_h36m17(array: np.ndarray, path: Path, key: str) -> np.ndarray:
