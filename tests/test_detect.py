@@ -9,7 +9,7 @@ import pytest
 
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.geometry import frame_yaw_deg
-from turn_datasets.h36m.miner import MinerParams, mine_sequence
+from turn_datasets.h36m.miner import MinerParams, mine_sequence, mine_sequence_report
 from turn_datasets.skeleton import H36M17, H36M17_FROM_32, to_z_up
 from turn_datasets.synthetic import mocap as sm
 from turn_datasets.synthetic.degrade import degrade_skeleton
@@ -81,9 +81,12 @@ def test_left_right_swaps_are_not_turns() -> None:
     for a in (150, 260, 500):  # 5 frames each, walking, inside the turn, walking
         swap_sides(swapped, a, a + 5)
     # The raw miner reads each swap as a full turn (the hip vector flips twice) and loses
-    # the real one.
-    raw = raw_miner(swapped)
-    assert len(raw) == 3 and (raw.angle_deg > 250).all()
+    # the real one; those "turns" take 5 frames (over 250° at far above the human bound), so
+    # it rejects them as too fast instead of reporting them, and reports nothing.
+    raw = mine_sequence_report(swapped, layout=H36M17, fps_hz=FPS, min_turn_deg=67.5, max_gap_s=0.5)
+    assert raw.turns.empty
+    assert len(raw.rejected) == 3 and (raw.rejected.angle_deg > 250).all()
+    assert set(raw.rejected.reason) == {"too_fast"}
     # Repaired: exactly the 15 swapped frames put back, bit for bit.
     fixed, n = repair_swaps(swapped, H36M17, fps_hz=FPS, max_gap_s=0.5)
     assert n == 15
@@ -139,8 +142,12 @@ def test_a_turn_is_not_followed_through_an_absence() -> None:
     p[int(7 * FPS) : int(17 * FPS)] = np.nan  # 10 s out of view
     assert len(RULE.detect(p, FPS, H36M17)) == 0
     # what bridging the absence would do: a turn no one saw
-    bridged = raw_miner(p, max_gap_s=11.0)
-    assert len(bridged) == 1 and bridged.angle_deg[0] > 170
+    # (interpolating the hips across the turn flips their line at once: a turn of over 170°
+    # in a third of a second, which the miner rejects as too fast for a person)
+    bridged = mine_sequence_report(p, layout=H36M17, fps_hz=FPS, min_turn_deg=67.5, max_gap_s=11.0)
+    assert bridged.turns.empty
+    assert len(bridged.rejected) == 1 and bridged.rejected.angle_deg[0] > 170
+    assert bridged.rejected.reason[0] == "too_fast"
 
 
 def test_a_short_dropout_inside_a_turn_is_bridged() -> None:

@@ -18,6 +18,8 @@ __all__ = [
     "MAX_BIN_WIDTH_DEG",
     "MAX_RESAMPLES",
     "MAX_SEED",
+    "MAX_TURN_DURATION_S",
+    "MAX_TURN_MEAN_SPEED_DEG_S",
 ]
 
 #: Ten full revolutions: no single turn of a person comes near it (the paper's largest
@@ -39,3 +41,13 @@ MAX_BIN_WIDTH_DEG = 360.0
 MAX_RESAMPLES = 100_000
 #: NumPy's legacy seeds are 32-bit; keeping every seed there keeps runs reproducible anywhere.
 MAX_SEED = 2**32 - 1
+
+#: Longest single turn, seconds: El-Gohary et al. (2014, Sensors 14:356) and mobgap's
+#: ``TdElGohary`` keep turns of 0.5-10 s; turning that goes on longer (walking round a loop,
+#: circling) is an episode of several turns or of none, never one turn of 600°.
+MAX_TURN_DURATION_S = 10.0
+#: Fastest mean speed of a turn a person makes, degrees per second. Real turns in Human3.6M
+#: run at 19-154 °/s on average; fast pivots reach a few hundred °/s at their peak, not on
+#: average over the turn (El-Gohary et al. 2014; Shah et al. 2021). Twice the fastest real
+#: mean: what is faster is a left/right swap, an identity break or a flip of the hip line.
+MAX_TURN_MEAN_SPEED_DEG_S = 300.0

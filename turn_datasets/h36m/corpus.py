@@ -19,6 +19,7 @@ The command line, the notebooks and the coming detector call :func:`find_sources
 from __future__ import annotations
 
 import os
+from collections import Counter
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -121,6 +122,8 @@ class FileRecord:
             "units": sorted(self.units) if read else [],
             "frame_offset": self.frame_offset,
             "skipped_sequences": len(self.bad_sequences) if read else 0,
+            # runs of turning that were no clip: circling episodes, turns too fast for a person
+            "rejected": dict(sorted(Counter(r for c in self.clips for r in c.rejected).items())),
         }
 
 

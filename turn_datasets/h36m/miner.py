@@ -92,6 +92,7 @@ from dataclasses import asdict, dataclass, replace
 from functools import lru_cache
 from textwrap import indent
 from types import MappingProxyType
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -124,6 +125,9 @@ __all__ = [
     "clip_id_of",
     "find_turns",
     "mine_sequence",
+    "mine_sequence_report",
+    "MinedSequence",
+    "rejection_reasons",
     "measure_clip",
     "SequenceClips",
     "mine_clips",
@@ -274,6 +278,36 @@ class MinerParams:
         min=0,
         min_open=True,
         max=limits.MAX_DURATION_S,
+    )
+    split_window_s: float = param(
+        0.4,
+        "Heading-rate window (seconds) in which the pauses between turns in place are looked for.",
+        min=0,
+        min_open=True,
+        max=limits.MAX_DURATION_S,
+    )
+    pause_speed_deg_s: float = param(
+        5.0,
+        "Continuous turning is split into turns where its heading rate (over split_window_s) "
+        "falls to this, in degrees per second (El-Gohary et al. 2014's turn boundary).",
+        min=0,
+        max=limits.MAX_SPEED_DEG_S,
+    )
+    max_turn_s: float = param(
+        limits.MAX_TURN_DURATION_S,
+        "Turning that lasts longer than this (seconds) after splitting is not one turn but a "
+        "circling episode, reported apart (El-Gohary et al. 2014: 0.5-10 s).",
+        min=0,
+        min_open=True,
+        max=limits.MAX_DURATION_S,
+    )
+    max_turn_speed_deg_s: float = param(
+        limits.MAX_TURN_MEAN_SPEED_DEG_S,
+        "A turn faster than this on average (degrees per second) is an artefact (a left/right "
+        "swap, an identity break, a noise flip), rejected and counted.",
+        min=0,
+        min_open=True,
+        max=limits.MAX_SPEED_DEG_S,
     )
     onset_deg: float = param(
         6.0,
@@ -502,6 +536,50 @@ def _hysteresis_runs(
     return start[first], end[last], sgn[first]
 
 
+def _split_runs(
+    rate: np.ndarray,
+    mean_yaw: np.ndarray,
+    start: np.ndarray,
+    end: np.ndarray,
+    sign: np.ndarray,
+    fps_hz: float,
+    p: MinerParams,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Continuous turning split into turns at the minima of its heading rate."""
+    out_s, out_e, out_g = [], [], []
+    for a, b, g in zip(start.tolist(), end.tolist(), sign.tolist(), strict=True):
+        cuts = _valleys(g * rate[a:b], g * mean_yaw[a:b], p)
+        edges = [a, *(a + c for c in cuts), b]
+        out_s += edges[:-1]
+        out_e += edges[1:]
+        out_g += [g] * (len(edges) - 1)
+    as_int = lambda v: np.asarray(v, dtype=np.int64)  # noqa: E731
+    return as_int(out_s), as_int(out_e), as_int(out_g)
+
+
+def _valleys(x: np.ndarray, heading: np.ndarray, p: MinerParams) -> list[int]:
+    """Where one run of turning splits: deepest valley first, recursively."""
+    n = x.shape[0]
+    if n < 5:
+        return []
+    found, _ = signal.find_peaks(-x)
+    best = None
+    for v in found[np.argsort(x[found], kind="stable")]:
+        left, right = float(x[:v].max()), float(x[v:].max())
+        if x[v] > p.pause_speed_deg_s:
+            break
+        if heading[v] - heading[0] >= p.min_turn_deg and heading[-1] - heading[v] >= p.min_turn_deg:
+            best = int(v)
+            break
+    if best is None:
+        return []
+    return [
+        *_valleys(x[:best], heading[:best], p),
+        best,
+        *(best + c for c in _valleys(x[best:], heading[best:], p)),
+    ]
+
+
 def _onset(departure: np.ndarray, onset_deg: float) -> float:
     """Where a departure from the heading before (or after) a turn began, in frames.
 
@@ -612,6 +690,13 @@ def _piece_turns(
     start, end, sign = _hysteresis_runs(rate, fps_hz, p)
     if start.size == 0:
         return empty, empty, empty, np.zeros(0), np.zeros(0)
+    walking = stride != max(_frames(p.no_sway_window_s, fps_hz), 2)
+    split_rate = (
+        rate
+        if walking
+        else _stride_rate(mean_yaw, max(_frames(p.split_window_s, fps_hz), 2), fps_hz)
+    )
+    start, end, sign = _split_runs(split_rate, mean_yaw, start, end, sign, fps_hz, p)
     start, end = _refine(mean_yaw, start, end, sign, stride, p.onset_deg)
     ok = end - start >= 2  # a span squeezed to nothing by its neighbours is no turn
     start, end, sign = start[ok], end[ok], sign[ok]
@@ -799,9 +884,37 @@ def mine_sequence(
         Positions of the wrong shape, a layout without hips, a bad parameter, or fewer than
         two frames with a usable hip vector.
     """
+    return mine_sequence_report(
+        positions, layout=layout, fps_hz=fps_hz, params=params, **overrides
+    ).turns
+
+
+class MinedSequence(NamedTuple):
+    """What :func:`mine_sequence_report` returns: the turns, and what was not a turn."""
+
+    #: :data:`SEQUENCE_CLIP_DTYPES`, the turns (as :func:`mine_sequence` returns them).
+    turns: pd.DataFrame
+    #: The same columns and ``reason`` (:func:`rejection_reasons`): circling episodes and
+    #: turns too fast for a person, left out of ``turns``.
+    rejected: pd.DataFrame
+
+
+def mine_sequence_report(
+    positions: np.ndarray,
+    *,
+    layout: Layout,
+    fps_hz: float,
+    params: MinerParams | None = None,
+    **overrides: float,
+) -> MinedSequence:
+    """:func:`mine_sequence`, with the circling episodes and impossible turns it left out."""
     p = replace(params or MinerParams(), **overrides)
     start, end, net, hip = _mine_arrays(positions, layout, fps_hz, p)
-    return _sequence_frame(start, end, net, hip)
+    reason = rejection_reasons(start, end, net, fps_hz, p)
+    ok = reason == ""
+    rejected = _sequence_frame(start[~ok], end[~ok], net[~ok], hip[~ok])
+    rejected["reason"] = pd.Series(reason[~ok], index=rejected.index, dtype=object)
+    return MinedSequence(_sequence_frame(start[ok], end[ok], net[ok], hip[ok]), rejected)
 
 
 def _sequence_frame(
@@ -841,6 +954,27 @@ def _mine_arrays(
     net = np.concatenate([np.zeros(0), *(p[2] for p in parts)])
     hip = np.concatenate([np.zeros(0), *(p[3] for p in parts)])
     return start.astype(np.int64), end.astype(np.int64), net, hip
+
+
+def rejection_reasons(
+    start: np.ndarray, end: np.ndarray, net_deg: np.ndarray, fps_hz: float, p: MinerParams
+) -> np.ndarray:
+    """Why each turn is not a turn a person makes: ``""`` (it is), ``circling`` or ``too_fast``.
+
+    ``circling``: longer than ``max_turn_s`` after continuous turning was split at its
+    pauses (walking round a loop at 40 °/s for half a minute is not one 1000° turn;
+    El-Gohary et al. 2014 and mobgap's ``TdElGohary`` keep turns of 0.5-10 s).
+    ``too_fast``: a mean speed above ``max_turn_speed_deg_s``
+    (:data:`turn_datasets.limits.MAX_TURN_MEAN_SPEED_DEG_S`), which only a left/right swap,
+    an identity break or a noise flip of the hip line reaches.
+    """
+    duration = (np.asarray(end) - np.asarray(start)) / fps_hz
+    speed = np.abs(net_deg) / np.maximum(duration, 1.0 / fps_hz)
+    return np.where(
+        duration > p.max_turn_s,
+        "circling",
+        np.where(speed > p.max_turn_speed_deg_s, "too_fast", ""),
+    ).astype(object)
 
 
 @dataclass(frozen=True)
@@ -937,6 +1071,8 @@ class SequenceClips:
     angle_deg: np.ndarray
     net_deg: np.ndarray
     hip_rotation_deg: np.ndarray
+    #: Why each run of turning that was not a clip was left out (:func:`rejection_reasons`).
+    rejected: tuple[str, ...] = ()
 
     def __len__(self) -> int:
         return int(self.start_frame.shape[0])
@@ -969,6 +1105,7 @@ class SequenceClips:
             np.asarray(angle, dtype=float)[order],
             np.asarray(net, dtype=float)[order],
             np.asarray(hip_rotation, dtype=float)[order],
+            self.rejected,
         )
 
     def to_frame(self) -> pd.DataFrame:
@@ -988,6 +1125,10 @@ def mine_clips(seq: MocapSequence, params: MinerParams | None = None) -> Sequenc
     params = params or MinerParams()
     try:
         start, end, net, hip = _mine_arrays(seq.positions, seq.layout, seq.fps, params)
+        reason = rejection_reasons(start, end, net, seq.fps, params)
+        ok = reason == ""
+        start, end, net, hip = start[ok], end[ok], net[ok], hip[ok]
+        rejected = tuple(str(r) for r in reason[~ok])
     except TurnbenchError as exc:
         item = f"{seq.subject}/{seq.action}" + (f" {seq.subaction}" if seq.subaction else "")
         raise TurnbenchError(exc.message, file=seq.source or None, item=item) from None
@@ -1002,6 +1143,7 @@ def mine_clips(seq: MocapSequence, params: MinerParams | None = None) -> Sequenc
         np.abs(net),
         net,
         np.abs(hip),
+        rejected,
     )
 
 
