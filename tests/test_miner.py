@@ -10,6 +10,7 @@ import pandas as pd
 import pytest
 from scipy import signal
 
+from turn_datasets import limits
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.geometry import turning_angle
 from turn_datasets.h36m.evaluation import match_turns
@@ -23,10 +24,12 @@ from turn_datasets.h36m.miner import (
     measure_clip,
     mine,
     mine_sequence,
+    mine_sequence_report,
+    rejection_reasons,
     split_of,
 )
 from turn_datasets.mocap import readers
-from turn_datasets.skeleton import H36M17, H36M17_FROM_32, H36M32, MocapSequence
+from turn_datasets.skeleton import H36M17, H36M17_FROM_32, H36M32, Layout, MocapSequence
 from turn_datasets.synthetic import mocap as sm
 
 FPS = 50.0
@@ -519,3 +522,111 @@ def test_match_turns_maximises_shared_frames_of_same_direction_pairs():
     )
     assert match_turns(planted, mined) == [(0, 1), (1, 0)]
     assert match_turns(planted.iloc[:0], mined) == []
+
+
+# --- continuous turning: pauses, hesitations, circling and impossible speeds ---------------
+
+
+def _sine_turn(angle_deg: float, duration_s: float, fps: float = FPS) -> np.ndarray:
+    """Per-frame yaw increments of a turn whose rate rises and falls as a half sine."""
+    n = int(round(duration_s * fps))
+    rate = np.sin(np.pi * (np.arange(n) + 0.5) / n)
+    return rate / rate.sum() * angle_deg
+
+
+def _yaw(*parts: np.ndarray) -> np.ndarray:
+    return np.concatenate([[0.0], np.cumsum(np.concatenate(parts))])
+
+
+def _still(seconds: float, fps: float = FPS) -> np.ndarray:
+    return np.zeros(int(round(seconds * fps)))
+
+
+def test_turns_in_place_with_a_pause_between_them_are_two_turns() -> None:
+    # Two 90° turns in place (1.5 s each) with a 0.3 s standstill between them: the stride
+    # rate (0.6 s) never drops below the stop threshold (10 °/s) across the pause, so
+    # without the split they are one 180° run; the 0.4 s rate falls to 0 there.
+    y = _yaw(_still(2), _sine_turn(90, 1.5), _still(0.3), _sine_turn(90, 1.5), _still(2))
+    got = find_turns(y, fps_hz=FPS)
+    assert len(got) == 2
+    np.testing.assert_allclose(got.net_deg, [90.0, 90.0], atol=1.0)
+    # the pause lies between them: the first ends before frame 100 + 75 + 15, the second
+    # starts after frame 100 + 75
+    assert got.end_frame[0] <= 190 and got.start_frame[1] >= 175
+    # with the pause threshold at 0 nothing is split: one 180° turn
+    merged = find_turns(y, fps_hz=FPS, pause_speed_deg_s=0.0)
+    assert len(merged) == 1 and merged.net_deg[0] == pytest.approx(180.0, abs=1.0)
+
+
+def test_a_hesitation_inside_a_turn_does_not_split_it() -> None:
+    # A 180° turn over 3 s whose rate sags to 30% of its peak halfway, without stopping
+    # (as 69_17's first turn does): one turn (Shah et al. count hesitations inside a turn).
+    n = int(3 * FPS)
+    u = (np.arange(n) + 0.5) / n
+    rate = np.sin(np.pi * u) * (1 - 0.7 * np.exp(-(((u - 0.5) / 0.08) ** 2)))
+    y = _yaw(_still(2), rate / rate.sum() * 180.0, _still(2))
+    got = find_turns(y, fps_hz=FPS)
+    assert len(got) == 1 and got.net_deg[0] == pytest.approx(180.0, abs=1.0)
+
+
+def test_a_pause_whose_sides_turn_less_than_a_clip_does_not_split() -> None:
+    # 30° then a pause then 120°: the first part is below min_turn_deg (45°), so the pause
+    # does not make two clips of it (and 30° alone would be none).
+    y = _yaw(_still(2), _sine_turn(30, 0.8), _still(0.3), _sine_turn(120, 1.8), _still(2))
+    got = find_turns(y, fps_hz=FPS)
+    assert len(got) == 1 and got.net_deg[0] == pytest.approx(150.0, abs=1.5)
+
+
+def _hips_from_yaw(yaw_deg: np.ndarray) -> tuple[np.ndarray, Layout]:
+    """Left and right hip, 0.13 m either side of the origin, facing yaw - 90°."""
+    rad = np.radians(yaw_deg)
+    half = 0.13 * np.stack([np.cos(rad), np.sin(rad), np.zeros_like(rad)], axis=1)
+    return np.stack([half, -half], axis=1), Layout("hips", 2, {"left_hip": 0, "right_hip": 1})
+
+
+def test_walking_round_a_loop_for_half_a_minute_is_circling_not_a_turn() -> None:
+    # 40 °/s for 30 s (1200°) with brief dips to 25 °/s every 4 s, as Human3.6M's walks
+    # round their loop do: no pause, so one run of 30 s; past max_turn_s (10 s) it is a
+    # circling episode, reported apart, never a 1200° turn.
+    rate = np.full(int(30 * FPS), 40.0)
+    for k in range(1, 8):
+        rate[int(4 * k * FPS) : int((4 * k + 0.4) * FPS)] = 25.0
+    y = _yaw(_still(2), rate / FPS, _still(2))
+    positions, layout = _hips_from_yaw(y)
+    got = mine_sequence_report(positions, layout=layout, fps_hz=FPS)
+    assert got.turns.empty
+    assert len(got.rejected) == 1 and got.rejected.reason[0] == "circling"
+    expected = 40.0 * 30 - 7 * 0.4 * 15.0  # 1200° less the dips' 15 °/s for 0.4 s each
+    assert got.rejected.angle_deg[0] == pytest.approx(expected, abs=2.0)
+    # the same loop lasting 8 s (320°) is one turn: within the bound
+    short = _yaw(_still(2), np.full(int(8 * FPS), 40.0 / FPS), _still(2))
+    kept = mine_sequence(_hips_from_yaw(short)[0], layout=layout, fps_hz=FPS)
+    assert len(kept) == 1 and kept.angle_deg[0] == pytest.approx(320.0, abs=2.0)
+
+
+def test_a_turn_faster_than_a_person_turns_is_rejected_as_too_fast() -> None:
+    # 180° in 0.2 s (900 °/s on average; the boundary fit smooths it to about 0.5 s, still
+    # far above the bound) is a flip of the hip line, not a turn; the same
+    # 180° over 1.2 s (150 °/s) is a turn.
+    fast = _yaw(_still(2), _sine_turn(180, 0.2), _still(2))
+    positions, layout = _hips_from_yaw(fast)
+    got = mine_sequence_report(positions, layout=layout, fps_hz=FPS)
+    assert got.turns.empty and list(got.rejected.reason) == ["too_fast"]
+    d = (got.rejected.end_frame[0] - got.rejected.start_frame[0]) / FPS
+    assert got.rejected.angle_deg[0] / d > limits.MAX_TURN_MEAN_SPEED_DEG_S
+    slow = _yaw(_still(2), _sine_turn(180, 1.2), _still(2))
+    kept = mine_sequence(_hips_from_yaw(slow)[0], layout=layout, fps_hz=FPS)
+    assert len(kept) == 1 and kept.angle_deg[0] == pytest.approx(180.0, abs=1.0)
+
+
+def test_rejection_reasons_by_hand() -> None:
+    p = MinerParams()
+    reasons = rejection_reasons(
+        np.array([0, 0, 0, 0]),
+        np.array([50, 50 * 11, 10, 50 * 11]),
+        np.array([90.0, -500.0, 90.0, 4000.0]),
+        50.0,
+        p,
+    )
+    # 1 s at 90 °/s; 11 s; 0.2 s at 450 °/s; 11 s at 364 °/s (circling first)
+    assert reasons.tolist() == ["", "circling", "too_fast", "circling"]

@@ -16,10 +16,12 @@ Trials are read from SOURCE.md's first table: adding a row (and its file) adds a
 
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 from scipy.spatial.transform import Rotation
 
@@ -162,3 +164,39 @@ def test_generator_sway_is_what_cmus_walks_show(cmu_dir) -> None:
     yaw = np.degrees(np.unwrap(np.radians(walk.true_yaw_deg)))
     synth = _stride_sway_amplitudes_deg(yaw[100:-100], walk.fps)
     assert np.median(synth) == pytest.approx(sm.SWAY_DEG / 2, abs=0.3)
+
+
+def test_detect_reads_the_same_captures_and_finds_the_same_turns(cmu_dir, tmp_path, capsys) -> None:
+    """``turn-eval detect --from mocap`` on the real captures: every trial's turns by count
+    and direction as SOURCE.md lists them (69_17's three turns in place and 69_19's four
+    with pauses of 0.1-0.3 s, not one or two merged turns; each walking turn, 69_32's curved
+    one included, once; none on the walks), each within 8° of the root's own heading change,
+    none longer than 10 s or faster than the human bound."""
+    from turn_datasets import limits
+    from turn_datasets.cli.common import run_group
+    from turn_eval.cli import cli
+
+    out = tmp_path / "d.csv"
+    code = run_group(
+        cli, "turn-eval", ["detect", str(cmu_dir), "--from", "mocap", "--out", str(out)]
+    )
+    assert code == 0, capsys.readouterr().err
+    found = pd.read_csv(out)
+    manifest = json.loads(out.with_suffix(".manifest.json").read_text(encoding="utf-8"))
+    assert manifest["reading"]["fps_hz"] is None  # each file's own: 120 Hz
+    assert {s["fps_hz"] for f in manifest["inputs"] for s in f["streams"]} == {120.0}
+    for name, count, side in source_table(cmu_dir):
+        mine = found[found.session == name.removesuffix(".bvh")]
+        assert len(mine) == count, (name, mine)
+        if not count:
+            continue
+        assert (mine.direction == side).all(), name
+        fps = 120.0
+        heading = root_heading_deg(cmu_dir / name)
+        starts = np.rint(mine.start_s.to_numpy() * fps).astype(int).tolist()
+        ends = np.rint(mine.end_s.to_numpy() * fps).astype(int).tolist()
+        truth = np.abs(true_angles(heading, starts, ends, fps))
+        np.testing.assert_allclose(mine.angle_deg, truth, atol=8.0, err_msg=name)
+    assert (found.end_s - found.start_s).max() <= limits.MAX_TURN_DURATION_S
+    assert found.speed_deg_s.max() <= limits.MAX_TURN_MEAN_SPEED_DEG_S
+    assert manifest["counts"]["detections"] == 12 and manifest["counts"]["rejected"] == {}

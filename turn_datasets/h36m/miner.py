@@ -42,6 +42,18 @@ The rule, per sequence
    ``merge_gap_s``, with no run the other way between them, are one turn. A turn the other
    way, however soon, is a new clip. Because the rate is taken over a stride, neither the
    sway of a slow walking turn nor joint noise splits it or starts a false one.
+   **Pauses.** Continuous turning is one run however many turns it holds: a person who
+   turns 90° four times with pauses of 0.1-0.3 s (CMU's trial 69_19) keeps the stride
+   rate above the stop threshold throughout. A run is split at a minimum of its heading
+   rate where the rate falls to ``pause_speed_deg_s`` (5 °/s, the boundary of a turn in
+   El-Gohary et al. 2014), if each side turns by ``min_turn_deg``; deepest minimum first,
+   then within each side. Walking, the rate is the stride's (the sway cancels); standing,
+   over ``split_window_s`` (0.4 s), long enough to average a monocular estimator's
+   jitter: a standstill of 0.3 s between two smooth turns in place shows, and so do
+   69_19's shorter pauses, before which the real turns slow down. A slowing that does not
+   come near a standstill (69_17's first 182° turn slows to 13 °/s halfway) is one turn:
+   Shah et al. (2021), on merged and discrete turns, count a hesitation inside a turn as part of
+   it, and turns apart only when the body stops.
 6. **Boundaries.** A run of the stride rate sees a turn coming half a stride early, so its
    ends are not the turn's. The stride before the run is the heading before the turn; each
    later frame's departure from it is measured at the same gait phase (a whole number of
@@ -70,6 +82,16 @@ The rule, per sequence
    the way its run turns; the windows of the clips are then cut only at the neighbouring
    clips (a smaller rotation nearby, such as the counter-rotation before a step turn, is
    part of the heading before).
+
+9. **Bounds.** What is left is checked against what a person does
+   (:func:`rejection_reasons`): turning that lasts longer than ``max_turn_s`` (10 s,
+   El-Gohary et al. 2014 and mobgap's ``TdElGohary`` keep 0.5-10 s) is a *circling*
+   episode, such as Human3.6M's walks round a loop at about 40 °/s for half a minute,
+   not a turn of 600°; a mean speed above ``max_turn_speed_deg_s``
+   (:data:`turn_datasets.limits.MAX_TURN_MEAN_SPEED_DEG_S`, 300 °/s: real turns run at
+   19-154 °/s on average) is an artefact: a left/right swap, an identity break, the hip
+   line flipping under noise. Neither is a clip; :func:`mine_sequence_report` returns them
+   with their reason and the manifests count them.
 
 Straight walking and standing give no clip: the sway cancels in the stride rate
 (``tests/test_miner.py``, ``benchmarks/eval_miner.py``). Measured (``benchmarks/eval_miner.py``,
@@ -542,19 +564,15 @@ def _split_runs(
     start: np.ndarray,
     end: np.ndarray,
     sign: np.ndarray,
-    fps_hz: float,
     p: MinerParams,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Continuous turning split into turns at the minima of its heading rate."""
-    out_s, out_e, out_g = [], [], []
+    """Step 6: each run of turning split at its pauses (:func:`_valleys`)."""
+    out: list[tuple[int, int, int]] = []
     for a, b, g in zip(start.tolist(), end.tolist(), sign.tolist(), strict=True):
-        cuts = _valleys(g * rate[a:b], g * mean_yaw[a:b], p)
-        edges = [a, *(a + c for c in cuts), b]
-        out_s += edges[:-1]
-        out_e += edges[1:]
-        out_g += [g] * (len(edges) - 1)
-    as_int = lambda v: np.asarray(v, dtype=np.int64)  # noqa: E731
-    return as_int(out_s), as_int(out_e), as_int(out_g)
+        edges = [a, *(a + c for c in _valleys(g * rate[a:b], g * mean_yaw[a:b], p)), b]
+        out += [(lo, hi, g) for lo, hi in zip(edges[:-1], edges[1:], strict=True)]
+    arr = np.asarray(out, dtype=np.int64).reshape(-1, 3)
+    return arr[:, 0], arr[:, 1], arr[:, 2]
 
 
 def _valleys(x: np.ndarray, heading: np.ndarray, p: MinerParams) -> list[int]:
@@ -564,11 +582,11 @@ def _valleys(x: np.ndarray, heading: np.ndarray, p: MinerParams) -> list[int]:
         return []
     found, _ = signal.find_peaks(-x)
     best = None
+    # deepest first: the first pause whose two sides each turn by a clip's angle
     for v in found[np.argsort(x[found], kind="stable")]:
-        left, right = float(x[:v].max()), float(x[v:].max())
         if x[v] > p.pause_speed_deg_s:
             break
-        if heading[v] - heading[0] >= p.min_turn_deg and heading[-1] - heading[v] >= p.min_turn_deg:
+        if min(heading[v] - heading[0], heading[-1] - heading[v]) >= p.min_turn_deg:
             best = int(v)
             break
     if best is None:
@@ -690,13 +708,11 @@ def _piece_turns(
     start, end, sign = _hysteresis_runs(rate, fps_hz, p)
     if start.size == 0:
         return empty, empty, empty, np.zeros(0), np.zeros(0)
-    walking = stride != max(_frames(p.no_sway_window_s, fps_hz), 2)
-    split_rate = (
-        rate
-        if walking
-        else _stride_rate(mean_yaw, max(_frames(p.split_window_s, fps_hz), 2), fps_hz)
-    )
-    start, end, sign = _split_runs(split_rate, mean_yaw, start, end, sign, fps_hz, p)
+    # Step 6. Walking, the stride's rate is the finest free of the sway; standing, pauses
+    # between turns in place are shorter than no_sway_window_s and show over split_window_s.
+    if stride == max(_frames(p.no_sway_window_s, fps_hz), 2):
+        rate = _stride_rate(mean_yaw, max(_frames(p.split_window_s, fps_hz), 2), fps_hz)
+    start, end, sign = _split_runs(rate, mean_yaw, start, end, sign, p)
     start, end = _refine(mean_yaw, start, end, sign, stride, p.onset_deg)
     ok = end - start >= 2  # a span squeezed to nothing by its neighbours is no turn
     start, end, sign = start[ok], end[ok], sign[ok]

@@ -77,6 +77,18 @@ CMU_JOINT_MAP: Mapping[str, str] = MappingProxyType(
         "right_knee": "RightLeg",
         "left_shoulder": "LeftArm",
         "right_shoulder": "RightArm",
+        # the rest of Human3.6M's 17 joints, so that a BVH serves whatever reads that layout
+        # by name (the detector's body size, its swap repair): aliased where the file has them
+        "left_foot": "LeftFoot",
+        "right_foot": "RightFoot",
+        "spine": "Spine",
+        "thorax": "Spine1",
+        "neck": "Neck1",
+        "head": "Head",
+        "left_elbow": "LeftForeArm",
+        "right_elbow": "RightForeArm",
+        "left_wrist": "LeftHand",
+        "right_wrist": "RightHand",
     }
 )
 #: Joints that must be found: without the hips there is no turning angle.

@@ -46,15 +46,23 @@ class SkeletonSource:
                     f"generic arrays need {' and '.join(missing)}",
                     hint="or name the estimator that wrote them with --from",
                 )
+        elif self.format == "mocap":
+            if self.layout_name is not None or self.up_axis is not None:
+                raise TurnbenchError(
+                    "--from mocap files state their own joints and axes: drop --layout and --up-axis"
+                )
         elif self.layout_name not in (None, "h36m17"):
             raise TurnbenchError(f"--from {self.format} files are in the h36m17 layout")
         return get_layout(self.layout_name or "h36m17")
 
 
-def skeleton_source_options(*, from_help: str, layout_help: str, up_axis_help: str):
+def skeleton_source_options(
+    *, from_help: str, layout_help: str, up_axis_help: str, extra_formats: tuple[str, ...] = ()
+):
     """Decorator: ``--from`` (whose files), ``--layout`` and ``--up-axis``, in that order.
 
-    The command receives them as one ``source`` (:class:`SkeletonSource`).
+    The command receives them as one ``source`` (:class:`SkeletonSource`). ``extra_formats``
+    adds choices of ``--from`` that only this command reads (``detect``'s ``mocap``).
     """
 
     def decorator(f):
@@ -68,7 +76,7 @@ def skeleton_source_options(*, from_help: str, layout_help: str, up_axis_help: s
         return click.option(
             "--from",
             "source_format",
-            type=click.Choice(FORMAT_CHOICES),
+            type=click.Choice((*FORMAT_CHOICES, *extra_formats)),
             default="arrays",
             show_default=True,
             help=from_help,

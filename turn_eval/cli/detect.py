@@ -62,8 +62,10 @@ def _load_detector(spec: str | None, params: DetectParams) -> TurnDetector:
     help="Detections CSV to write (score-events reads it); <stem>.manifest.json goes beside it.",
 )
 @skeleton_source_options(
-    from_help="Whose files: generic arrays (give --layout and --up-axis), or an estimator's own "
-    "output by name (turnbench = `turn-eval estimate`'s npz).",
+    from_help="Whose files: generic arrays (give --layout and --up-axis), an estimator's own "
+    "output by name (turnbench = `turn-eval estimate`'s npz), or motion capture as `turn-datasets "
+    "h36m mine` reads it (mocap: BVH, Human3.6M's CDF/H5; joints, axes and rate from the file).",
+    extra_formats=("mocap",),
     layout_help="Joint layout of the skeletons; required with --from arrays.",
     up_axis_help="The vertical axis: z (world), y (y up), -y (camera axes: y down, as estimators "
     "write); required with --from arrays, else the named format's own.",
@@ -72,8 +74,8 @@ def _load_detector(spec: str | None, params: DetectParams) -> TurnDetector:
     "--fps",
     "fps_hz",
     type=FPS_HZ,
-    required=True,
-    help="Frame rate of the streams, Hz.",
+    default=None,
+    help="Frame rate of the streams, Hz (required, except with --from mocap: the file's own).",
 )
 @click.option(
     "--joints",
@@ -111,7 +113,7 @@ def detect_command(
     skeletons: tuple[Path, ...],
     out: Path,
     source: SkeletonSource,
-    fps_hz: float,
+    fps_hz: float | None,
     joints: str,
     detector_spec: str | None,
     workers: int | None,
@@ -134,6 +136,7 @@ def detect_command(
           --min-turn-deg 67.5 --out detections.csv
       turn-eval detect streams/ --layout h36m17 --up-axis -y --fps 30 --workers 4 --out d.csv
       turn-eval detect skeletons/ --from turnbench --fps 30 --out d.csv   (estimate's npz)
+      turn-eval detect cmu/*.bvh --from mocap --out d.csv   (motion capture, its own rate)
       turn-eval score-events detections.csv --reference labels.csv --context context.csv
     """
     miner = params_from(MinerParams, values)
@@ -141,8 +144,17 @@ def detect_command(
         params_from(DetectParams, values), joints=tuple(joints.split(",")), miner=miner
     )
     detector = _load_detector(detector_spec, params)
-    files = stream_files(skeletons)  # first: an AlphaPose JSON is refused with its reason
+    # first: an AlphaPose JSON is refused with its reason
+    files = stream_files(skeletons, source_format=source.format)
     layout = source.layout(need_up_axis=True)
+    if source.format == "mocap":
+        if fps_hz is not None:
+            raise TurnbenchError(
+                "--from mocap files state their frame rate: drop --fps",
+                hint="each stream is read at its file's own rate (recorded in the manifest)",
+            )
+    elif fps_hz is None:
+        raise TurnbenchError("--fps is required (the frame rate of the streams, Hz)")
     check_not_input(out, files)
     mpath = manifest_path(out)
     check_not_input(mpath, files)

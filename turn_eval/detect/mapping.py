@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import logging
 import warnings
+from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -101,16 +102,28 @@ def detect_file(
         return FileResult(str(path), "", (), _columns([]), (str(exc.strerror or exc), None, None))
     try:
         for s in read_streams(path, layout=layout, up_axis=up_axis, source_format=source_format):
-            streams.append(
-                {"key": s.key, "session": s.session, "subject": s.subject, "n_frames": s.n_frames}
-            )
+            entry = {
+                "key": s.key,
+                "session": s.session,
+                "subject": s.subject,
+                "n_frames": s.n_frames,
+            }
+            if s.fps_hz is not None:
+                entry["fps_hz"] = s.fps_hz
+            streams.append(entry)
+            # motion capture brings its own joints and rate (read_streams' ``mocap``)
+            s_layout, s_fps = s.layout or layout, s.fps_hz or fps_hz
             try:
-                found = detector.detect(s.positions, fps_hz, layout)
+                found = detector.detect(s.positions, s_fps, s_layout)
                 found = checked_turns(
-                    found, detector=detector.name, n_frames=s.n_frames, fps_hz=fps_hz
+                    found, detector=detector.name, n_frames=s.n_frames, fps_hz=s_fps
                 )
             except TurnbenchError as exc:
                 raise TurnbenchError(exc.message, file=path, item=s.key, hint=exc.hint) from None
+            # what the built-in rule left out (circling, too fast), counted per stream
+            rejected = getattr(detector, "rejected_", None)
+            if rejected is not None:
+                entry["rejected"] = dict(sorted(Counter(rejected).items()))
             found.insert(0, "subject", s.subject)
             found.insert(0, "session", s.session)
             parts.append(found)
@@ -307,7 +320,7 @@ def build_manifest(
     params: dict,
     layout: Layout,
     up_axis: str | None,
-    fps_hz: float,
+    fps_hz: float | None,
     source_format: str = "arrays",
 ) -> dict:
     """What ``turn-eval detect`` writes beside its detections: the tool's version, the
@@ -321,7 +334,12 @@ def build_manifest(
     if up_axis is None and source_format in ESTIMATOR_FORMATS:
         up_axis = ESTIMATOR_FORMATS[source_format].up_axis
 
-    n_frames = sum(s["n_frames"] for f in run.inputs for s in f["streams"])
+    streams = [s for f in run.inputs for s in f["streams"]]
+    n_frames = sum(s["n_frames"] for s in streams)
+    seconds = sum(s["n_frames"] / (s.get("fps_hz") or fps_hz) for s in streams)
+    rejected: Counter[str] = Counter()
+    for s in streams:
+        rejected.update(s.get("rejected", {}))
     return {
         "tool": "turn-eval detect",
         "version": __version__,
@@ -329,9 +347,10 @@ def build_manifest(
         "params": params,
         "reading": {
             "from": source_format,
-            "layout": layout.name,
+            "layout": None if source_format == "mocap" else layout.name,  # mocap: the file's
             "up_axis": up_axis,
-            "fps_hz": float(fps_hz),
+            # None: each stream at its file's own rate (motion capture), listed per stream
+            "fps_hz": None if fps_hz is None else float(fps_hz),
         },
         "inputs": run.inputs,
         "skipped": run.skipped,
@@ -339,8 +358,9 @@ def build_manifest(
             "files": len(run.inputs),
             "streams": sum(len(f["streams"]) for f in run.inputs),
             "frames": int(n_frames),
-            "hours": round(n_frames / fps_hz / 3600.0, 6),
+            "hours": round(seconds / 3600.0, 6),
             "detections": len(run.detections),
+            "rejected": dict(sorted(rejected.items())),
             "skipped": len(run.skipped),
         },
     }

@@ -41,7 +41,7 @@ import pandas as pd
 
 from turn_datasets.fileio import typed_frame
 from turn_datasets.geometry import angular_speed_deg_s, frontal_vectors, parse_joints, usable_frames
-from turn_datasets.h36m.miner import MinerParams, mine_sequence
+from turn_datasets.h36m.miner import MinerParams, mine_sequence_report
 from turn_datasets.params import check_params, describe_params, param
 from turn_datasets.skeleton import JOINT_PAIRS, Layout
 from turn_eval.detect.preprocess import identity_pieces, repair_swaps
@@ -155,11 +155,15 @@ class MinerRule:
 
     def __init__(self, params: DetectParams | None = None) -> None:
         self.params = params or DetectParams()
+        #: Why each run of turning of the last stream was not reported (``circling``,
+        #: ``too_fast``: :func:`turn_datasets.h36m.miner.rejection_reasons`).
+        self.rejected_: list[str] = []
 
     def detect(self, positions: np.ndarray, fps_hz: float, layout: Layout) -> pd.DataFrame:
         """The turns of one stream: :data:`~turn_eval.detect.protocol.TURN_DTYPES` columns."""
         p = np.asarray(positions, dtype=float)
         prm = self.params
+        self.rejected_ = []
         usable = usable_frames(p, layout, ("hip",))
         pieces = identity_pieces(
             p,
@@ -233,7 +237,8 @@ class MinerRule:
         arr[seen, 1, :2] = -half[seen]
         arr[seen, :2, 2] = 0.0
         arr[:, 2:] = fixed[:, [layout.index("left_knee"), layout.index("right_knee")]]
-        clips = mine_sequence(arr, layout=_PAIR, fps_hz=fps_hz, params=prm.miner)
+        clips, rejected = mine_sequence_report(arr, layout=_PAIR, fps_hz=fps_hz, params=prm.miner)
+        self.rejected_.extend(rejected["reason"].tolist())
         seen_sum = np.concatenate(([0], np.cumsum(seen)))
         s = clips["start_frame"].to_numpy()
         e = clips["end_frame"].to_numpy()

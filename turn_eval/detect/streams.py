@@ -42,6 +42,7 @@ from turn_datasets.skeleton import Layout, to_z_up
 
 __all__ = [
     "STREAM_SUFFIXES",
+    "MOCAP_SUFFIXES",
     "Stream",
     "read_streams",
     "stream_files",
@@ -50,6 +51,8 @@ __all__ = [
 
 #: Suffixes of the files a stream is read from (a folder is walked for these).
 STREAM_SUFFIXES = ARRAY_SUFFIXES
+#: What ``--from mocap`` reads besides arrays: the motion-capture files ``h36m mine`` reads.
+MOCAP_SUFFIXES = (".bvh", ".cdf")
 _NPY_SEPARATOR = "__"
 
 
@@ -74,31 +77,38 @@ class Stream:
     positions: np.ndarray
     source: str
     key: str
+    #: Motion capture states its own joints and frame rate (``--from mocap``); None: the
+    #: caller's layout and rate.
+    layout: Layout | None = None
+    fps_hz: float | None = None
 
     @property
     def n_frames(self) -> int:
         return int(self.positions.shape[0])
 
 
-def stream_files(paths: Iterable[str | os.PathLike[str]]) -> list[Path]:
+def stream_files(
+    paths: Iterable[str | os.PathLike[str]], *, source_format: str = "arrays"
+) -> list[Path]:
     """The files to read: files as given, folders walked; sorted by path, each once.
+
+    ``source_format`` ``mocap`` takes motion-capture files (:data:`MOCAP_SUFFIXES`) too.
 
     Raises
     ------
     TurnbenchError
         A path that does not exist, a file with another suffix, or a folder without any.
     """
+    suffixes = STREAM_SUFFIXES + (MOCAP_SUFFIXES if source_format == "mocap" else ())
     out: list[Path] = []
     for raw in paths:
         path = Path(raw)
         if path.is_dir():
             # the one folder walk (links followed once, hidden skipped, unreadable named)
-            found = [
-                p for p in walk_files(path) if p.suffix.lower() in STREAM_SUFFIXES and p.is_file()
-            ]
+            found = [p for p in walk_files(path) if p.suffix.lower() in suffixes and p.is_file()]
             if not found:
                 raise TurnbenchError(
-                    f"the folder holds no skeleton stream ({', '.join(STREAM_SUFFIXES)})",
+                    f"the folder holds no skeleton stream ({', '.join(suffixes)})",
                     file=path,
                 )
             out.extend(found)
@@ -106,9 +116,9 @@ def stream_files(paths: Iterable[str | os.PathLike[str]]) -> list[Path]:
             from turn_eval.estimate.formats import refuse_2d
 
             refuse_2d([path])  # AlphaPose's 2D output: say why it cannot serve
-            if path.suffix.lower() not in STREAM_SUFFIXES:
+            if path.suffix.lower() not in suffixes:
                 raise TurnbenchError(
-                    f"not a skeleton stream file (expected one of {', '.join(STREAM_SUFFIXES)})",
+                    f"not a skeleton stream file (expected one of {', '.join(suffixes)})",
                     file=path,
                 )
             out.append(path)
@@ -143,6 +153,26 @@ def _named_streams(
         yield session, subject, name, to_z_up(array, up_axis or spec.up_axis)
 
 
+def _mocap_streams(path: str | os.PathLike[str]) -> Iterator[Stream]:
+    """Motion capture read as ``h36m mine`` reads it (:func:`turn_datasets.mocap.readers.
+    read_source`: Human3.6M's CDF, H5 and VideoPose3D files, BVH), one stream per sequence,
+    with the file's own joints and frame rate: the session is the action (and trial), the
+    subject the sequence's."""
+    from turn_datasets.mocap.readers import read_source
+
+    for seq in read_source(path):
+        session = f"{seq.action} {seq.subaction}".strip()
+        yield Stream(
+            session,
+            seq.subject,
+            np.ascontiguousarray(seq.positions, dtype=np.float64),
+            str(path),
+            session,
+            layout=seq.layout,
+            fps_hz=float(seq.fps),
+        )
+
+
 def read_streams(
     path: str | os.PathLike[str],
     *,
@@ -174,6 +204,9 @@ def read_streams(
         An unreadable file, an array of the wrong shape or joint count, infinite values,
         naming the file and the array.
     """
+    if source_format == "mocap":
+        yield from _mocap_streams(path)
+        return
     if source_format != "arrays":
         if layout.name != "h36m17":
             raise TurnbenchError(f"--from {source_format} files are in the h36m17 layout")
