@@ -504,11 +504,11 @@ def _stride_frames(
         return default
     if gait is not None:
         valid = np.isfinite(gait)
-        g = np.where(valid, gait, 0.0)
-        dev = g - _moving_mean(g, guess)
-        # walking frames: the swing's running r.m.s. over a stride is large; a sequence that
-        # mostly stands and walks a few strides still has its stride read from those
-        walking = valid & (np.sqrt(_moving_mean(dev * dev, guess)) >= _MIN_KNEE_SWING)
+        dev = np.where(valid, gait, 0.0) - _moving_mean(np.where(valid, gait, 0.0), guess)
+        # a sequence that mostly stands and walks a few strides still has its stride read
+        # from those
+        walking = _walking_frames(gait, guess)
+        assert walking is not None
         if int(walking.sum()) < 2 * hi:
             return default
         lag, corr, half = _period(dev, walking, lo, hi)
@@ -522,6 +522,17 @@ def _stride_frames(
         return default
     lag, corr, half = _period(mean_yaw - _moving_mean(mean_yaw, guess), quiet, lo, hi)
     return lag if corr >= _MIN_STRIDE_CORRELATION and half < 0.0 else default
+
+
+def _walking_frames(gait: np.ndarray | None, guess: int) -> np.ndarray | None:
+    """Frames that walk: the knees' fore-aft swing (:func:`_knee_gait`) has a running r.m.s.
+    over a stride (``guess`` frames) of at least half a hip width. None without knees."""
+    if gait is None:
+        return None
+    valid = np.isfinite(gait)
+    g = np.where(valid, gait, 0.0)
+    dev = g - _moving_mean(g, guess)
+    return valid & (np.sqrt(_moving_mean(dev * dev, guess)) >= _MIN_KNEE_SWING)
 
 
 def _hysteresis_runs(
@@ -708,11 +719,14 @@ def _piece_turns(
     start, end, sign = _hysteresis_runs(rate, fps_hz, p)
     if start.size == 0:
         return empty, empty, empty, np.zeros(0), np.zeros(0)
-    # Step 6. Walking, the stride's rate is the finest free of the sway; standing, pauses
-    # between turns in place are shorter than no_sway_window_s and show over split_window_s.
-    if stride == max(_frames(p.no_sway_window_s, fps_hz), 2):
-        rate = _stride_rate(mean_yaw, max(_frames(p.split_window_s, fps_hz), 2), fps_hz)
-    start, end, sign = _split_runs(rate, mean_yaw, start, end, sign, p)
+    # Pauses (step 5). Walking, the stride's rate is the finest free of the sway; where the
+    # knees do not swing (standing, turning in place), over split_window_s, which shows the
+    # short pauses between turns in place.
+    fine = _stride_rate(mean_yaw, max(_frames(p.split_window_s, fps_hz), 2), fps_hz)
+    if stride != max(_frames(p.no_sway_window_s, fps_hz), 2):
+        walking = _walking_frames(gait, max(_frames(p.stride_s, fps_hz), 2))
+        fine = fine if walking is None else np.where(walking, rate, fine)
+    start, end, sign = _split_runs(fine, mean_yaw, start, end, sign, p)
     start, end = _refine(mean_yaw, start, end, sign, stride, p.onset_deg)
     ok = end - start >= 2  # a span squeezed to nothing by its neighbours is no turn
     start, end, sign = start[ok], end[ok], sign[ok]

@@ -105,11 +105,28 @@ WALK_SPEED_M_S: Mapping[str, tuple[float, float]] = MappingProxyType(
 PIVOT_SHARE: Mapping[str, float] = MappingProxyType({"PD": 0.8, "HC": 0.35})
 #: SD of the planted heading change about its labelled bin, degrees.
 LABEL_ROUNDING_SD_DEG = 9.0
+#: Share of labelled turns that follow the previous one within a second (same or opposite
+#: way): people at home turn twice in quick succession, e.g. into a room and to a cupboard.
+QUICK_SUCCESSION_SHARE = 0.15
+#: Gap between turns in quick succession, seconds (CMU's 69_19: pauses of 0.1-0.3 s).
+QUICK_GAP_S = (0.3, 0.9)
+#: Share of labelled turns made gradually while walking on, along a curved path of
+#: constant curvature, and their mean speed, degrees per second (CMU's 69_32: about 96°
+#: over 2.3 s, 42 °/s, a curve, not a corner).
+CURVED_SHARE = 0.15
+CURVED_SPEED_DEG_S = (25.0, 45.0)
+#: Share of pivot turns that end by sitting down (turning to a chair), 5-15 s seated.
+TURN_TO_SIT_SHARE = 0.12
+#: Circling decoys (walking round a loop, never one turn): mean speed and length, as
+#: Human3.6M's walks round their loop (about 40 °/s for half a minute).
+CIRCLING_SPEED_DEG_S = (30.0, 45.0)
+CIRCLING_S = (12.0, 25.0)
 #: Filler events between turns, with their shares (absence and bystander are artefacts).
 DECOY_KINDS: Mapping[str, float] = MappingProxyType(
     {
-        "small_turn": 0.22,
-        "sway": 0.14,
+        "small_turn": 0.19,
+        "circling": 0.05,
+        "sway": 0.12,
         "reach": 0.16,
         "sit_stand": 0.12,
         "stand": 0.12,
@@ -158,6 +175,9 @@ EVENT_DTYPES = MappingProxyType(
         "end_s": "float64",
         "heading_deg": "float64",
         "label_deg": "float64",
+        # a labelled turn's movement: pivot, walking, curved, quick (within a second of the
+        # previous turn), to_sit (a pivot that ends seated); empty for everything else
+        "movement": "str",
     }
 )
 # Left/right joint pairs of the 17-joint layout, exchanged by a swap.
@@ -172,14 +192,18 @@ class ArtefactParams:
     """Estimator artefacts planted on every stream (module docstring), with units.
 
     ``joint_noise_mm`` is per-frame jitter (a single-frame estimator such as MediaPipe
-    jitters by about a centimetre); the depth error and dropouts come per scenario from
-    :data:`SCENARIO_DEGRADE`.
+    jitters by about a centimetre); ``white_depth_sd_mm`` a depth error along each joint's
+    camera ray, independent per joint and frame, doubled with the back to the camera
+    (:func:`turn_datasets.synthetic.degrade.degrade_skeleton`: a lifter's 40-60 mm MPJPE
+    is much of it along the ray); the smooth depth error and dropouts come per scenario
+    from :data:`SCENARIO_DEGRADE`.
     """
 
     swaps_per_min: float = 3.0
     swap_frames: tuple[int, int] = (2, 8)
     joint_noise_mm: float = 8.0
     depth_smooth_s: float = 0.3
+    white_depth_sd_mm: float = 30.0
     dropout_mean_s: float = 0.15
     absence_s: tuple[float, float] = (5.0, 20.0)
     bystander_s: tuple[float, float] = (2.0, 6.0)
@@ -208,25 +232,37 @@ def _seed(seed: int, *names: str) -> np.random.Generator:
 def draw_turn_labels(
     rng: np.random.Generator, *, duration_s: float, cohort: str, mean_gap_s: float = 20.0
 ) -> pd.DataFrame:
-    """Draw labelled turns over a session: ``start_s, end_s, angle_deg`` (the bin).
+    """Draw labelled turns over a session: ``start_s, end_s, angle_deg`` (the bin) and
+    ``movement`` (``quick``: within a second of the previous turn; ``curved``: a slow
+    walking turn along a curve; else empty).
 
     Gaps between turns are 4 s plus an exponential of mean ``mean_gap_s - 4`` (about 25
-    turns in 10 minutes at the default, as in the issue's hidden sessions); durations are
-    the planted angle over a mean speed drawn from :data:`TURN_SPEED_DEG_S`.
+    turns in 10 minutes at the default), except after a turn followed in quick succession
+    (:data:`QUICK_SUCCESSION_SHARE`, :data:`QUICK_GAP_S`); durations are the planted angle
+    over a mean speed drawn from :data:`TURN_SPEED_DEG_S` (:data:`CURVED_SPEED_DEG_S` for
+    a curved walk).
     """
     lo, hi = TURN_SPEED_DEG_S[cohort]
     bins = np.array(list(LABEL_BIN_MIX), dtype=float)
     p = np.array(list(LABEL_BIN_MIX.values()))
     rows = []
     t = float(rng.uniform(4.0, 8.0))
+    movement = ""
     while True:
         label = float(rng.choice(bins, p=p / p.sum()))
-        duration = (label + 0.0) / float(rng.uniform(lo, hi))
+        curved = movement != "quick" and rng.random() < CURVED_SHARE
+        speed = rng.uniform(*(CURVED_SPEED_DEG_S if curved else (lo, hi)))
+        duration = label / float(speed)
         if t + duration > duration_s - 5.0:
             break
-        rows.append((t, t + duration, label))
-        t += duration + 4.0 + float(rng.exponential(max(mean_gap_s - 4.0, 0.1)))
-    return pd.DataFrame(rows, columns=["start_s", "end_s", "angle_deg"])
+        rows.append((t, t + duration, label, "curved" if curved else movement))
+        if rng.random() < QUICK_SUCCESSION_SHARE:
+            movement = "quick"
+            t += duration + float(rng.uniform(*QUICK_GAP_S))
+        else:
+            movement = ""
+            t += duration + 4.0 + float(rng.exponential(max(mean_gap_s - 4.0, 0.1)))
+    return pd.DataFrame(rows, columns=["start_s", "end_s", "angle_deg", "movement"])
 
 
 @dataclass
@@ -243,7 +279,7 @@ class _Builder:
     walk_m_s: float
     heading_deg: float
     segments: list[Segment]
-    events: list[tuple[str, int, int, float, float]]
+    events: list[tuple[str, int, int, float, float, str]]
     frame: int = 0
     x_mm: float = 0.0
     y_mm: float = 0.0
@@ -280,8 +316,16 @@ class _Builder:
         sign = homeward if self.rng.random() < 0.85 else -homeward
         return sign * magnitude_deg
 
-    def event(self, kind: str, a: int, b: int, heading: float = 0.0, label: float = np.nan) -> None:
-        self.events.append((kind, int(a), int(b), float(heading), float(label)))
+    def event(
+        self,
+        kind: str,
+        a: int,
+        b: int,
+        heading: float = 0.0,
+        label: float = np.nan,
+        movement: str = "",
+    ) -> None:
+        self.events.append((kind, int(a), int(b), float(heading), float(label), movement))
 
     def frames(self, seconds: float) -> int:
         return max(2, int(round(seconds * self.fps)))
@@ -293,6 +337,16 @@ def _decoy(b: _Builder, kind: str, room: int) -> None:
     if kind == "small_turn":
         n = min(b.frames(rng.uniform(0.6, 1.5)), room)
         h = b.steer(float(rng.uniform(15.0, 40.0)))
+        b.event(kind, b.add("walking_turn", n, h), b.frame, h)
+    elif kind == "circling" and room >= b.frames(CIRCLING_S[0]):
+        # walking round a loop: a curved walk far longer than any one turn
+        n = min(b.frames(rng.uniform(*CIRCLING_S)), room)
+        h = (
+            float(rng.uniform(*CIRCLING_SPEED_DEG_S))
+            * n
+            / b.fps
+            * (1 if rng.random() < 0.5 else -1)
+        )
         b.event(kind, b.add("walking_turn", n, h), b.frame, h)
     elif kind == "sway":
         first = b.frame
@@ -321,8 +375,9 @@ def _decoy(b: _Builder, kind: str, room: int) -> None:
         b.add("pivot_turn", n_turn, h)
         b.add("stand", max(2, n - n_turn - (n - n_turn) // 2))
         b.event(kind, first, b.frame, h)
-    else:  # stand, sit_stand, bystander: the person stands (the body is changed later)
-        lo, hi = {"stand": (2.0, 8.0), "sit_stand": (5.0, 25.0), "bystander": (2.0, 6.0)}[kind]
+    else:  # stand, sit_stand, bystander (and a circling with no room for it): standing
+        lo, hi = {"sit_stand": (5.0, 25.0), "bystander": (2.0, 6.0)}.get(kind, (2.0, 8.0))
+        kind = "stand" if kind == "circling" else kind
         n = min(b.frames(rng.uniform(lo, hi)), room)
         b.event(kind, b.add("stand", n), b.frame)
 
@@ -366,16 +421,25 @@ def timeline_segments(
     kinds = list(DECOY_KINDS)
     shares = np.array(list(DECOY_KINDS.values()))
     lead = b.frames(1.0)
-    pivot_prev = True
+    pivot_prev = True  # the stream opens standing
+    last_turn = -1  # no turn yet
     for turn in labels.sort_values("start_s").itertuples(index=False):
         a = int(round(float(turn.start_s) * fps_hz))
         e = int(round(float(turn.end_s) * fps_hz))
         if a - b.frame < 4 or e - a < 2 or e > total:
             continue  # overlapping or out of the stream: such a label cannot be planted
-        pivot = rng.random() < PIVOT_SHARE[cohort]
+        movement = str(getattr(turn, "movement", "") or "")
+        pivot = movement != "curved" and rng.random() < PIVOT_SHARE[cohort]
         gap = a - b.frame
+        sit = last_turn >= 0 and pivot_prev and gap - lead > b.frames(7.0)
+        if sit and rng.random() < TURN_TO_SIT_SHARE:
+            # the last pivot turned the person to a chair: sit down at once
+            n_sit = min(b.frames(rng.uniform(5.0, 15.0)), gap - lead - 4)
+            b.event("sit_stand", b.add("stand", n_sit), b.frame)
+            last = b.events[last_turn]
+            b.events[last_turn] = (*last[:5], "to_sit")
         # after the last turn: walk on (or stand after a pivot) for a while
-        n_after = min(b.frames(rng.uniform(1.0, 3.0)), max(gap - lead, 0))
+        n_after = min(b.frames(rng.uniform(1.0, 3.0)), max(a - b.frame - lead, 0))
         if n_after >= 2:
             b.add("stand" if pivot_prev else "walk", n_after)
         room = a - b.frame - lead - 4
@@ -394,12 +458,15 @@ def timeline_segments(
         magnitude = label + float(np.clip(rng.normal(0.0, LABEL_ROUNDING_SD_DEG), -20.0, 20.0))
         h = b.steer(magnitude)
         b.add("pivot_turn" if pivot else "walking_turn", e - a, h)
-        b.event("turn", a, e, h, label)
+        movement = movement or ("pivot" if pivot else "walking")
+        last_turn = len(b.events)
+        b.event("turn", a, e, h, label, movement)
         pivot_prev = pivot
     if total - b.frame >= 2:
         b.add("stand", total - b.frame)
     events = pd.DataFrame(
-        b.events, columns=["kind", "start_frame", "end_frame", "heading_deg", "label_deg"]
+        b.events,
+        columns=["kind", "start_frame", "end_frame", "heading_deg", "label_deg", "movement"],
     )
     return b.segments, events, heading0
 
@@ -570,6 +637,7 @@ def synthesize_stream(
             camera_position_mm=camera_mm,
             joint_noise_mm=artefacts.joint_noise_mm,
             depth_smooth_s=artefacts.depth_smooth_s,
+            white_depth_sd_mm=artefacts.white_depth_sd_mm,
             dropout_mean_s=artefacts.dropout_mean_s,
             depth_sd_facing_mm=SCENARIO_DEGRADE[row.scenario]["depth_sd_facing_mm"],
             depth_sd_away_mm=SCENARIO_DEGRADE[row.scenario]["depth_sd_away_mm"],
@@ -629,6 +697,7 @@ def _spans(kind: str, spans: list[tuple[int, int]]) -> pd.DataFrame:
             "end_frame": [b for _, b in spans],
             "heading_deg": 0.0,
             "label_deg": np.nan,
+            "movement": "",
         }
     )
 
