@@ -70,12 +70,21 @@ def test_labels_are_remap_labels_of_the_planted_turns(corpus: Path) -> None:
 
 
 def test_turn_speeds_are_the_stated_ones() -> None:
-    # label / duration is the drawn mean speed: PD 30-70 °/s, controls 50-110 °/s
+    # label / duration is the drawn mean speed: PD 30-70 °/s, controls 50-110 °/s, and
+    # 25-45 °/s for the turns along a curved walk
     rng = np.random.default_rng(0)
     for cohort, (lo, hi) in TURN_SPEED_DEG_S.items():
         t = draw_turn_labels(rng, duration_s=3600.0, cohort=cohort)
         speed = t.angle_deg / (t.end_s - t.start_s)
-        assert speed.between(lo - 1e-9, hi + 1e-9).all()
+        curved = t.movement == "curved"
+        assert speed[~curved].between(lo - 1e-9, hi + 1e-9).all()
+        assert speed[curved].between(25.0 - 1e-9, 45.0 + 1e-9).all()
+        # about 15% each of curved walks and of turns within a second of the one before
+        assert 0.08 <= curved.mean() <= 0.22
+        quick = t.movement == "quick"
+        assert 0.08 <= quick.mean() <= 0.22
+        gaps = (t.start_s.to_numpy()[1:] - t.end_s.to_numpy()[:-1])[quick.to_numpy()[1:]]
+        assert ((gaps >= 0.3 - 1e-9) & (gaps <= 0.9 + 1e-9)).all()
         # about 25 turns in 10 minutes
         assert 120 <= len(t) <= 200
 

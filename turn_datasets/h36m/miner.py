@@ -9,7 +9,10 @@ The rule, per sequence
 ----------------------
 1. **Hip yaw.** The frontal vector of the hips (left minus right hip on the ground plane,
    the paper's equation 1) gives a yaw per frame (:func:`turn_datasets.geometry.frame_yaw_deg`),
-   unwrapped, so a turn of 360° reads as 360°.
+   unwrapped, so a turn of 360° reads as 360°. It is unwrapped as a *line*, modulo 180°:
+   no person turns by 90° between two frames, but an estimator's left/right swap, or its
+   depth noise when the hips line up with the camera ray, flips the hip *vector* by 180°
+   for a frame or a few; the line does not flip, so such flips are not turns.
 2. **Dropouts.** Frames whose hip vector is unusable (NaN, or hips coinciding) are gaps. A
    gap of at most ``max_gap_s`` inside the sequence is bridged by linear interpolation of the
    hip positions; a longer gap cuts the sequence into pieces mined separately (a turn cannot
@@ -974,6 +977,8 @@ def _mine_arrays(
     if not np.isfinite(all_yaw).all():
         # interpolation fills every gap and filtering cannot make NaN: a cheap guard
         raise TurnbenchError("the hip yaw is not finite after bridging gaps")
+    # step 1: the hip line, unwrapped modulo 180° (a flip of the vector is not a turn)
+    all_yaw = np.degrees(np.unwrap(np.radians(2.0 * all_yaw))) / 2.0
     offsets = np.cumsum([0] + [p.shape[0] for _, p, _ in pieces])
     parts: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
     for (a, _, gait), lo, hi in zip(pieces, offsets[:-1], offsets[1:], strict=True):

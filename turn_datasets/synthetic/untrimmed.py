@@ -23,8 +23,17 @@ Turns (what the labels hold)
     3.2 s for its 45° to 225° bins (40-70 °/s) for healthy actors, inside the controls'
     range. The yaw rate is sinusoidal (:mod:`turn_datasets.synthetic.mocap`), peaking at
     pi/2 times the mean. The label's interval is the turn's first to last frame.
+Movements (``planted.csv``'s ``movement``)
+    Real movement at home is not a corner between straight walks (Human3.6M's walks, CMU's
+    trials): ``pivot`` and ``walking`` turns as above; ``curved`` (:data:`CURVED_SHARE`): a
+    turn made gradually along a curved path of constant curvature, 25-45 °/s (CMU 69_32:
+    about 96° over 2.3 s); ``quick`` (:data:`QUICK_SUCCESSION_SHARE`): a turn 0.3-0.9 s
+    after the one before, either way (CMU 69_19's four turns with pauses of 0.1-0.3 s);
+    ``to_sit`` (:data:`TURN_TO_SIT_SHARE`): a pivot that ends by sitting down.
 Decoys (never labelled)
-    ``small_turn`` (a direction change of 15-40° while walking), ``sway`` (standing and
+    ``small_turn`` (a direction change of 15-40° while walking), ``circling`` (walking
+    round a loop at 30-45 °/s for 12-25 s, as Human3.6M's walking actions do: continuous
+    turning that is no one turn), ``sway`` (standing and
     rocking the body 8-18° each way, 3 to 6 times), ``reach`` (turning 25-40° to reach for
     something, a pause, turning back), ``sit_stand`` (sitting down for 5-25 s, then standing
     up: the pelvis drops 45 cm, the thighs go horizontal) and plain ``stand`` (2-8 s).
@@ -35,7 +44,10 @@ Artefacts of the estimator
     sometimes turns; no confidence drop, no NaN), then on the whole stream: the depth error
     along the camera ray that grows with the back to the camera, joint jitter and short
     occlusion dropouts of :func:`turn_datasets.synthetic.degrade.degrade_skeleton` (per
-    scenario, free-living worse, as in the demo corpus), and ``swap`` s: for 2-8 frames the
+    scenario, free-living worse, as in the demo corpus), a white depth error along each
+    joint's ray (30 mm facing the camera, 60 mm with the back to it: a lifter's MPJPE is
+    40-60 mm on Human3.6M, much of it along the ray and independent per joint and frame),
+    and ``swap`` s: for 2-8 frames the
     left and right joints are exchanged, starting :data:`ArtefactParams.swaps_per_min` times
     a minute, most often with the back to the camera (probability proportional to the angle
     to the camera).
