@@ -293,3 +293,21 @@ def test_planted_table_columns_and_kinds() -> None:
 def test_bad_segments_are_refused(make) -> None:
     with pytest.raises(TurnbenchError):
         make()
+
+
+def test_a_turn_with_ramps_keeps_one_speed_between_them() -> None:
+    # Walking round a loop: 360° over 10 s with 1 s ramps. The rate is level at
+    # 360 / (10 - 1) = 40 °/s between the ramps (the ramps' raised cosines carry half
+    # their length each), zero at both ends; the heading change is exact.
+    from turn_datasets.synthetic.mocap import _turn_profile
+
+    u = np.linspace(0.0, 1.0, 10001)
+    done = 360.0 * _turn_profile(u, 0.1)
+    rate = np.gradient(done, u) / 10.0  # degrees per second over the 10 s segment
+    assert done[0] == pytest.approx(0.0) and done[-1] == pytest.approx(360.0)
+    level = (u > 0.11) & (u < 0.89)
+    np.testing.assert_allclose(rate[level], 40.0, rtol=1e-6)
+    assert rate[0] == pytest.approx(0.0, abs=0.05) and rate[-1] == pytest.approx(0.0, abs=0.05)
+    assert (np.diff(done) >= 0).all()
+    # the default is the sine profile, bit for bit
+    np.testing.assert_array_equal(_turn_profile(u), 0.5 * (1.0 - np.cos(np.pi * u)))

@@ -18,6 +18,9 @@ direction (scipy's Hungarian algorithm on the frames they share, :func:`match_tu
 truth of a clip's ``angle_deg`` is the planted heading change (the generator's
 ``heading_deg``); of its ``hip_rotation_deg``, the planted hip rotation (``angle_deg``). A
 mined clip that matches no planted turn and overlaps none below 60° is a false clip.
+A planted turn longer than :data:`turn_datasets.limits.MAX_TURN_DURATION_S` is turning that
+the rule reports as a circling episode, not a turn (one turn lasts at most 10 s): it is
+scored as neither, and a clip overlapping it is not false.
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import linear_sum_assignment
 
+from turn_datasets import limits
 from turn_datasets.h36m.miner import MinerParams, mine_sequence
 from turn_datasets.skeleton import H36M17, H36M17_FROM_32, H36M32, Layout
 from turn_datasets.synthetic import mocap as sm
@@ -103,6 +107,11 @@ def match_turns(planted: pd.DataFrame, mined: pd.DataFrame) -> list[tuple[int, i
     return [(int(r), int(c)) for r, c in zip(rows, cols, strict=True) if overlap[r, c] > 0]
 
 
+def _circling(planted: pd.DataFrame) -> pd.Series:
+    """Planted turns longer than one turn lasts: circling episodes, scored as neither."""
+    return planted.duration_s > limits.MAX_TURN_DURATION_S
+
+
 def score(
     set_name: str, layout: str, seeds: Iterable[int], params: MinerParams | None = None
 ) -> dict:
@@ -126,6 +135,7 @@ def score(
         pairs = dict(match_turns(seq.planted, mined))
         for i, p in enumerate(seq.planted.itertuples(index=False)):
             row = {"seed": seed, "kind": p.kind, "planted_deg": abs(p.heading_deg)}
+            row["circling"] = bool(p.duration_s > limits.MAX_TURN_DURATION_S)
             row["found"] = i in pairs
             if i in pairs:
                 m = mined.iloc[pairs[i]]
@@ -137,13 +147,13 @@ def score(
         for j in set(range(len(mined))) - set(pairs.values()):
             m = mined.iloc[j]
             small = seq.planted[
-                (seq.planted.heading_deg.abs() < MIN_PLANTED_DEG)
+                ((seq.planted.heading_deg.abs() < MIN_PLANTED_DEG) | _circling(seq.planted))
                 & (seq.planted.end_frame > m.start_frame)
                 & (seq.planted.start_frame < m.end_frame)
             ]
             false_clips += small.empty
     table = pd.DataFrame(rows)
-    scored = table[table.planted_deg >= MIN_PLANTED_DEG]
+    scored = table[(table.planted_deg >= MIN_PLANTED_DEG) & ~table.circling]
     hits = scored[scored.found]
     err = np.abs(hits.angle_error_deg.to_numpy())
     boundary = np.abs(np.concatenate([hits.start_error_s, hits.end_error_s]))

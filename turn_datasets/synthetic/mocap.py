@@ -134,12 +134,17 @@ class Segment:
         zero for ``stand`` and ``walk``.
     speed_m_s
         Walking speed for ``walk`` and ``walking_turn``; zero for the others.
+    ramp_s
+        A turn's yaw rate by default rises and falls as one sine over the whole segment;
+        given, it rises over ``ramp_s`` seconds, stays level, and falls over the last
+        ``ramp_s`` (walking round a loop at one speed).
     """
 
     kind: str
     duration_s: float
     heading_deg: float = 0.0
     speed_m_s: float = 0.0
+    ramp_s: float | None = None
 
     def __post_init__(self) -> None:
         if self.kind not in SEGMENT_KINDS:
@@ -172,6 +177,13 @@ class Segment:
     @classmethod
     def walking_turn(cls, heading_deg: float, duration_s: float, speed_m_s: float = 1.1) -> Segment:
         return cls("walking_turn", duration_s, heading_deg=heading_deg, speed_m_s=speed_m_s)
+
+    @property
+    def ramp_fraction(self) -> float:
+        """The ramp as a fraction of the segment (0.5: the whole-segment sine)."""
+        if self.ramp_s is None:
+            return 0.5
+        return float(min(max(self.ramp_s / self.duration_s, 1e-3), 0.5))
 
     @property
     def is_turn(self) -> bool:
@@ -249,9 +261,30 @@ def stride_frequency_hz(speed_m_s: np.ndarray | float) -> np.ndarray | float:
     return float(out) if out.ndim == 0 else out
 
 
-def _turn_profile(u: np.ndarray) -> np.ndarray:
-    """Fraction of a turn done at normalised time ``u`` in [0, 1]: sinusoidal yaw rate."""
-    return 0.5 * (1.0 - np.cos(np.pi * u))
+def _turn_profile(u: np.ndarray, ramp: np.ndarray | float = 0.5) -> np.ndarray:
+    """Fraction of a turn done at normalised time ``u`` in [0, 1].
+
+    ``ramp`` 0.5 (the default): a sinusoidal yaw rate, zero at both ends, peak in the
+    middle. Less (a fraction of the segment, per frame): the rate rises over ``ramp`` as a
+    raised cosine, stays level, and falls over the last ``ramp``, as walking round a loop
+    keeps one speed for most of it.
+    """
+    u = np.asarray(u, dtype=float)
+    sine = 0.5 * (1.0 - np.cos(np.pi * u))
+    r = np.broadcast_to(np.asarray(ramp, dtype=float), u.shape)
+    if (r >= 0.5).all():
+        return sine
+    r = np.clip(r, 1e-9, 0.5)
+
+    def rising(t: np.ndarray) -> np.ndarray:  # the integral of the raised-cosine ramp
+        return 0.5 * t - r / (2 * np.pi) * np.sin(np.pi * t / r)
+
+    done = np.where(
+        u < r,
+        rising(np.minimum(u, r)),
+        np.where(u <= 1 - r, 0.5 * r + (u - r), (1 - r) - rising(np.minimum(1 - u, r))),
+    )
+    return np.where(r >= 0.5, sine, done / (1 - r))
 
 
 def _smooth(x: np.ndarray, n: int) -> np.ndarray:
@@ -328,7 +361,8 @@ def generate_sequence(
     heading0 = np.radians(
         rng.uniform(-180, 180) if start_heading_deg is None else start_heading_deg
     )
-    heading = heading0 + heading_before[seg_of] + heading_change[seg_of] * _turn_profile(u)
+    ramp = np.array([s.ramp_fraction for s in segments])[seg_of]
+    heading = heading0 + heading_before[seg_of] + heading_change[seg_of] * _turn_profile(u, ramp)
 
     speed_f, gait_amp, phase = _gait(rng, kinds, speed, seg_of, fps_hz)
     # the pelvis rotates with every step, walking or stepping round in a turn in place

@@ -296,11 +296,15 @@ class _Builder:
     x_mm: float = 0.0
     y_mm: float = 0.0
 
-    def add(self, kind: str, n: int, heading_deg: float = 0.0, speed: float = 0.0) -> int:
+    def add(
+        self, kind: str, n: int, heading_deg: float = 0.0, speed: float = 0.0, ramp_s=None
+    ) -> int:
         """Append a segment of ``n`` (>= 2) frames; returns its first frame."""
         n = int(n)
         duration = n / self.fps
-        if kind == "stand":
+        if ramp_s is not None:
+            seg = Segment("walking_turn", duration, heading_deg, speed or self.walk_m_s, ramp_s)
+        elif kind == "stand":
             seg = Segment.stand(duration)
         elif kind == "walk":
             seg = Segment.walk(duration, speed or self.walk_m_s)
@@ -359,7 +363,7 @@ def _decoy(b: _Builder, kind: str, room: int) -> None:
             / b.fps
             * (1 if rng.random() < 0.5 else -1)
         )
-        b.event(kind, b.add("walking_turn", n, h), b.frame, h)
+        b.event(kind, b.add("walking_turn", n, h, ramp_s=1.0), b.frame, h)
     elif kind == "sway":
         first = b.frame
         for _ in range(int(rng.integers(3, 7))):
