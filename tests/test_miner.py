@@ -630,3 +630,24 @@ def test_rejection_reasons_by_hand() -> None:
     )
     # 1 s at 90 °/s; 11 s; 0.2 s at 450 °/s; 11 s at 364 °/s (circling first)
     assert reasons.tolist() == ["", "circling", "too_fast", "circling"]
+
+
+def test_two_walking_turns_in_quick_succession_are_two_turns() -> None:
+    # Walking (a 0.9 Hz pelvic sway of ±4°, from which the stride is read), two 90° turns
+    # of 1.5 s each 0.4 s apart: the stride rate (over about 1.1 s) never falls near a
+    # standstill between them, but dips by far more than walking_dip_deg_s (25 °/s) below
+    # both peaks (each about 90° / 1.5 s x pi / 2 = 94 °/s, smoothed to some 60 °/s).
+    inc = np.concatenate(
+        [_still(6), _sine_turn(90, 1.5), _still(0.4), _sine_turn(90, 1.5), _still(6)]
+    )
+    yaw = np.concatenate([[0.0], np.cumsum(inc)])
+    yaw = yaw + 4.0 * np.sin(2 * np.pi * 0.9 * np.arange(yaw.size) / FPS)
+    got = find_turns(yaw, fps_hz=FPS)
+    assert len(got) == 2
+    np.testing.assert_allclose(got.net_deg, [90.0, 90.0], atol=5.0)
+    # the first ends and the second starts in the 20 frames between the planted turns
+    # (frames 375-395), give or take a fifth of a second
+    assert 365 <= got.end_frame[0] <= 405 and 365 <= got.start_frame[1] <= 405
+    # without the walking split: one 180° turn
+    merged = find_turns(yaw, fps_hz=FPS, walking_dip_deg_s=1e4)
+    assert len(merged) == 1 and merged.net_deg[0] == pytest.approx(180.0, abs=2.0)

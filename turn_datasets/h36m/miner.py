@@ -53,7 +53,9 @@ The rule, per sequence
    then within each side. Walking, the rate is the stride's (the sway cancels); standing,
    over ``split_window_s`` (0.4 s), long enough to average a monocular estimator's
    jitter: a standstill of 0.3 s between two smooth turns in place shows, and so do
-   69_19's shorter pauses, before which the real turns slow down. A slowing that does not
+   69_19's shorter pauses, before which the real turns slow down. Walking on, two turns in
+   quick succession never bring the stride rate near a standstill: a dip of
+   ``walking_dip_deg_s`` (25 °/s) below the peaks on both sides splits them. A slowing that does not
    come near a standstill (69_17's first 182° turn slows to 13 °/s halfway) is one turn:
    Shah et al. (2021), on merged and discrete turns, count a hesitation inside a turn as part of
    it, and turns apart only when the body stops.
@@ -318,6 +320,14 @@ class MinerParams:
         min=0,
         max=limits.MAX_SPEED_DEG_S,
     )
+    walking_dip_deg_s: float = param(
+        25.0,
+        "Walking, turning splits where its stride rate dips this far (degrees per second) "
+        "below the peaks on both sides: two turns in quick succession.",
+        min=0,
+        min_open=True,
+        max=limits.MAX_SPEED_DEG_S,
+    )
     max_turn_s: float = param(
         limits.MAX_TURN_DURATION_S,
         "Turning that lasts longer than this (seconds) after splitting is not one turn but a "
@@ -574,6 +584,7 @@ def _hysteresis_runs(
 
 def _split_runs(
     rate: np.ndarray,
+    walking: np.ndarray,
     mean_yaw: np.ndarray,
     start: np.ndarray,
     end: np.ndarray,
@@ -583,33 +594,36 @@ def _split_runs(
     """Step 6: each run of turning split at its pauses (:func:`_valleys`)."""
     out: list[tuple[int, int, int]] = []
     for a, b, g in zip(start.tolist(), end.tolist(), sign.tolist(), strict=True):
-        edges = [a, *(a + c for c in _valleys(g * rate[a:b], g * mean_yaw[a:b], p)), b]
+        cuts = _valleys(g * rate[a:b], walking[a:b], g * mean_yaw[a:b], p)
+        edges = [a, *(a + c for c in cuts), b]
         out += [(lo, hi, g) for lo, hi in zip(edges[:-1], edges[1:], strict=True)]
     arr = np.asarray(out, dtype=np.int64).reshape(-1, 3)
     return arr[:, 0], arr[:, 1], arr[:, 2]
 
 
-def _valleys(x: np.ndarray, heading: np.ndarray, p: MinerParams) -> list[int]:
-    """Where one run of turning splits: deepest valley first, recursively."""
-    n = x.shape[0]
-    if n < 5:
+def _valleys(x: np.ndarray, walking: np.ndarray, heading: np.ndarray, p: MinerParams) -> list[int]:
+    """Where one run of turning (rate ``x``, one way) splits: deepest valley first, then
+    within each side. A valley splits where the rate falls to ``pause_speed_deg_s`` (a
+    standstill) or, walking, dips by ``walking_dip_deg_s`` below the peaks on both sides
+    (two turns in quick succession while walking on, whose stride rate never stops), and
+    each side turns by ``min_turn_deg``."""
+    if x.shape[0] < 5:
         return []
     found, _ = signal.find_peaks(-x)
     best = None
-    # deepest first: the first pause whose two sides each turn by a clip's angle
     for v in found[np.argsort(x[found], kind="stable")]:
         if x[v] > p.pause_speed_deg_s:
-            break
+            dip = min(float(x[:v].max()), float(x[v:].max())) - x[v]
+            if not (walking[v] and dip >= p.walking_dip_deg_s):
+                continue
         if min(heading[v] - heading[0], heading[-1] - heading[v]) >= p.min_turn_deg:
             best = int(v)
             break
     if best is None:
         return []
-    return [
-        *_valleys(x[:best], heading[:best], p),
-        best,
-        *(best + c for c in _valleys(x[best:], heading[best:], p)),
-    ]
+    left = _valleys(x[:best], walking[:best], heading[:best], p)
+    right = _valleys(x[best:], walking[best:], heading[best:], p)
+    return [*left, best, *(best + c for c in right)]
 
 
 def _onset(departure: np.ndarray, onset_deg: float) -> float:
@@ -726,10 +740,12 @@ def _piece_turns(
     # knees do not swing (standing, turning in place), over split_window_s, which shows the
     # short pauses between turns in place.
     fine = _stride_rate(mean_yaw, max(_frames(p.split_window_s, fps_hz), 2), fps_hz)
+    walking = np.zeros(yaw.shape[0], dtype=bool)
     if stride != max(_frames(p.no_sway_window_s, fps_hz), 2):
-        walking = _walking_frames(gait, max(_frames(p.stride_s, fps_hz), 2))
-        fine = fine if walking is None else np.where(walking, rate, fine)
-    start, end, sign = _split_runs(fine, mean_yaw, start, end, sign, p)
+        found = _walking_frames(gait, max(_frames(p.stride_s, fps_hz), 2))
+        walking = np.ones_like(walking) if found is None else found
+        fine = np.where(walking, rate, fine)
+    start, end, sign = _split_runs(fine, walking, mean_yaw, start, end, sign, p)
     start, end = _refine(mean_yaw, start, end, sign, stride, p.onset_deg)
     ok = end - start >= 2  # a span squeezed to nothing by its neighbours is no turn
     start, end, sign = start[ok], end[ok], sign[ok]
