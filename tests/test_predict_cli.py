@@ -266,3 +266,24 @@ def test_an_out_file_that_cannot_be_written_is_one_line_exit_2(tmp_path, capsys)
         f"turn-eval: error: {out}: cannot write the predictions: {src}: File exists"
     )
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.npz"]
+
+
+def test_a_clip_faster_than_a_person_turns_is_named_on_stderr(tmp_path, capsys):
+    # 90° over 75 frames at 50 Hz (60 °/s): a turn. 180° over 6 frames (1500 °/s on
+    # average, above the human bound of 300 °/s that the miner and detect also apply): the
+    # hip vector flipping, as a swap does. Both are written (a submission covers every
+    # clip); the second is named in one warning line.
+    slow = turning_skeleton(np.linspace(0.0, 90.0, 75))
+    flip = turning_skeleton(np.linspace(0.0, 180.0, 6))
+    src = write_skeletons(tmp_path / "poses.npz", {"slow": slow, "flip": flip})
+    out = tmp_path / "p.csv"
+    code, _, stderr = run(
+        ["predict", src, "--layout", "h36m17", "--up-axis", "z", "--fps", "50", "--out", out],
+        capsys,
+    )
+    assert code == 0, stderr
+    table = pd.read_csv(out).set_index("clip_id")
+    assert table.loc["flip", "speed_deg_s"] == pytest.approx(180.0 / (6 / 50), rel=0.02)
+    warnings = [line for line in stderr.splitlines() if "faster than a person" in line]
+    assert len(warnings) == 1 and "1 clip(s)" in warnings[0] and "flip" in warnings[0]
+    assert "slow" not in warnings[0]

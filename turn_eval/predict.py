@@ -25,7 +25,14 @@ from turn_datasets.geometry import METHODS, angular_speed_deg_s, parse_joints, t
 from turn_datasets.mocap.arrays import iter_arrays
 from turn_datasets.skeleton import UP_AXES, Layout, get_layout, to_z_up
 
-__all__ = ["PREDICTION_DTYPES", "SPEED_DTYPES", "clip_arrays", "predict_angle", "predict_angles"]
+__all__ = [
+    "PREDICTION_DTYPES",
+    "SPEED_DTYPES",
+    "clip_arrays",
+    "implausible_clips",
+    "predict_angle",
+    "predict_angles",
+]
 
 #: Columns and dtypes of :func:`predict_angles` without ``fps_hz``.
 PREDICTION_DTYPES: dict[str, str] = {
@@ -166,3 +173,20 @@ def predict_angles(
         rows.append({"clip_id": clip_id, **row})
     dtypes = SPEED_DTYPES if fps_hz is not None else PREDICTION_DTYPES
     return typed_frame(pd.DataFrame(rows, columns=list(dtypes)), dtypes)
+
+
+def implausible_clips(predictions: pd.DataFrame) -> list[str]:
+    """Clip ids whose predicted mean speed is above what a person turns at.
+
+    The bound is the miner's and ``detect``'s
+    (:data:`turn_datasets.limits.MAX_TURN_MEAN_SPEED_DEG_S`): a trimmed clip's angle over its
+    duration beyond it comes from a left/right swap or a flip of the hip vector inside the
+    clip, not from the turn. ``predict`` still writes every clip (a submission must cover
+    them all) and names these on stderr. Empty without a ``speed_deg_s`` column.
+    """
+    from turn_datasets import limits
+
+    if "speed_deg_s" not in predictions.columns:
+        return []
+    fast = predictions["speed_deg_s"].to_numpy(dtype=float) > limits.MAX_TURN_MEAN_SPEED_DEG_S
+    return [str(c) for c in predictions.loc[fast, "clip_id"]]

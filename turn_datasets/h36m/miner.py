@@ -589,12 +589,17 @@ def _split_runs(
     start: np.ndarray,
     end: np.ndarray,
     sign: np.ndarray,
+    fps_hz: float,
     p: MinerParams,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Step 6: each run of turning split at its pauses (:func:`_valleys`)."""
+    """Step 5's pauses: each run of turning split where it stops (:func:`_valleys`)."""
+    max_frames = _frames(p.max_turn_s, fps_hz)
     out: list[tuple[int, int, int]] = []
     for a, b, g in zip(start.tolist(), end.tolist(), sign.tolist(), strict=True):
-        cuts = _valleys(g * rate[a:b], walking[a:b], g * mean_yaw[a:b], p)
+        # walking dips split only what could be turns: turning on for longer than a turn
+        # lasts without a standstill is a circling episode (step 9), not turns in succession
+        dips = walking[a:b] & (b - a <= max_frames)
+        cuts = _valleys(g * rate[a:b], dips, g * mean_yaw[a:b], p)
         edges = [a, *(a + c for c in cuts), b]
         out += [(lo, hi, g) for lo, hi in zip(edges[:-1], edges[1:], strict=True)]
     arr = np.asarray(out, dtype=np.int64).reshape(-1, 3)
@@ -745,7 +750,7 @@ def _piece_turns(
         found = _walking_frames(gait, max(_frames(p.stride_s, fps_hz), 2))
         walking = np.ones_like(walking) if found is None else found
         fine = np.where(walking, rate, fine)
-    start, end, sign = _split_runs(fine, walking, mean_yaw, start, end, sign, p)
+    start, end, sign = _split_runs(fine, walking, mean_yaw, start, end, sign, fps_hz, p)
     start, end = _refine(mean_yaw, start, end, sign, stride, p.onset_deg)
     ok = end - start >= 2  # a span squeezed to nothing by its neighbours is no turn
     start, end, sign = start[ok], end[ok], sign[ok]

@@ -7,11 +7,13 @@ from pathlib import Path
 import click
 import pandas as pd
 
+from turn_datasets import limits
 from turn_datasets.cli.common import (
     CONTEXT_SETTINGS,
     FILE,
     FPS_HZ,
     file_option,
+    info,
     progress,
     writing,
     wrote,
@@ -22,7 +24,7 @@ from turn_datasets.geometry import METHODS, parse_joints
 from turn_eval.cli import cli
 from turn_eval.cli.common import SkeletonSource, skeleton_source_options
 from turn_eval.estimate.formats import refuse_2d
-from turn_eval.predict import clip_arrays, predict_angles
+from turn_eval.predict import clip_arrays, implausible_clips, predict_angles
 
 
 @cli.command("predict", context_settings=CONTEXT_SETTINGS)
@@ -126,6 +128,14 @@ def predict_command(
             first_file[clip_id] = path
         frames.append(table)
     result = pd.concat(frames, ignore_index=True)
+    fast = implausible_clips(result)
+    if fast:
+        shown = ", ".join(fast[:5]) + (f" and {len(fast) - 5} more" if len(fast) > 5 else "")
+        info(
+            f"warning: {len(fast)} clip(s) turn faster than a person does on average "
+            f"({limits.MAX_TURN_MEAN_SPEED_DEG_S:g} °/s): {shown}; a left/right swap or a flip "
+            "of the hip vector inside the clip?"
+        )
     with writing("the predictions", out):
         write_csv(result, out)
     n = len(result)
