@@ -27,7 +27,13 @@ import pandas as pd
 from turn_datasets.h36m.miner import MinerParams, mine_sequence
 from turn_datasets.render.markdown import markdown_table
 from turn_datasets.skeleton import H36M17
-from turn_datasets.synthetic.untrimmed import write_untrimmed_corpus
+from turn_datasets.synthetic.untrimmed import (
+    PLAIN_MOVEMENT,
+    REAL_MOVEMENT,
+    ArtefactParams,
+    MovementMix,
+    write_untrimmed_corpus,
+)
 from turn_eval.detect import DetectParams, MinerRule, detect_files, read_streams, stream_files
 from turn_eval.detect.rule import DETECT_MINER_DEFAULTS, split_overlaps
 from turn_eval.events import score_events
@@ -88,9 +94,16 @@ def rows_of(doc: dict, name: str, seed: int) -> list[dict]:
     return out
 
 
-def evaluate(seed: int, root: Path) -> list[dict]:
+def evaluate(
+    seed: int,
+    root: Path,
+    movement: MovementMix = REAL_MOVEMENT,
+    artefacts: ArtefactParams | None = None,
+) -> list[dict]:
     corpus = root / f"seed{seed}"
-    write_untrimmed_corpus(corpus, seed=seed)
+    write_untrimmed_corpus(
+        corpus, seed=seed, movement=movement, artefacts=artefacts or ArtefactParams()
+    )
     files = stream_files([corpus / "streams"])
     rule = MinerRule(DetectParams(miner=replace(DETECT_MINER_DEFAULTS, min_turn_deg=MIN_TURN_DEG)))
     detected = detect_files(files, detector=rule, layout=H36M17, up_axis="-y", fps_hz=FPS_HZ)
@@ -111,9 +124,13 @@ def evaluate(seed: int, root: Path) -> list[dict]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
+    parser.add_argument(
+        "--plain", action="store_true", help="sessions without the movements of real life"
+    )
     args = parser.parse_args()
+    movement = PLAIN_MOVEMENT if args.plain else REAL_MOVEMENT
     with tempfile.TemporaryDirectory() as tmp:
-        rows = [r for seed in args.seeds for r in evaluate(seed, Path(tmp))]
+        rows = [r for seed in args.seeds for r in evaluate(seed, Path(tmp), movement)]
     header = list(rows[0])
     cells = [[f"{v:.3f}" if isinstance(v, float) else v for v in r.values()] for r in rows]
     print("\n".join(markdown_table(header, cells)))

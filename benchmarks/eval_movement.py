@@ -105,10 +105,18 @@ def score(det: pd.DataFrame, planted: pd.DataFrame) -> dict[str, object]:
         fp, fn = int((ev.kind == "FP").sum()), int((ev.kind == "FN").sum())
         row[f"F1@{iou}"] = 2 * tp / max(2 * tp + fp + fn, 1)
         if iou == 0.5:
-            hit = set(ev.loc[ev.kind == "TP", "ref_row"].astype(int))
+            tp_rows = ev[ev.kind == "TP"]
+            hit = set(tp_rows.ref_row.astype(int))
             for m in MOVEMENTS:
                 rows = np.flatnonzero(ref.movement.to_numpy() == m)
                 row[f"R {m}"] = float(np.mean([r in hit for r in rows])) if rows.size else np.nan
+            # matched accuracy: the detection's 45° bin is the label's (Turn-REMAP's metric)
+            det_bin = 45.0 * np.floor(det.angle_deg.to_numpy()[tp_rows.det_row] / 45.0 + 0.5)
+            right = det_bin == ref.label_deg.to_numpy()[tp_rows.ref_row]
+            moves = ref.movement.to_numpy()[tp_rows.ref_row]
+            row["acc"] = float(right.mean())
+            for m in ("quick", "curved"):
+                row[f"acc {m}"] = float(right[moves == m].mean()) if (moves == m).any() else np.nan
     inside = 0
     for c in circ.itertuples(index=False):
         same = (det.session == c.session) & (det.subject == c.subject)

@@ -89,6 +89,9 @@ __all__ = [
     "DECOY_KINDS",
     "EVENT_DTYPES",
     "ArtefactParams",
+    "MovementMix",
+    "REAL_MOVEMENT",
+    "PLAIN_MOVEMENT",
     "UntrimmedStream",
     "draw_turn_labels",
     "timeline_segments",
@@ -129,6 +132,28 @@ CURVED_SHARE = 0.15
 CURVED_SPEED_DEG_S = (25.0, 45.0)
 #: Share of pivot turns that end by sitting down (turning to a chair), 5-15 s seated.
 TURN_TO_SIT_SHARE = 0.12
+
+
+@dataclass(frozen=True)
+class MovementMix:
+    """How often each movement of real life appears (module docstring's *Movements*).
+
+    :data:`REAL_MOVEMENT` (the default) has them all; :data:`PLAIN_MOVEMENT` none: turns
+    only at corners of straight walks or on the spot, no circling, as in sessions written
+    before these were planted (for comparing a detector across the two).
+    """
+
+    quick_share: float = QUICK_SUCCESSION_SHARE
+    curved_share: float = CURVED_SHARE
+    to_sit_share: float = TURN_TO_SIT_SHARE
+    circling_share: float = 0.05  # of the decoys (:data:`DECOY_KINDS`' circling share)
+
+
+#: Every movement kind at its share (the default of every writer here).
+REAL_MOVEMENT = MovementMix()
+#: None of them: corners and turns in place only.
+PLAIN_MOVEMENT = MovementMix(0.0, 0.0, 0.0, 0.0)
+
 #: Circling decoys (walking round a loop, never one turn): mean speed and length, as
 #: Human3.6M's walks round their loop (about 40 °/s for half a minute).
 CIRCLING_SPEED_DEG_S = (30.0, 45.0)
@@ -137,7 +162,7 @@ CIRCLING_S = (12.0, 25.0)
 DECOY_KINDS: Mapping[str, float] = MappingProxyType(
     {
         "small_turn": 0.19,
-        "circling": 0.05,
+        "circling": MovementMix.circling_share,
         "sway": 0.12,
         "reach": 0.16,
         "sit_stand": 0.12,
@@ -242,7 +267,12 @@ def _seed(seed: int, *names: str) -> np.random.Generator:
 
 
 def draw_turn_labels(
-    rng: np.random.Generator, *, duration_s: float, cohort: str, mean_gap_s: float = 20.0
+    rng: np.random.Generator,
+    *,
+    duration_s: float,
+    cohort: str,
+    mean_gap_s: float = 20.0,
+    movement: MovementMix = REAL_MOVEMENT,
 ) -> pd.DataFrame:
     """Draw labelled turns over a session: ``start_s, end_s, angle_deg`` (the bin) and
     ``movement`` (``quick``: within a second of the previous turn; ``curved``: a slow
@@ -259,20 +289,20 @@ def draw_turn_labels(
     p = np.array(list(LABEL_BIN_MIX.values()))
     rows = []
     t = float(rng.uniform(4.0, 8.0))
-    movement = ""
+    kind = ""
     while True:
         label = float(rng.choice(bins, p=p / p.sum()))
-        curved = movement != "quick" and rng.random() < CURVED_SHARE
+        curved = kind != "quick" and rng.random() < movement.curved_share
         speed = rng.uniform(*(CURVED_SPEED_DEG_S if curved else (lo, hi)))
         duration = label / float(speed)
         if t + duration > duration_s - 5.0:
             break
-        rows.append((t, t + duration, label, "curved" if curved else movement))
-        if rng.random() < QUICK_SUCCESSION_SHARE:
-            movement = "quick"
+        rows.append((t, t + duration, label, "curved" if curved else kind))
+        if rng.random() < movement.quick_share:
+            kind = "quick"
             t += duration + float(rng.uniform(*QUICK_GAP_S))
         else:
-            movement = ""
+            kind = ""
             t += duration + 4.0 + float(rng.exponential(max(mean_gap_s - 4.0, 0.1)))
     return pd.DataFrame(rows, columns=["start_s", "end_s", "angle_deg", "movement"])
 
@@ -406,6 +436,7 @@ def timeline_segments(
     cohort: str,
     fps_hz: float,
     decoy_rate: float = 0.7,
+    movement: MovementMix = REAL_MOVEMENT,
 ) -> tuple[list[Segment], pd.DataFrame, float]:
     """The segments of one participant's timeline around its labelled turns.
 
@@ -435,7 +466,9 @@ def timeline_segments(
     b = _Builder(rng, fps_hz, float(rng.uniform(*WALK_SPEED_M_S[cohort])), heading0, [], [])
     total = int(round(duration_s * fps_hz))
     kinds = list(DECOY_KINDS)
-    shares = np.array(list(DECOY_KINDS.values()))
+    shares = np.array(
+        [movement.circling_share if k == "circling" else DECOY_KINDS[k] for k in kinds]
+    )
     lead = b.frames(1.0)
     pivot_prev = True  # the stream opens standing
     last_turn = -1  # no turn yet
@@ -444,11 +477,11 @@ def timeline_segments(
         e = int(round(float(turn.end_s) * fps_hz))
         if a - b.frame < 4 or e - a < 2 or e > total:
             continue  # overlapping or out of the stream: such a label cannot be planted
-        movement = str(getattr(turn, "movement", "") or "")
-        pivot = movement != "curved" and rng.random() < PIVOT_SHARE[cohort]
+        how = str(getattr(turn, "movement", "") or "")
+        pivot = how != "curved" and rng.random() < PIVOT_SHARE[cohort]
         gap = a - b.frame
         sit = last_turn >= 0 and pivot_prev and gap - lead > b.frames(7.0)
-        if sit and rng.random() < TURN_TO_SIT_SHARE:
+        if sit and rng.random() < movement.to_sit_share:
             # the last pivot turned the person to a chair: sit down at once
             n_sit = min(b.frames(rng.uniform(5.0, 15.0)), gap - lead - 4)
             b.event("sit_stand", b.add("stand", n_sit), b.frame)
@@ -474,9 +507,9 @@ def timeline_segments(
         magnitude = label + float(np.clip(rng.normal(0.0, LABEL_ROUNDING_SD_DEG), -20.0, 20.0))
         h = b.steer(magnitude)
         b.add("pivot_turn" if pivot else "walking_turn", e - a, h)
-        movement = movement or ("pivot" if pivot else "walking")
+        how = how or ("pivot" if pivot else "walking")
         last_turn = len(b.events)
-        b.event("turn", a, e, h, label, movement)
+        b.event("turn", a, e, h, label, how)
         pivot_prev = pivot
     if total - b.frame >= 2:
         b.add("stand", total - b.frame)
@@ -594,6 +627,7 @@ def synthesize_stream(
     fps_hz: float = 30.0,
     artefacts: ArtefactParams = ArtefactParams(),
     root_relative: bool = False,
+    movement: MovementMix = REAL_MOVEMENT,
 ) -> UntrimmedStream:
     """One participant's estimator-like stream around its labelled turns (module docstring).
 
@@ -617,7 +651,7 @@ def synthesize_stream(
         Subtract the pelvis from every joint (as lifting networks output).
     """
     segs, events, heading0 = timeline_segments(
-        rng, labels, duration_s=duration_s, cohort=cohort, fps_hz=fps_hz
+        rng, labels, duration_s=duration_s, cohort=cohort, fps_hz=fps_hz, movement=movement
     )
     seq = generate_sequence(
         seed=int(rng.integers(2**31)),
@@ -741,8 +775,11 @@ def write_untrimmed_corpus(
     fps_hz: float = 30.0,
     root_relative_every: int = 4,
     artefacts: ArtefactParams = ArtefactParams(),
+    movement: MovementMix = REAL_MOVEMENT,
 ) -> dict[str, Path]:
     """Write a synthetic untrimmed corpus: sessions of a PD participant and a control.
+
+    ``movement`` sets how often the movements of real life appear (:class:`MovementMix`).
 
     Each of ``n_pairs`` sessions (``home01``, ...) holds two people, ``P01`` (PD) and
     ``C01`` (control), each with their own timeline (:func:`draw_turn_labels`) in one
@@ -767,7 +804,7 @@ def write_untrimmed_corpus(
         arrays = {}
         for subject, cohort in ((f"P{i:02d}", "PD"), (f"C{i:02d}", "HC")):
             rng = _seed(seed, session, subject)
-            drawn = draw_turn_labels(rng, duration_s=duration_s, cohort=cohort)
+            drawn = draw_turn_labels(rng, duration_s=duration_s, cohort=cohort, movement=movement)
             stream = synthesize_stream(
                 rng,
                 drawn,
@@ -778,6 +815,7 @@ def write_untrimmed_corpus(
                 fps_hz=fps_hz,
                 artefacts=artefacts,
                 root_relative=root_relative_every > 0 and i % root_relative_every == 0,
+                movement=movement,
             )
             arrays[subject] = stream.positions
             labels.append(
