@@ -35,7 +35,8 @@ import pandas as pd
 
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import atomic_path, typed_frame, write_csv
-from turn_datasets.skeleton import H36M17_FROM_32
+from turn_datasets.skeleton import H36M17, H36M17_FROM_32
+from turn_datasets.synthetic.degrade import degrade_skeleton
 from turn_datasets.synthetic.mocap import Segment, generate_sequence
 
 __all__ = [
@@ -134,7 +135,7 @@ def _turn_clip(rng: np.random.Generator, *, heading_deg: float, pivot: bool) -> 
 
 
 def _keypoints(
-    world_mm: np.ndarray, rng: np.random.Generator, pitch_deg: float
+    world_mm: np.ndarray, distance_m: float, pitch_deg: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """(3D root-relative camera axes in metres, 2D pixels) of one clip."""
     p = np.asarray(world_mm, dtype=np.float64) / 1000.0
@@ -144,7 +145,7 @@ def _keypoints(
     pelvis = cam[:, :1, :]
     relative = cam - pelvis
     # for the image: the person's first pelvis 2.5 to 4 m straight ahead, at the image centre
-    placed = cam - cam[:1, :1, :] + np.array([0.0, 0.0, float(rng.uniform(2.5, 4.0))])
+    placed = cam - cam[:1, :1, :] + np.array([0.0, 0.0, distance_m])
     uv = np.stack(
         [
             _FOCAL_PX * placed[..., 0] / placed[..., 2] + _CX,
@@ -153,6 +154,26 @@ def _keypoints(
         axis=-1,
     )
     return relative, uv
+
+
+def _estimated(
+    world_mm: np.ndarray, rng: np.random.Generator, distance_m: float, scenario: str
+) -> np.ndarray:
+    """``world_mm`` as a monocular estimator sees it from ``distance_m`` in front (world -y)."""
+    facing, away = (30.0, 110.0) if scenario == "free-living" else (20.0, 80.0)
+    pelvis = world_mm[0, 0]
+    camera = (float(pelvis[0]), float(pelvis[1]) - 1000.0 * distance_m, float(pelvis[2]))
+    return degrade_skeleton(
+        world_mm,
+        H36M17,
+        seed=rng,
+        fps=_FPS_HZ,
+        camera_position_mm=camera,
+        joint_noise_mm=5.0,
+        depth_sd_facing_mm=facing,
+        depth_sd_away_mm=away,
+        dropout_rate_per_s=0.0,
+    ).positions
 
 
 def _participants(n_pd: int, n_hc: int) -> list[tuple[str, str, bool]]:
@@ -220,6 +241,7 @@ def write_remap_open(
     sheet_format: str = "csv",
     pitch_deg: float = 10.0,
     first_turn_id: int = 350,
+    estimator_error: bool = False,
 ) -> SyntheticOpen:
     """Write a REMAP-Open-shaped tree under ``root`` (module docstring) and return its truth.
 
@@ -238,6 +260,12 @@ def write_remap_open(
         The camera's downward pitch, degrees.
     first_turn_id
         The first ``Turn ID`` (the release's example folder is ``Pt204_C_n_350``).
+    estimator_error
+        Degrade the 3D as a monocular estimator would
+        (:func:`turn_datasets.synthetic.degrade.degrade_skeleton`: 5 mm joint jitter, depth
+        error along the camera ray of 20 to 80 mm, 30 to 110 mm in free-living turns, no
+        dropouts: the release's files hold no missing values); without it the skeletons are
+        clean and a prediction's error is the label's rounding alone.
     """
     if sheet_format not in ("csv", "xlsx"):
         raise TurnbenchError(f"sheet_format must be csv or xlsx, got {sheet_format!r}")
@@ -252,7 +280,10 @@ def write_remap_open(
             t = _turn_row(rng, number, group, has_dbs, turn_id)
             turn_id += 1
             world = _turn_clip(rng, heading_deg=t["heading_deg"], pivot=t["pivot"])
-            k3, k2 = _keypoints(world, rng, pitch_deg)
+            distance = float(rng.uniform(2.5, 4.0))
+            if estimator_error:
+                world = _estimated(world, rng, distance, t["scenario"])
+            k3, k2 = _keypoints(world, distance, pitch_deg)
             t["clip_id"] = f"{t['subject']}_{t['group']}_n_{t['turn_id']}"
             t["n_frames"] = int(world.shape[0])
             t["duration_s"] = world.shape[0] / _FPS_HZ
