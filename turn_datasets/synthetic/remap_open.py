@@ -10,8 +10,8 @@ reads, as the release lays it out (:mod:`turn_datasets.remap.open_release`)::
 Each turn is one clip of a Human3.6M-like body (:func:`turn_datasets.synthetic.mocap.
 generate_sequence`, clean, 30 fps): a short stand or walk, the turn, a short stand or walk.
 A pivot turn turns on the spot, a step turn walks round a curve. The body's heading change
-is the label's bin plus a uniform offset within ±15° (so the bin is the nearest multiple of
-45 of the true angle), left or right at random. The 3D keypoints are what Strided
+is the label's bin plus a uniform offset within ±10° (so the bin is the nearest multiple of
+45 of the true angle, with room for an estimate a few degrees off to stay in it), left or right at random. The 3D keypoints are what Strided
 Transformer writes: the 17 joints in the camera's axes (x right, y down, z away), root
 relative (the pelvis at the origin), metres, the camera pitched down by ``pitch_deg``. The 2D
 keypoints are the same joints projected by a Kinect-like pinhole (640 x 480 px, focal 525
@@ -206,7 +206,7 @@ def _turn_row(
         "cohort": "PD" if group == "PD" else "HC",
         "group": group,
         "angle_deg": float(angle),
-        "heading_deg": sign * (angle + float(rng.uniform(-15.0, 15.0))),
+        "heading_deg": sign * (angle + float(rng.uniform(-10.0, 10.0))),
         "pivot": pivot,
         "steps": steps,
         "turn_type": turn_type,
