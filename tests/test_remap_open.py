@@ -272,7 +272,7 @@ def test_score_groups_by_every_label(release, tmp_path, capsys):
     truth = release.truth
     for col in ("medication", "dbs", "turn_type", "scenario", "steps"):
         groups = scores["by"][col]["groups"]
-        expected = truth[col].astype(str).value_counts().to_dict()
+        expected = truth[col].astype(str).replace("", "(blank)").value_counts().to_dict()
         assert {g: v["n"] for g, v in groups.items()} == expected, col
     assert scores["overall"]["n"] == 16 and scores["overall"]["accuracy"] == 1.0
 
