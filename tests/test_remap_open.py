@@ -494,3 +494,12 @@ def test_no_release_under_the_folder(tmp_path, capsys):
     (tmp_path / "empty").mkdir()
     line = refused(["remap", "open", tmp_path / "empty", "--out-dir", out], capsys, out)
     assert "no rater spreadsheet (Turning_human_labels.xls) under this folder" in line
+
+
+def test_a_link_loop_above_the_release_ends(release, tmp_path, capsys):
+    root = copy_release(release, tmp_path / "top")
+    (root / "Turning" / "back").symlink_to(tmp_path / "top", target_is_directory=True)
+    out = tmp_path / "out"
+    code, _, err = datasets(["remap", "open", tmp_path / "top", "--out-dir", out], capsys)
+    assert code == 0, err
+    assert len(pd.read_csv(out / "labels.csv")) == 16

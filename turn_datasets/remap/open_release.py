@@ -99,7 +99,8 @@ def find_release(root: str | os.PathLike[str]) -> tuple[Path, Path]:
     """The rater spreadsheet and the folder of per-turn folders under ``root``.
 
     ``root`` is the dataset's top folder or any folder above the two data folders; names
-    are matched in any case. Hidden folders are not searched.
+    are matched in any case. Hidden folders are not searched; folders reached through links
+    are, each real folder once (a link back up the tree ends the walk there).
 
     Raises
     ------
@@ -112,8 +113,14 @@ def find_release(root: str | os.PathLike[str]) -> tuple[Path, Path]:
         raise TurnbenchError("not a folder", file=top, hint="give the REMAP Open dataset's folder")
     sheets: list[Path] = []
     folders: list[Path] = []
+    seen: set[tuple[int, int]] = set()
     for dirpath, dirnames, filenames in os.walk(top, followlinks=True):
         here = Path(dirpath)
+        stat = os.stat(dirpath)
+        if (stat.st_dev, stat.st_ino) in seen:  # a link back to a folder walked: a loop
+            dirnames[:] = []
+            continue
+        seen.add((stat.st_dev, stat.st_ino))
         if here.name.lower() == SKELETON_FOLDER:
             folders.append(here)
             dirnames[:] = []  # the turn folders themselves need no search
