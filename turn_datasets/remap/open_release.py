@@ -173,6 +173,32 @@ def read_keypoints(path: Path, *, n_dims: int) -> np.ndarray:
         raise TurnbenchError(
             f"the clip has {what}; a turn needs at least two", file=path, row=len(lines) or None
         )
+    values = _fast_table(lines, width)
+    if values is None:
+        values = _checked_table(lines, width, n_dims, path)
+    bad = ~np.isfinite(values)
+    if bad.any():
+        number, column = (int(i) + 1 for i in np.argwhere(bad)[0])
+        cell = lines[number - 1].split(",")[column - 1].strip()
+        raise TurnbenchError(
+            f"field {column} ({cell!r}) is not a finite number", file=path, row=number
+        )
+    return values.reshape(len(lines), _N_JOINTS, n_dims).astype(np.float32)
+
+
+def _fast_table(lines: list[str], width: int) -> np.ndarray | None:
+    """NumPy's C parser on a well-formed file; None for anything else (the checked reader
+    then finds the row and says what is wrong with it)."""
+    try:
+        values = np.loadtxt(lines, delimiter=",", dtype=np.float64, ndmin=2, comments=None)
+    except ValueError:
+        return None
+    # loadtxt skips blank lines: a row count that differs means one was there
+    return values if values.shape == (len(lines), width) else None
+
+
+def _checked_table(lines: list[str], width: int, n_dims: int, path: Path) -> np.ndarray:
+    """The table, row by row, raising on the first row of the wrong width or bad cell."""
     rows = [line.split(",") for line in lines]
     for number, cells in enumerate(rows, start=1):
         if len(cells) != width:
@@ -182,18 +208,9 @@ def read_keypoints(path: Path, *, n_dims: int) -> np.ndarray:
                 row=number,
             )
     try:
-        values = np.array(rows, dtype=np.float64)
+        return np.array(rows, dtype=np.float64)
     except ValueError:
-        values = _first_bad_cell(rows, path)
-    bad = ~np.isfinite(values)
-    if bad.any():
-        number, column = (int(i) + 1 for i in np.argwhere(bad)[0])
-        raise TurnbenchError(
-            f"field {column} ({rows[number - 1][column - 1].strip()!r}) is not a finite number",
-            file=path,
-            row=number,
-        )
-    return values.reshape(len(rows), _N_JOINTS, n_dims).astype(np.float32)
+        return _first_bad_cell(rows, path)
 
 
 def _first_bad_cell(rows: list[list[str]], path: Path) -> np.ndarray:
