@@ -469,7 +469,9 @@ def test_two_spreadsheets_are_refused(release, tmp_path, capsys):
     write_xls(read_sheet_csv(sheet), sheet.with_suffix(".xls"))
     out = tmp_path / "out"
     line = refused(["remap", "open", tmp_path, "--out-dir", out], capsys, out)
-    assert line.startswith(f"turn-datasets: error: {tmp_path}: 2 of the rater spreadsheet under")
+    assert line.startswith(
+        f"turn-datasets: error: {tmp_path}: 2 rater spreadsheets under this folder: "
+    )
     assert str(sheet) in line and str(sheet.with_suffix(".xls")) in line
 
 
@@ -493,7 +495,7 @@ def test_no_release_under_the_folder(tmp_path, capsys):
     out = tmp_path / "out"
     (tmp_path / "empty").mkdir()
     line = refused(["remap", "open", tmp_path / "empty", "--out-dir", out], capsys, out)
-    assert "no rater spreadsheet (Turning_human_labels.xls) under this folder" in line
+    assert "no rater spreadsheet (Turning_human_labels.xls, .xlsx or .csv) under this" in line
 
 
 def test_a_link_loop_above_the_release_ends(release, tmp_path, capsys):

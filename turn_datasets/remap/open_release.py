@@ -11,7 +11,10 @@ spreadsheet (:mod:`turn_datasets.remap.open_sheet`) and one folder per turn::
             input_3D/keypoints.csv    one row per frame: x0,y0,z0 ... x16,y16,z16 (no header)
 
 The 17 joints are Human3.6M's (the paper's FastPose 2D detector and Strided Transformer
-lifting), at the Kinect's 30 fps. The 3D axes and units are not documented (Strided
+lifting), at the Kinect's 30 fps. Each turn is a clip of its own: its labels' ``start_s`` is 0
+and ``end_s`` the spreadsheet's ``turning_duration`` (the release gives no video times),
+``session``, ``annotator`` and ``location`` are empty and ``double_annotated`` false (the
+release does not say which turns two raters labelled). The 3D axes and units are not documented (Strided
 Transformer writes root-relative camera coordinates, y down): :func:`read_release` infers
 the vertical axis of every clip (:mod:`turn_datasets.up_axis`) and records it, and leaves
 the arrays as released, so ``turn-eval predict``, ``detect`` and ``h36m mine`` read them as
@@ -131,9 +134,13 @@ def find_release(root: str | os.PathLike[str]) -> tuple[Path, Path]:
             for f in sorted(filenames)
             if Path(f).stem.lower() == SHEET_STEM and Path(f).suffix.lower() in SHEET_SUFFIXES
         ]
-    for what, found in (
-        ("rater spreadsheet (Turning_human_labels.xls)", sheets),
-        ("Turning_coarsen_CSV folder", folders),
+    for what, many, found in (
+        (
+            "rater spreadsheet (Turning_human_labels.xls, .xlsx or .csv)",
+            "rater spreadsheets",
+            sheets,
+        ),
+        ("Turning_coarsen_CSV folder", "Turning_coarsen_CSV folders", folders),
     ):
         if not found:
             raise TurnbenchError(
@@ -143,8 +150,7 @@ def find_release(root: str | os.PathLike[str]) -> tuple[Path, Path]:
             )
         if len(found) > 1:
             raise TurnbenchError(
-                f"{len(found)} of the {what.split(' (')[0]} under this folder: "
-                + ", ".join(str(p) for p in found),
+                f"{len(found)} {many} under this folder: " + ", ".join(str(p) for p in found),
                 file=top,
                 hint="keep one (a CSV export beside the .xls counts as a second)",
             )
