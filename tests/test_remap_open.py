@@ -505,3 +505,18 @@ def test_a_link_loop_above_the_release_ends(release, tmp_path, capsys):
     code, _, err = datasets(["remap", "open", tmp_path / "top", "--out-dir", out], capsys)
     assert code == 0, err
     assert len(pd.read_csv(out / "labels.csv")) == 16
+
+
+def test_the_2d_keypoints_are_refused_by_predict_with_what_to_do(release, tmp_path, capsys):
+    out = tmp_path / "out"
+    datasets(["remap", "open", release.root, "--out-dir", out], capsys)
+    pred = tmp_path / "pred.csv"
+    args = ["predict", out / "skeletons_2d.npz", "--layout", "h36m17", "--out", pred]
+    code, _, err = run(eval_cli, "turn-eval", args, capsys)
+    assert code == EXIT_BAD_INPUT and not pred.exists()
+    (line,) = [x for x in err.splitlines() if x.startswith("turn-eval: error:")]
+    n = int(release.truth["n_frames"].iloc[0])
+    assert line.endswith(
+        f"Pt201_PD_n_350: array has shape ({n}, 17, 2), expected (frames, joints, 3); these are "
+        "2D keypoints (hint: lift them to 3D first)"
+    ), line

@@ -122,10 +122,15 @@ ARRAY_SUFFIXES = (".npy", ".npz", ".h5", ".hdf5")
 
 def _checked(array: np.ndarray, layout: Layout | None, *, path: Path, key: str) -> np.ndarray:
     if array.ndim != 3 or array.shape[2] != 3 or array.shape[0] < 1 or array.shape[1] < 1:
+        # 2D keypoints (a REMAP Open skeletons_2d.npz, a detector's output) have no depth to
+        # turn about a vertical axis: say what to do, not only what the shape is
+        flat = array.ndim == 3 and array.shape[2] == 2
         raise TurnbenchError(
-            f"array has shape {tuple(array.shape)}, expected (frames, joints, 3)",
+            f"array has shape {tuple(array.shape)}, expected (frames, joints, 3)"
+            + ("; these are 2D keypoints" if flat else ""),
             file=path,
             item=key,
+            hint="lift them to 3D first" if flat else None,
         )
     if not (np.issubdtype(array.dtype, np.floating) or np.issubdtype(array.dtype, np.integer)):
         raise TurnbenchError(
