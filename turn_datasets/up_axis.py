@@ -136,7 +136,7 @@ def infer_up_axis(
         consistently on one side of the feet (the module docstring gives the rule).
     """
     prm = params or UpAxisParams()
-    p = np.asarray(positions, dtype=np.float64)
+    p = np.asarray(positions)
     if p.ndim == 3 and p.shape[-1] == 2:
         raise TurnbenchError(
             "2D keypoints have no vertical axis to infer", item=item, hint="lift to 3D first"
@@ -145,9 +145,10 @@ def infer_up_axis(
         raise TurnbenchError(
             f"positions have shape {p.shape}, expected (frames, joints, 3)", item=item
         )
-    pelvis, neck, head, lfoot, rfoot = _trunk_joints(layout)
-    trunk = p[:, neck] - p[:, pelvis]
-    head_over_feet = p[:, head] - 0.5 * (p[:, lfoot] + p[:, rfoot])
+    # only the five joints, widened to float64: a long stream is not copied whole
+    pelvis, neck, head, lfoot, rfoot = (p[:, j].astype(np.float64) for j in _trunk_joints(layout))
+    trunk = neck - pelvis
+    head_over_feet = head - 0.5 * (lfoot + rfoot)
     usable = np.isfinite(trunk).all(axis=1) & np.isfinite(head_over_feet).all(axis=1)
     n = int(usable.sum())
     if n == 0:
