@@ -520,3 +520,41 @@ def test_the_2d_keypoints_are_refused_by_predict_with_what_to_do(release, tmp_pa
         f"Pt201_PD_n_350: array has shape ({n}, 17, 2), expected (frames, joints, 3); these are "
         "2D keypoints (hint: lift them to 3D first)"
     ), line
+
+
+def test_a_participant_in_two_groups_is_refused(release, tmp_path, capsys):
+    root = copy_release(release, tmp_path)
+
+    def regroup(t: pd.DataFrame) -> pd.DataFrame:
+        t.loc[1, "PD_or_C"] = "C"  # Pt201's second turn: a control
+        return t
+
+    sheet = edit_sheet(root, regroup)
+    out = tmp_path / "out"
+    line = refused(["remap", "open", root, "--out-dir", out], capsys, out)
+    assert line == f"turn-datasets: error: {sheet}:3: Pt201 is HC here and PD on row 2"
+
+
+def test_empty_steps_duration_and_turn_type_are_blank_not_refused(release, tmp_path, capsys):
+    from turn_datasets.remap.open_sheet import read_sheet
+
+    root = copy_release(release, tmp_path)
+
+    def blank(t: pd.DataFrame) -> pd.DataFrame:
+        t.loc[0, ["number_of_turning_steps", "turning_duration", "type_of_turn"]] = ""
+        return t
+
+    sheet = edit_sheet(root, blank)
+    first = read_sheet(sheet)[0]
+    assert first.steps is None and np.isnan(first.duration_s) and first.turn_type == ""
+    out = tmp_path / "out"
+    code, _, err = datasets(["remap", "open", root, "--out-dir", out], capsys)
+    assert code == 0, err
+    row = pd.read_csv(out / "labels.csv", dtype=str, keep_default_na=False).iloc[0]
+    assert (row["steps"], row["duration_s"], row["turn_type"], row["start_s"]) == ("", "", "", "")
+    # an empty DBS state is not "no stimulator" ('-'): it is refused
+    edit_sheet(root, lambda t: t.assign(DBS_state=[""] + list(t["DBS_state"][1:])))
+    line = refused(
+        ["remap", "open", root, "--out-dir", tmp_path / "out2"], capsys, tmp_path / "out2"
+    )
+    assert line.endswith(":2: DBS_state '' is not one of 'control', 'on dbs', 'off dbs', '-'")
