@@ -39,6 +39,7 @@ from turn_datasets.fileio import sha256_file, typed_frame
 from turn_datasets.remap.labels import LABEL_COLUMNS
 from turn_datasets.remap.open_sheet import SHEET_SUFFIXES, SheetRow, read_sheet
 from turn_datasets.remap.participants import PARTICIPANT_COLUMNS
+from turn_datasets.render.order import natural_key
 from turn_datasets.skeleton import AUTO, H36M17
 from turn_datasets.up_axis import AxesFound, resolve_up_axis
 
@@ -321,15 +322,11 @@ def _participants(rows: Iterable[SheetRow], sheet: Path) -> pd.DataFrame:
                 "age": math.nan,
                 "years_since_diagnosis": math.nan,
             }
-            for s, (c, _) in sorted(cohort.items(), key=lambda kv: _natural(kv[0]))
+            for s, (c, _) in sorted(cohort.items(), key=lambda kv: natural_key(kv[0]))
         ],
         columns=list(PARTICIPANT_COLUMNS),
     )
     return typed_frame(table, PARTICIPANT_COLUMNS)
-
-
-def _natural(text: str) -> list[Any]:
-    return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", text)]
 
 
 def read_release(

@@ -35,7 +35,7 @@ import pandas as pd
 
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import atomic_path, typed_frame, write_csv
-from turn_datasets.skeleton import H36M17, H36M17_FROM_32
+from turn_datasets.skeleton import H36M17, H36M17_FROM_32, to_z_up
 from turn_datasets.synthetic.degrade import degrade_skeleton
 from turn_datasets.synthetic.mocap import Segment, generate_sequence
 
@@ -139,8 +139,9 @@ def _keypoints(
 ) -> tuple[np.ndarray, np.ndarray]:
     """(3D root-relative camera axes in metres, 2D pixels) of one clip."""
     p = np.asarray(world_mm, dtype=np.float64) / 1000.0
-    # world z up -> camera axes (x right, y down, z away): (x, y, z) -> (x, -z, y)
-    cam = np.stack([p[..., 0], -p[..., 2], p[..., 1]], axis=-1)
+    # world z up -> camera axes (x right, y down, z away): the inverse (transpose) of
+    # to_z_up's rotation for "-y", so (x, y, z) -> (x, -z, y)
+    cam = p @ to_z_up(np.eye(3), "-y").T
     cam = _pitch(cam, pitch_deg)
     pelvis = cam[:, :1, :]
     relative = cam - pelvis
