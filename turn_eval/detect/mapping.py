@@ -89,7 +89,7 @@ def detect_file(
     detector: TurnDetector,
     layout: Layout,
     up_axis: str | None,
-    fps_hz: float,
+    fps_hz: float | None,
     source_format: str = "arrays",
 ) -> FileResult:
     """Every stream of one file through ``detector``; errors are returned, not raised, so a
@@ -107,12 +107,15 @@ def detect_file(
                 "session": s.session,
                 "subject": s.subject,
                 "n_frames": s.n_frames,
+                "up_axis": s.up_axis,
             }
             if s.fps_hz is not None:
                 entry["fps_hz"] = s.fps_hz
             streams.append(entry)
             # motion capture brings its own joints and rate (read_streams' ``mocap``)
             s_layout, s_fps = s.layout or layout, s.fps_hz or fps_hz
+            if s_fps is None:  # the command requires --fps for every other format
+                raise TurnbenchError("no frame rate: give --fps", file=path, item=s.key)
             try:
                 found = detector.detect(s.positions, s_fps, s_layout)
                 found = checked_turns(
@@ -234,7 +237,7 @@ def detect_files(
     detector: TurnDetector,
     layout: Layout,
     up_axis: str | None,
-    fps_hz: float,
+    fps_hz: float | None,
     source_format: str = "arrays",
     workers: int | None = None,
     scheduler: str | None = None,
