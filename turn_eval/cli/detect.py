@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import importlib
-import inspect
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -27,31 +25,9 @@ from turn_datasets.h36m.miner import MinerParams
 from turn_eval.cli import cli
 from turn_eval.cli.common import SkeletonSource, skeleton_source_options
 from turn_eval.detect.mapping import build_manifest, detect_files
-from turn_eval.detect.protocol import TurnDetector
+from turn_eval.detect.plugins import load_detector
 from turn_eval.detect.rule import DETECT_MINER_DEFAULTS, DetectParams, MinerRule
 from turn_eval.detect.streams import stream_files
-
-
-def _load_detector(spec: str | None, params: DetectParams) -> TurnDetector:
-    """The built-in rule, or ``MODULE:NAME`` (an object with ``detect``, or a class/factory
-    called without arguments that returns one)."""
-    if spec is None:
-        return MinerRule(params)
-    module_name, _, attr = spec.partition(":")
-    try:
-        obj = getattr(importlib.import_module(module_name), attr)
-    except (ImportError, AttributeError, ValueError) as exc:
-        raise TurnbenchError(
-            f"cannot load detector {spec!r}: {exc}", hint="give MODULE:NAME"
-        ) from None
-    detector = (
-        obj() if inspect.isclass(obj) or (callable(obj) and not hasattr(obj, "detect")) else obj
-    )
-    if not isinstance(detector, TurnDetector):
-        raise TurnbenchError(
-            f"{spec!r} is not a turn detector: it needs a name and detect(positions, fps_hz, layout)"
-        )
-    return detector
 
 
 @cli.command("detect", context_settings=CONTEXT_SETTINGS)
@@ -140,7 +116,7 @@ def detect_command(
     params = replace(
         params_from(DetectParams, values), joints=tuple(joints.split(",")), miner=miner
     )
-    detector = _load_detector(detector_spec, params)
+    detector = MinerRule(params) if detector_spec is None else load_detector(detector_spec)
     files = stream_files(skeletons)  # first: an AlphaPose JSON is refused with its reason
     layout = source.layout(need_up_axis=True)
     check_not_input(out, files)
