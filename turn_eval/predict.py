@@ -23,6 +23,7 @@ from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import typed_frame
 from turn_datasets.geometry import METHODS, angular_speed_deg_s, parse_joints, turning_angle
 from turn_datasets.mocap.arrays import iter_arrays
+from turn_datasets.mocap.checks import check_magnitude
 from turn_datasets.skeleton import UP_AXES, Layout, get_layout, to_z_up
 
 __all__ = ["PREDICTION_DTYPES", "SPEED_DTYPES", "clip_arrays", "predict_angle", "predict_angles"]
@@ -137,8 +138,8 @@ def predict_angles(
     ------
     TurnbenchError
         A bad option, a duplicate clip id, or a clip the estimator cannot handle (wrong joint
-        count for the layout, fewer than two usable frames); the error's ``item`` names the
-        clip.
+        count for the layout, an infinite or implausibly large coordinate, fewer than two
+        usable frames); the error's ``item`` names the clip.
     """
     lay = _resolve_layout(layout)
     if up_axis not in UP_AXES:
@@ -157,6 +158,8 @@ def predict_angles(
             raise TurnbenchError("duplicate clip id", item=clip_id)
         seen.add(clip_id)
         try:
+            # the magnitude check every reader of skeletons applies (no inf, no 1e300)
+            check_magnitude(positions, path=None, item=clip_id)
             row = predict_angle(
                 positions, layout=lay, up_axis=up_axis, joints=names, method=method, fps_hz=fps_hz
             )
