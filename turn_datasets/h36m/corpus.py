@@ -31,6 +31,7 @@ from turn_datasets.fileio import atomic_path, sha256_file, to_json_text
 from turn_datasets.h36m.manifest import build_manifest, manifest_path
 from turn_datasets.h36m.miner import (
     FILTER_MAX_FRACTION_OF_FPS,
+    FILTER_MIN_FRACTION_OF_FPS,
     MinerParams,
     SequenceClips,
     build_index,
@@ -279,8 +280,13 @@ def mine_corpus(
         for e in r.bad_sequences
     ]
     notes = [
-        f"--position-cutoff-hz {params.position_cutoff_hz:g} is at or above "
-        f"{FILTER_MAX_FRACTION_OF_FPS:g} x {fps:g} Hz: the hip positions of "
+        f"--position-cutoff-hz {params.position_cutoff_hz:g} is "
+        + (
+            f"at or above {FILTER_MAX_FRACTION_OF_FPS:g} x {fps:g} Hz"
+            if params.position_cutoff_hz >= FILTER_MAX_FRACTION_OF_FPS * fps
+            else f"below {FILTER_MIN_FRACTION_OF_FPS:g} x {fps:g} Hz"
+        )
+        + ": the hip positions of "
         f"{len(names)} sequence(s) at that rate were not filtered (first: {names[0]})"
         for fps, names in sorted(unfiltered.items())
     ] + odd_rates

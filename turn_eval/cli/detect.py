@@ -21,7 +21,7 @@ from turn_datasets.cli.common import (
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import atomic_path, check_not_input, to_json_text
 from turn_datasets.h36m.manifest import manifest_path
-from turn_datasets.h36m.miner import MinerParams
+from turn_datasets.h36m.miner import MinerParams, check_position_cutoff
 from turn_eval.cli import cli
 from turn_eval.cli.common import SkeletonSource, skeleton_source_options
 from turn_eval.detect.mapping import build_manifest, detect_files
@@ -116,6 +116,9 @@ def detect_command(
     params = replace(
         params_from(DetectParams, values), joints=tuple(joints.split(",")), miner=miner
     )
+    if detector_spec is None:
+        # the rule's low-pass at this frame rate, refused before any file is read
+        check_position_cutoff(miner.position_cutoff_hz, fps_hz)
     detector = MinerRule(params) if detector_spec is None else load_detector(detector_spec)
     files = stream_files(skeletons)  # first: an AlphaPose JSON is refused with its reason
     layout = source.layout(need_up_axis=True)
