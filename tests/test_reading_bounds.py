@@ -12,11 +12,10 @@ import h5py
 import numpy as np
 import pytest
 
-from turn_datasets import limits
+from turn_datasets import limits, machine
 from turn_datasets.cli import cli as datasets_cli
 from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.mocap import checks
 from turn_datasets.mocap.checks import check_declared_size, check_magnitude
 from turn_datasets.skeleton import H36M17
 from turn_eval.cli import cli as eval_cli
@@ -108,7 +107,7 @@ def test_an_npy_declaring_8_gb_is_refused_by_predict(tmp_path, capsys) -> None:
 
 def test_an_array_larger_than_the_free_memory_is_refused(tmp_path, capsys, monkeypatch) -> None:
     np.savez(tmp_path / "home.npz", P01=walking())  # 300 x 17 x 3 float32: 61 kB
-    monkeypatch.setattr(checks, "available_memory_bytes", lambda: 100_000)
+    monkeypatch.setattr(machine, "available_memory_bytes", lambda: 100_000)
     code, _, err = run(
         eval_cli, "turn-eval", ["detect", tmp_path, *DETECT, "--out", tmp_path / "d.csv"], capsys
     )

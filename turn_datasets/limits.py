@@ -20,6 +20,7 @@ __all__ = [
     "MAX_SEED",
     "MAX_POSITION_ABS",
     "MAX_ARRAY_VALUES",
+    "MAX_LOCAL_WORKERS",
 ]
 
 #: Ten full revolutions: no single turn of a person comes near it (the paper's largest
@@ -52,3 +53,7 @@ MAX_POSITION_ABS = 1e9
 #: machine's free memory, before anything is read: a few kilobytes of gzip-compressed HDF5
 #: can declare 40 million frames (8 GB).
 MAX_ARRAY_VALUES = 2**28
+#: Most worker processes a local cluster (``--workers``) starts: one machine's. Each is
+#: single-threaded and holds about 200 MB before any file, and more processes than cores run
+#: no faster; 256 is already 51 GB. A bigger run belongs on a cluster (``--scheduler``).
+MAX_LOCAL_WORKERS = 256

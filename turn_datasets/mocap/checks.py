@@ -11,9 +11,10 @@ from typing import TypeVar
 
 import numpy as np
 
-from turn_datasets import limits
+from turn_datasets import limits, machine
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.geometry import usable_frames
+from turn_datasets.machine import gigabytes
 from turn_datasets.skeleton import (
     Layout,
 )
@@ -21,7 +22,6 @@ from turn_datasets.skeleton import (
 __all__ = [
     "OnBadSequence",
     "CORRUPT",
-    "available_memory_bytes",
     "check_declared_size",
     "check_joint_count",
     "check_magnitude",
@@ -65,30 +65,10 @@ def unreadable(
         raise TurnbenchError(f"cannot read {what} ({guess}): {exc}", file=path, item=item) from None
 
 
-def available_memory_bytes() -> int | None:
-    """The memory this machine can give a new allocation now, in bytes (Linux's
-    ``MemAvailable``; elsewhere the free physical pages), or None when it cannot tell."""
-    try:
-        with open("/proc/meminfo", encoding="ascii") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    try:
-        return int(os.sysconf("SC_AVPHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
-    except (AttributeError, OSError, ValueError):
-        return None
-
-
 #: Bytes per declared value that reading one array takes at most: the array as stored plus
 #: one float64 working copy (the detector's gather of the joints it reads, a reader's
 #: widening), beside the stored values' own size.
 _WORKING_BYTES_PER_VALUE = 8
-
-
-def _gb(n_bytes: float) -> str:
-    return f"{n_bytes / 1e9:.1f} GB"
 
 
 def check_declared_size(
@@ -103,7 +83,7 @@ def check_declared_size(
     A file's header (an ``.npy`` header, an HDF5 dataset's shape, a zip member's size)
     declares how big the array is; compression lets a few kilobytes declare gigabytes. The
     bound is :data:`turn_datasets.limits.MAX_ARRAY_VALUES`; the machine's is its free memory
-    (:func:`available_memory_bytes`) against the stored size plus one float64 working copy.
+    (:func:`turn_datasets.machine.available_memory_bytes`) against the stored size plus one float64 working copy.
 
     Raises
     ------
@@ -113,7 +93,9 @@ def check_declared_size(
     dt = np.dtype(dtype)
     values = math.prod(int(n) for n in shape)
     stored = values * dt.itemsize
-    declared = f"declares {' x '.join(str(int(n)) for n in shape)} {dt.name} values ({_gb(stored)})"
+    declared = (
+        f"declares {' x '.join(str(int(n)) for n in shape)} {dt.name} values ({gigabytes(stored)})"
+    )
     if values > limits.MAX_ARRAY_VALUES:
         raise TurnbenchError(
             f"the array {declared}: more than the {limits.MAX_ARRAY_VALUES:,} values turnbench "
@@ -122,11 +104,11 @@ def check_declared_size(
             item=item,
         )
     need = values * (dt.itemsize + _WORKING_BYTES_PER_VALUE)
-    free = available_memory_bytes()
+    free = machine.available_memory_bytes()
     if free is not None and need > free:
         raise TurnbenchError(
-            f"the array {declared}: reading it needs about {_gb(need)} and this machine has "
-            f"{_gb(free)} free",
+            f"the array {declared}: reading it needs about {gigabytes(need)} and this machine has "
+            f"{gigabytes(free)} free",
             file=path,
             item=item,
             hint="free memory, or split the recording into shorter files",

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import click
 
+from turn_datasets import limits
 from turn_datasets.cli.common import (
     CONTEXT_SETTINGS,
     FPS_HZ,
@@ -68,9 +69,10 @@ from turn_eval.detect.streams import stream_files
 )
 @click.option(
     "--workers",
-    type=Number(int, min=1, max=4096),
+    type=Number(int, min=1, max=limits.MAX_LOCAL_WORKERS),
     default=None,
-    help="Map over files on a local Dask cluster of N processes (default: serial, no Dask).",
+    help="Map over files on a local Dask cluster of N processes, about 200 MB each; refused "
+    "beyond the free memory (default: serial, no Dask).",
 )
 @click.option(
     "--scheduler",

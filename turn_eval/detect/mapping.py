@@ -29,6 +29,7 @@ import pandas as pd
 
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import sha256_file, typed_frame
+from turn_datasets.machine import check_local_workers
 from turn_datasets.skeleton import Layout
 from turn_eval.detect.plugins import (
     call_detector,
@@ -273,6 +274,8 @@ def detect_files(
     """
     if workers is not None and workers < 1:
         raise TurnbenchError(f"workers must be at least 1, got {workers}")
+    if workers is not None and not scheduler:
+        check_local_workers(workers)  # the processes must fit the machine's memory
     kwargs = {
         "detector": detector,
         "layout": layout,
