@@ -17,7 +17,7 @@ from turn_datasets.cli import cli as datasets_cli
 from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.mocap.checks import check_declared_size, check_magnitude
-from turn_datasets.skeleton import H36M17
+from turn_datasets.skeleton import H36M17, UP_AXES, to_z_up
 from turn_eval.cli import cli as eval_cli
 from turn_eval.detect.rule import MinerRule
 from turn_eval.detect.streams import read_streams
@@ -215,3 +215,14 @@ def test_the_magnitude_check_passes_nan_and_the_bound_itself() -> None:
         check_magnitude(np.array([[[1.1e9, 0.0, 0.0]]]), path=None, item="c")
     with pytest.raises(TurnbenchError, match="coordinate of -2e"):
         check_magnitude(np.array([[[-2_000_000_000, 0, 0]]], dtype=np.int64), path=None, item="c")
+
+
+@pytest.mark.parametrize("up_axis", [a for a in UP_AXES if a != "auto"])
+def test_the_in_place_turn_to_z_up_is_to_z_up(up_axis) -> None:
+    from turn_eval.detect.streams import _z_up_in_place
+
+    p = np.random.default_rng(1).standard_normal((50, 17, 3)).astype(np.float32)
+    want = to_z_up(p.copy(), up_axis)
+    got = _z_up_in_place(p, up_axis)
+    assert got is p and got.dtype == np.float32  # no second array
+    assert np.array_equal(got, want)

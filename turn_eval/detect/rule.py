@@ -155,8 +155,11 @@ def _joints_read(positions: np.ndarray, layout: Layout) -> tuple[np.ndarray, Lay
     wanted = [*(n for pair in JOINT_PAIRS.values() for n in pair), *SIZE_JOINTS]
     names = [n for n in dict.fromkeys(wanted) if n in layout.joints]
     sub = Layout(f"{layout.name}-read", len(names), {n: i for i, n in enumerate(names)})
-    gathered = np.asarray(positions)[:, [layout.index(n) for n in names]]
-    return gathered.astype(np.float64, copy=False), sub
+    p = np.asarray(positions)
+    out = np.empty((p.shape[0], len(names), 3), dtype=np.float64)
+    for k, name in enumerate(names):  # joint by joint: no stored-precision copy in between
+        out[:, k] = p[:, layout.index(name)]
+    return out, sub
 
 
 class MinerRule:

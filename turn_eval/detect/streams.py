@@ -192,10 +192,37 @@ def read_streams(
     for key, array in iter_arrays(path, layout=layout):
         check_magnitude(array, path=path, item=key)
         # to_z_up exchanges and negates axes, exact in any float type: the stream keeps the
-        # stored precision (float32 from estimators) and is never widened whole to float64
-        positions = _stored_float(to_z_up(_stored_float(array), up_axis))
+        # stored precision (float32 from estimators), is never widened whole to float64, and
+        # is turned in place (the array was just read for this stream alone)
+        positions = _z_up_in_place(_stored_float(array), up_axis)
+        del array
         session, subject = stream_names(path, key)
         yield Stream(session, subject, positions, str(path), key)
+
+
+def _z_up_in_place(p: np.ndarray, up_axis: str) -> np.ndarray:
+    """:func:`~turn_datasets.skeleton.to_z_up` of ``p`` written into ``p`` itself: the
+    rotation is a signed exchange of axes (read off the unit vectors), so each output axis is
+    one input axis, and only an axis overwritten before it is read is copied (one third of
+    the array for ``y`` and ``-y``, instead of a whole second array)."""
+    rotation = to_z_up(np.eye(3), up_axis)  # row i: where input axis i goes
+    source = [int(np.flatnonzero(rotation[:, j])[0]) for j in range(3)]
+    if not p.flags.writeable or any(np.count_nonzero(rotation[:, j]) != 1 for j in range(3)):
+        return _stored_float(to_z_up(p, up_axis))  # not ours to change, or not an exchange
+    saved: dict[int, np.ndarray] = {}
+    for j in range(3):
+        i = source[j]
+        sign = rotation[i, j]
+        if i == j and sign > 0:
+            continue
+        if any(source[k] == j for k in range(j + 1, 3)):
+            saved[j] = p[..., j].copy()  # still to be read for a later axis
+        column = saved.get(i, p[..., i])
+        if sign > 0:
+            p[..., j] = column
+        else:
+            np.negative(column, out=p[..., j])
+    return p
 
 
 def _stored_float(array: np.ndarray) -> np.ndarray:
