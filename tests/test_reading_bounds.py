@@ -226,3 +226,18 @@ def test_the_in_place_turn_to_z_up_is_to_z_up(up_axis) -> None:
     got = _z_up_in_place(p, up_axis)
     assert got is p and got.dtype == np.float32  # no second array
     assert np.array_equal(got, want)
+
+
+@pytest.mark.parametrize("command", ["detect", "predict"])
+def test_the_magnitude_check_comes_before_the_up_axis_inference(tmp_path, capsys, command) -> None:
+    p = walking().astype(np.float64)
+    p[100, 0, 2] = 1e300  # the pelvis, which the inference reads
+    path = tmp_path / "home.npz"
+    np.savez(path, P01=p)
+    args = [command, path, "--layout", "h36m17", "--out", tmp_path / "o.csv"]
+    if command == "detect":
+        args += ["--fps", "30"]  # no --up-axis: auto
+    code, _, err = run(eval_cli, "turn-eval", args, capsys)
+    line = [x for x in err.strip().splitlines() if "error" in x]
+    assert code == EXIT_BAD_INPUT and "Traceback" not in err, err
+    assert len(line) == 1 and f"{path}, P01: positions hold a coordinate of 1e+300" in line[0]
