@@ -55,7 +55,8 @@ The rule, per sequence
    jitter: a standstill of 0.3 s between two smooth turns in place shows, and so do
    69_19's shorter pauses, before which the real turns slow down. Walking on, two turns in
    quick succession never bring the stride rate near a standstill: a dip of
-   ``walking_dip_deg_s`` (25 °/s) below the peaks on both sides splits them. A slowing that does not
+   ``walking_dip_deg_s`` (25 °/s) below the peaks on both sides, to at most half the lower
+   peak, splits them. A slowing that does not
    come near a standstill (69_17's first 182° turn slows to 13 °/s halfway) is one turn:
    Shah et al. (2021), on merged and discrete turns, count a hesitation inside a turn as part of
    it, and turns apart only when the body stops.
@@ -540,6 +541,13 @@ def _stride_frames(
     return lag if corr >= _MIN_STRIDE_CORRELATION and half < 0.0 else default
 
 
+#: Walking, a valley splits turning only where the stride rate falls to at most this share of
+#: the lower peak beside it: a turn shorter than the stride has a ragged top (its rate over a
+#: stride ripples with the steps, down to about 0.7 of its peak), two turns in quick
+#: succession a valley of 0.06-0.35 of their peaks on the synthetic sessions.
+_WALKING_VALLEY_OF_PEAK = 0.5
+
+
 def _walking_frames(gait: np.ndarray | None, guess: int) -> np.ndarray | None:
     """Frames that walk: the knees' fore-aft swing (:func:`_knee_gait`) has a running r.m.s.
     over a stride (``guess`` frames) of at least half a hip width. None without knees."""
@@ -613,16 +621,17 @@ def _valleys(x: np.ndarray, walking: np.ndarray, heading: np.ndarray, p: MinerPa
     """Where one run of turning (rate ``x``, one way) splits: deepest valley first, then
     within each side. A valley splits where the rate falls to ``pause_speed_deg_s`` (a
     standstill) or, walking, dips by ``walking_dip_deg_s`` below the peaks on both sides
-    (two turns in quick succession while walking on, whose stride rate never stops), and
-    each side turns by ``min_turn_deg``."""
+    (two turns in quick succession while walking on, whose stride rate never stops) to at
+    most half the lower peak, and each side turns by ``min_turn_deg``."""
     if x.shape[0] < 5:
         return []
     found, _ = signal.find_peaks(-x)
     best = None
     for v in found[np.argsort(x[found], kind="stable")]:
         if x[v] > p.pause_speed_deg_s:
-            dip = min(float(x[:v].max()), float(x[v:].max())) - x[v]
-            if not (walking[v] and dip >= p.walking_dip_deg_s):
+            peak = min(float(x[:v].max()), float(x[v:].max()))
+            dip = peak - x[v] >= p.walking_dip_deg_s and x[v] <= _WALKING_VALLEY_OF_PEAK * peak
+            if not (walking[v] and dip):
                 continue
         if min(heading[v] - heading[0], heading[-1] - heading[v]) >= p.min_turn_deg:
             best = int(v)
