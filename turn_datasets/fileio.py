@@ -94,7 +94,7 @@ def check_output_path(path: str | os.PathLike[str], *, option: str = "--out") ->
     /dev/null`` leaves every process on the machine without a null device), so such a path
     is refused. So is a symbolic link, dangling or not: replacing it would break the link
     while its target kept the old content, and writing through it would write wherever it
-    points; the message names its target, which the user may give instead. A missing path,
+    points; the message names its target, so the user may give that. A missing path,
     or one that cannot be examined (a folder without permission), is left to the write.
 
     Raises
@@ -115,9 +115,7 @@ def check_output_path(path: str | os.PathLike[str], *, option: str = "--out") ->
             kind += f" to {os.readlink(target)}"
         except OSError:
             pass
-        hint = "give the file it points to, or another path"
-    else:
-        hint = f"choose another {option}"
+    hint = f"choose another {option}"
     raise TurnbenchError(
         f"is {kind}, not a regular file: refusing to replace it", file=str(target), hint=hint
     )

@@ -378,10 +378,16 @@ def _read_plain(
 
 
 def _read_table(
-    path: str | os.PathLike[str], *, what: str, numeric_columns: Sequence[str] = _NUMERIC
+    path: str | os.PathLike[str],
+    *,
+    what: str,
+    numeric_columns: Sequence[str] = _NUMERIC,
+    allow_no_rows: bool = False,
 ) -> _Table:
     """Read a CSV as :class:`_Table`; ``numeric_columns`` are parsed as numbers by the C
-    parser when every cell of them is a finite number (else :func:`_numbers` parses them)."""
+    parser when every cell of them is a finite number (else :func:`_numbers` parses them).
+    A header without rows is refused unless ``allow_no_rows`` (a detector that found no
+    turns writes one)."""
     name = os.fspath(path)
     text = _one_newline(_read_text(name, what=what), name, what=what)
     if not text or text.isspace():  # blank (strip would copy the whole text to say so)
@@ -400,7 +406,7 @@ def _read_table(
         else _read_plain(text, name, delimiter, numeric_columns)
     )
     table.ascii = text.isascii()
-    if table.lines.size == 0:
+    if table.lines.size == 0 and not allow_no_rows:
         raise TurnbenchError(
             f"empty {what} file: a header on line {table.header_line} and no rows", file=name
         )

@@ -58,6 +58,9 @@ __all__ = [
 ]
 
 _UNIT = ("session", "subject")
+#: The detections' required and optional numeric columns; an optional one may be empty.
+_DETECTION_NUMBERS = tuple(c for c, t in DETECTION_REQUIRED.items() if t == "float64")
+_OPTIONAL_NUMBERS = tuple(c for c, t in DETECTION_OPTIONAL.items() if t != "str")
 
 
 def _texts(frame: pd.DataFrame, col: str) -> np.ndarray:
@@ -318,9 +321,7 @@ def _checked_detections(
     _set_texts(out, _UNIT)
     pairs = _Pairs.of(out)
     _check_unit_names(out, what, pairs)
-    _set_floats(
-        out, ("start_s", "end_s", "angle_deg", *(c for c in ("speed_deg_s", "score") if c in out))
-    )
+    _set_floats(out, (*_DETECTION_NUMBERS, *(c for c in _OPTIONAL_NUMBERS if c in out)))
     _check_number(out, what, "start_s")
     _check_number(out, what, "end_s")
     hint = "; angles are magnitudes in degrees, with the sense in direction"
@@ -328,11 +329,36 @@ def _checked_detections(
     if "speed_deg_s" in out:
         _check_number(out, what, "speed_deg_s", high=MAX_SPEED_DEG_S, allow_nan=True)
     if "score" in out:
-        _check_number(out, what, "score", allow_negative=True)
+        out = _scores_given_or_none(out, what)
     if "direction" in out:
         _check_direction(out, what)
     _check_intervals(out, what, _UNIT, "detection", pairs.code)
     return out.reset_index(drop=True).pipe(_keep_attrs, frame), pairs
+
+
+def _scores_given_or_none(out: pd.DataFrame, what: str) -> pd.DataFrame:
+    """The frame with its ``score`` column checked, or without it when every cell is empty.
+
+    ``score`` is optional: a detector without confidences leaves the column empty, which is
+    the same as not having it (no average precision). A score on some rows but not on
+    others cannot rank the detections, so it is refused, naming the first empty row.
+    """
+    score = out["score"].to_numpy(dtype=np.float64)
+    empty = np.isnan(score)
+    if empty.all():
+        return out.drop(columns="score").pipe(_keep_attrs, out)
+    if empty.any():
+        i, count = _first(empty)
+        raise _fail(
+            "score is empty here but given on other rows: give every detection a score "
+            "(to rank them for average precision) or none",
+            out,
+            what,
+            i,
+            count,
+        )
+    _check_number(out, what, "score", allow_negative=True)
+    return out
 
 
 def _keep_attrs(out: pd.DataFrame, source: pd.DataFrame) -> pd.DataFrame:
@@ -389,10 +415,12 @@ def read_detections(path: str | os.PathLike[str]) -> pd.DataFrame:
 
 def _read_detections(path: str | os.PathLike[str]) -> tuple[pd.DataFrame, _Pairs]:
     """:func:`read_detections`, and the rows' (session, subject) pairs."""
-    numeric = ("start_s", "end_s", "angle_deg", "speed_deg_s", "score")
-    table = _read_table(path, what="detections", numeric_columns=numeric)
+    numeric = (*_DETECTION_NUMBERS, *_OPTIONAL_NUMBERS)
+    # A detector that finds no turn (a still person, a video with nobody in it) writes the
+    # header alone: zero detections, scored as such.
+    table = _read_table(path, what="detections", numeric_columns=numeric, allow_no_rows=True)
     _require(table, list(DETECTION_REQUIRED), what="the detections file")
-    frame = _frame_of(table, numeric, allow_empty=("speed_deg_s",))
+    frame = _frame_of(table, numeric, allow_empty=_OPTIONAL_NUMBERS)
     return _checked_detections(frame, what=table.path)
 
 

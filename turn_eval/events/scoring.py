@@ -102,6 +102,13 @@ Progress = Callable[[Iterable[np.ndarray], int], Iterable[np.ndarray]]
 Frame: TypeAlias = pd.DataFrame | str | os.PathLike[str]
 
 
+#: What a run without detections says (in the Markdown and on stderr): "–" is not a zero.
+NO_DETECTIONS = (
+    "No detections: recall is 0 and precision is undefined (no detection to count as right "
+    "or wrong), shown as – and null."
+)
+
+
 @dataclass(frozen=True)
 class EventScores:
     """The result of :func:`score_events`.
@@ -716,6 +723,8 @@ def score_events(
     det, det_unit, n_dropped = drop_unknown(
         det, units, ignore_unknown=ignore_unknown, warn=warn, pairs=det_pairs
     )
+    if det.shape[0] == 0 and warn is not None:
+        warn(NO_DETECTIONS[0].lower() + NO_DETECTIONS[1:])
 
     overlaps = overlapping_pairs(det, det_unit, ref, ref_unit)
     events = categorize_events(det, det_unit, ref, ref_unit, iou=iou, overlaps=overlaps)
