@@ -120,3 +120,59 @@ def test_what_detect_writes_for_a_detector_without_optional_columns_is_scored(
     assert code == 0, err
     # The detector's one turn is 10.5-11.5 s: IoU 1/2 with the turn at 10-12 s.
     assert (doc["overall"]["tp"], doc["overall"]["fp"], doc["overall"]["fn"]) == (1, 0, 2)
+
+
+def _chain(n: int) -> tuple[pd.DataFrame, pd.DataFrame, np.ndarray]:
+    """``n`` reference turns [2k, 2k + 2] and ``n`` detections [2k + 1, 2k + 3] of one unit:
+    each detection overlaps two turns by 1 s (IoU 1/3), so at --iou 0.3 every pair is
+    eligible and all 2n intervals are one connected component."""
+    k = np.arange(n, dtype=np.float64)
+    ref = pd.DataFrame({"start_s": 2 * k, "end_s": 2 * k + 2})
+    det = pd.DataFrame({"start_s": 2 * k + 1, "end_s": 2 * k + 3})
+    return det, ref, np.zeros(n, dtype=np.int64)
+
+
+def test_matching_memory_grows_with_the_pairs_not_rows_times_columns():
+    import tracemalloc
+
+    from turn_eval.events.matching import categorize_events
+
+    n = 4000  # a dense n x n weight matrix and its pair index: 256 MB
+    det, ref, unit = _chain(n)
+    tracemalloc.start()
+    try:
+        events = categorize_events(det, unit, ref, unit, iou=0.3)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    # Every detection matched (d_k with r_k, or with r_k+1 for all k: n pairs either way).
+    assert (events["kind"] == "TP").sum() == n
+    assert events.loc[events["kind"] == "TP", "iou"].sum() == pytest.approx(n / 3)
+    assert peak < 32e6, f"{peak / 1e6:.0f} MB"
+
+
+def test_sparse_matching_equals_a_dense_assignment_on_a_long_component():
+    # scipy's dense Hungarian solver on the same weights, as the rule states them: the same
+    # number of pairs and the same total IoU (ties may pick other pairs).
+    from scipy.optimize import linear_sum_assignment
+
+    from turn_eval.events.matching import categorize_events, eligible_pairs, overlapping_pairs
+
+    rng = np.random.default_rng(5)
+    n = 300
+    ref_start = np.cumsum(rng.uniform(0.1, 2.0, n) + 1.0)
+    ref = pd.DataFrame({"start_s": ref_start, "end_s": ref_start + rng.uniform(0.5, 1.0, n)})
+    det_start = np.sort(ref_start + rng.uniform(-1.0, 1.0, n))
+    det_end = np.minimum(det_start + rng.uniform(0.3, 1.5, n), np.append(det_start[1:], np.inf))
+    det = pd.DataFrame({"start_s": det_start, "end_s": det_end})
+    unit = np.zeros(n, dtype=np.int64)
+    for iou in (0.1, 0.3, 0.5):
+        pairs = eligible_pairs(overlapping_pairs(det, unit, ref, unit), iou=iou)
+        weight = np.zeros((n, n))
+        weight[pairs["det_row"], pairs["ref_row"]] = n + 1.0 + pairs["iou"].to_numpy()
+        a, b = linear_sum_assignment(weight, maximize=True)
+        chosen = weight[a, b] > 0
+        events = categorize_events(det, unit, ref, unit, iou=iou)
+        tp = events[events["kind"] == "TP"]
+        assert tp.shape[0] == chosen.sum()
+        assert tp["iou"].sum() == pytest.approx((weight[a, b][chosen] - n - 1.0).sum(), abs=1e-9)
