@@ -176,3 +176,40 @@ def test_sparse_matching_equals_a_dense_assignment_on_a_long_component():
         tp = events[events["kind"] == "TP"]
         assert tp.shape[0] == chosen.sum()
         assert tp["iou"].sum() == pytest.approx((weight[a, b][chosen] - n - 1.0).sum(), abs=1e-9)
+
+
+@pytest.mark.parametrize("duration", ["1", "1e-9"])
+def test_a_turn_past_its_sessions_duration_is_refused_before_any_work(
+    tmp_path, ref, capsys, duration
+):
+    # Turns up to 12 s in a session said to last 1 s (or 1e-9 s) gave thousands (or 1e14)
+    # of turns per hour, after the bootstrap.
+    det = tmp_path / "det.csv"
+    det.write_text("session,subject,start_s,end_s,angle_deg\ns1,P1,0,2,80\n")
+    sessions = tmp_path / "sessions.csv"
+    sessions.write_text(f"session,subject,duration_s\ns1,P1,{duration}\ns2,P2,3600\n")
+    args = ["score-events", det, "-r", ref, "--sessions", sessions, "--bootstrap", "200"]
+    code, out, err = _run(args, capsys)
+    assert code == EXIT_BAD_INPUT and out == ""
+    assert f"{ref}:2: end_s 2 is past the end of session 's1', subject 'P1'" in err
+    assert f"duration_s in {sessions} is {float(duration):g} (1 more row like it)" in err
+    assert "bootstrap" not in err  # refused before the resampling started
+
+
+def test_a_detection_past_its_sessions_duration_is_refused(tmp_path, ref, capsys):
+    det = tmp_path / "det.csv"
+    det.write_text("session,subject,start_s,end_s,angle_deg\ns1,P1,0,2,80\ns2,P2,50,60.5,80\n")
+    sessions = tmp_path / "sessions.csv"
+    sessions.write_text("session,subject,duration_s\ns1,P1,12\ns2,P2,60.0005\n")
+    code, _, err = _run(["score-events", det, "-r", ref, "--sessions", sessions], capsys)
+    assert code == EXIT_BAD_INPUT
+    assert f"{det}:3: end_s 60.5 is past the end of session 's2', subject 'P2'" in err
+    # Within a millisecond of the end (ELAN's resolution) is not past it.
+    det.write_text("session,subject,start_s,end_s,angle_deg\ns2,P2,50,60.001,80\n")
+    code, out, err = _run(
+        ["score-events", det, "-r", ref, "--sessions", sessions, "--format", "json"], capsys
+    )
+    assert code == 0, err
+    rates = json.loads(out)["overall"]["turns_per_hour"]
+    # Reference: 2 turns in 12 s (600/h) and 1 in 60.0005 s; detected: 0 and 1.
+    assert rates["reference_per_hour_mean"] == pytest.approx((600 + 3600 / 60.0005) / 2)

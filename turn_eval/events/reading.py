@@ -51,6 +51,7 @@ __all__ = [
     "check_event_reference",
     "check_context",
     "check_sessions",
+    "check_within_durations",
     "Units",
     "known_units",
     "units_of",
@@ -544,6 +545,38 @@ def read_sessions(path: str | os.PathLike[str]) -> pd.DataFrame:
     """Read and validate a ``sessions.csv`` (:func:`check_sessions`)."""
     table = _read_table(path, what="sessions", numeric_columns=("duration_s",))
     return check_sessions(_frame_of(table, ("duration_s",)), what=table.path)
+
+
+#: How far past its session's annotated duration a turn may end (seconds): ELAN's time
+#: resolution, a millisecond, so a turn ending on the last annotated instant is not refused.
+DURATION_TOLERANCE_S = 1e-3
+
+
+def check_within_durations(
+    frame: pd.DataFrame, unit: np.ndarray, duration: np.ndarray, *, what: str, sessions: str
+) -> None:
+    """Refuse a row (a turn or a detection) that ends after its unit's annotated duration.
+
+    ``unit`` is each row's unit number, ``duration`` each unit's duration in seconds (from
+    ``sessions``, the file named in the message). Turns per hour divide by the duration:
+    a session of 1 s holding a 480 s turn gives thousands of turns per hour, so the row is
+    an error naming its file and line, not a rate.
+    """
+    end = frame["end_s"].to_numpy(dtype=np.float64)
+    limit = duration[np.asarray(unit, dtype=np.int64)] + DURATION_TOLERANCE_S
+    past = end > limit
+    if past.any():
+        i, count = _first(past)
+        u = int(unit[i])
+        raise _fail(
+            f"end_s {end[i]:g} is past the end of session {frame['session'].iat[i]!r}, "
+            f"subject {frame['subject'].iat[i]!r}: its duration_s in {sessions} is "
+            f"{duration[u]:g}",
+            frame,
+            what,
+            i,
+            count,
+        )
 
 
 @dataclass(frozen=True)

@@ -62,6 +62,7 @@ from turn_eval.events.reading import (
     _units_of_pairs,
     check_context,
     check_sessions,
+    check_within_durations,
     drop_unknown,
     pair_codes,
     read_context,
@@ -478,13 +479,9 @@ def _matched_by_group(
     return matched, pair_stats
 
 
-def _rates(
-    units: Units,
-    ref_unit: np.ndarray,
-    det_unit: np.ndarray,
-    sessions: pd.DataFrame,
-) -> tuple[pd.DataFrame, dict[str, Any]]:
-    """Turns per hour per (session, subject), reference and detected, and their summary."""
+def _unit_durations(units: Units, sessions: pd.DataFrame) -> np.ndarray:
+    """Each unit's annotated duration (seconds) from ``sessions``; a unit the reference
+    annotates without one is an error naming the sessions file."""
     duration = np.full(len(units), np.nan)
     codes = units.codes(sessions)
     known = codes >= 0
@@ -498,6 +495,17 @@ def _rates(
             + (f" ({lacking.size - 1} more like it)" if lacking.size > 1 else ""),
             file=sessions.attrs.get("path", "sessions"),
         )
+    return duration
+
+
+def _rates(
+    units: Units,
+    ref_unit: np.ndarray,
+    det_unit: np.ndarray,
+    duration: np.ndarray,
+) -> tuple[pd.DataFrame, dict[str, Any]]:
+    """Turns per hour per (session, subject), reference and detected, and their summary
+    (``duration``: each unit's, :func:`_unit_durations`)."""
     n_ref = np.bincount(ref_unit, minlength=len(units))
     n_det = np.bincount(det_unit, minlength=len(units))
     hours = duration / 3600.0
@@ -725,6 +733,14 @@ def score_events(
     )
     if det.shape[0] == 0 and warn is not None:
         warn(NO_DETECTIONS[0].lower() + NO_DETECTIONS[1:])
+    duration = None
+    if ses is not None:
+        # Before any work: a turn past its session's end means the durations (or the times)
+        # are wrong, and every rate would be too.
+        duration = _unit_durations(units, ses)
+        where = str(ses.attrs.get("path", "sessions"))
+        check_within_durations(ref, ref_unit, duration, what="reference", sessions=where)
+        check_within_durations(det, det_unit, duration, what="detections", sessions=where)
 
     overlaps = overlapping_pairs(det, det_unit, ref, ref_unit)
     events = categorize_events(det, det_unit, ref, ref_unit, iou=iou, overlaps=overlaps)
@@ -746,8 +762,8 @@ def score_events(
     entry = _Entries(partitions, sums, matched, pair_stats, distributions)
     overall = entry(0, 0)
     rates = None
-    if ses is not None:
-        rates, overall["turns_per_hour"] = _rates(units, ref_unit, det_unit, ses)
+    if duration is not None:
+        rates, overall["turns_per_hour"] = _rates(units, ref_unit, det_unit, duration)
     curves: dict[str, dict[str, np.ndarray]] | None = None
     if "score" in det:
         ap = average_precision(det, det_unit, ref, ref_unit, ious=AP_IOUS, overlaps=overlaps)
