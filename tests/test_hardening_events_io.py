@@ -213,3 +213,51 @@ def test_a_detection_past_its_sessions_duration_is_refused(tmp_path, ref, capsys
     rates = json.loads(out)["overall"]["turns_per_hour"]
     # Reference: 2 turns in 12 s (600/h) and 1 in 60.0005 s; detected: 0 and 1.
     assert rates["reference_per_hour_mean"] == pytest.approx((600 + 3600 / 60.0005) / 2)
+
+
+def _stray_quote(path: Path, header: str, row: str, n: int, *, at: int = 3) -> int:
+    """A CSV of ``n`` rows (``row`` formatted with the row number) over 128 KiB, with a
+    quote opened and never closed in row ``at``; returns that row's line number."""
+    rows = [row.format(i=i, t=2 * i) for i in range(n)]
+    rows[at] = rows[at].replace(",", ',"', 1)
+    path.write_text(header + "\n" + "\n".join(rows) + "\n")
+    assert path.stat().st_size > 131072
+    return at + 2
+
+
+def _field_limit_line(code: int, out: str, err: str, path: Path, line: int) -> None:
+    assert code == EXIT_BAD_INPUT and out == "", err
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    assert f"{path}:{line}: a field runs on past 131,072 characters from this line" in err
+
+
+def test_a_stray_quote_in_a_large_predictions_file_is_one_line(tmp_path, capsys):
+    ref = tmp_path / "ref.csv"
+    ref.write_text("clip_id,angle_deg\n" + "".join(f"c{i:06d},90\n" for i in range(12000)))
+    pred = tmp_path / "pred.csv"
+    line = _stray_quote(pred, "clip_id,angle_deg", "c{i:06d},92", 12000)
+    _field_limit_line(*_run(["score", pred, "-r", ref], capsys), pred, line)
+    _field_limit_line(*_run(["compare", ref, pred, "--reference", ref], capsys), pred, line)
+    _field_limit_line(*_run(["score", ref, "-r", pred], capsys), pred, line)
+
+
+@pytest.mark.parametrize("which", ["detections", "reference", "context", "sessions"])
+def test_a_stray_quote_in_any_score_events_file_is_one_line(tmp_path, capsys, which):
+    n = 9000
+    files = {
+        "detections": ("session,subject,start_s,end_s,angle_deg", "s1,P1,{t},{t}.5,90"),
+        "reference": ("session,subject,start_s,end_s,angle_deg", "s1,P1,{t},{t}.5,90"),
+        "context": ("session,subject,start_s,end_s,scenario,location", "s1,P1,{t},{t}.5,x,y"),
+        "sessions": ("session,subject,duration_s", "s{i},P1,100000"),
+    }
+    paths = {}
+    line = 0
+    for name, (header, row) in files.items():
+        paths[name] = tmp_path / f"{name}.csv"
+        if name == which:
+            line = _stray_quote(paths[name], header, row, n)
+        else:
+            paths[name].write_text(header + "\n" + row.format(i=1, t=2) + "\n")
+    args = ["score-events", paths["detections"], "-r", paths["reference"]]
+    args += ["--context", paths["context"], "--sessions", paths["sessions"]]
+    _field_limit_line(*_run(args, capsys), paths[which], line)
