@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from test_detect import stream
+from test_detect import WALK_TURN_WALK, stream
 
 from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
 from turn_datasets.synthetic import mocap as sm
@@ -261,3 +261,22 @@ def test_a_stray_quote_in_any_score_events_file_is_one_line(tmp_path, capsys, wh
     args = ["score-events", paths["detections"], "-r", paths["reference"]]
     args += ["--context", paths["context"], "--sessions", paths["sessions"]]
     _field_limit_line(*_run(args, capsys), paths[which], line)
+
+
+def test_a_symlinked_alias_keeps_the_real_files_session_and_a_dangling_link_is_named(
+    tmp_path, capsys
+):
+    folder = tmp_path / "streams"
+    folder.mkdir()
+    np.savez(folder / "pair01_day1.npz", P1=stream(WALK_TURN_WALK))
+    (folder / "alias.npz").symlink_to("pair01_day1.npz")  # sorts before the real file
+    (folder / "x.npz").symlink_to("gone.npz")
+    out = tmp_path / "det.csv"
+    args = ["detect", folder, "--layout", "h36m17", "--up-axis", "z", "--fps", "30"]
+    code, _, err = _run([*args, "--out", out], capsys)
+    assert code == 0, err
+    detections = pd.read_csv(out)
+    assert detections.shape[0] == 1  # the walk-turn-walk's one turn, read once
+    assert detections["session"].tolist() == ["pair01_day1"]
+    assert f"skipped {folder / 'alias.npz'}: the same file as {folder / 'pair01_day1.npz'}" in err
+    assert f"skipped {folder / 'x.npz'}: a symbolic link to gone.npz, which does not exist" in err

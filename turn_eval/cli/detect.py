@@ -141,7 +141,11 @@ def detect_command(
         params_from(DetectParams, values), joints=tuple(joints.split(",")), miner=miner
     )
     detector = _load_detector(detector_spec, params)
-    files = stream_files(skeletons)  # first: an AlphaPose JSON is refused with its reason
+    passed_over: list[tuple[Path, str]] = []
+    # first: an AlphaPose JSON is refused with its reason
+    files = stream_files(skeletons, skipped=passed_over)
+    for path, why in passed_over:
+        info(f"skipped {path}: {why}")
     layout = source.layout(need_up_axis=True)
     check_not_input(out, files)
     mpath = manifest_path(out)
