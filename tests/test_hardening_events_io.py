@@ -280,3 +280,39 @@ def test_a_symlinked_alias_keeps_the_real_files_session_and_a_dangling_link_is_n
     assert detections["session"].tolist() == ["pair01_day1"]
     assert f"skipped {folder / 'alias.npz'}: the same file as {folder / 'pair01_day1.npz'}" in err
     assert f"skipped {folder / 'x.npz'}: a symbolic link to gone.npz, which does not exist" in err
+
+
+def _plots(tmp_path: Path, rows: list[tuple[str, str]], capsys):
+    import warnings
+
+    ref = tmp_path / "ref.csv"
+    ref.write_text(
+        "session,subject,start_s,end_s,angle_deg\n" + "".join(f"{s},{p},0,2,90\n" for s, p in rows)
+    )
+    out = tmp_path / "ev"
+    args = ["score-events", ref, "-r", ref, "--bootstrap", "0", "--out-dir", out, "--plots"]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        code, _, err = _run(args, capsys)
+    assert code == 0, err
+    return out, err, [str(w.message) for w in caught]
+
+
+def test_timelines_of_long_session_names_get_short_unique_file_names(tmp_path, capsys):
+    long_a, long_b = "S" * 299 + "a", "S" * 299 + "b"
+    out, _, _ = _plots(tmp_path, [(long_a, "P1"), (long_b, "P1")], capsys)
+    names = sorted(p.name for p in (out / "timelines").iterdir())
+    assert len(names) == 2 and all(len(n) <= 124 for n in names)
+    assert names[0].startswith("0000_SSSS") and names[1].startswith("0001_SSSS")
+    assert names[0][-17:-4] != names[1][-17:-4]  # the hashes of the full names differ
+
+
+def test_names_the_font_cannot_draw_are_one_line_of_ours_not_matplotlibs(tmp_path, capsys):
+    out, err, caught = _plots(tmp_path, [("会话一", "受试者")], capsys)
+    assert [m for m in caught if "Glyph" in m] == []
+    assert len(list((out / "timelines").iterdir())) == 1
+    font_lines = [line for line in err.splitlines() if "cannot draw" in line]
+    assert len(font_lines) <= 1  # one line of ours (none where the font has the glyphs)
+    if font_lines:
+        assert font_lines[0].startswith("warning: the figures' font")
+        assert "会话一受试者" in font_lines[0]

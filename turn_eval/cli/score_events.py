@@ -188,7 +188,7 @@ def _write_out_dir(scores, markdown: str, frame, out_dir: Path, *, plots: bool) 
         if plots:
             from turn_eval.events.plots import write_event_plots
 
-            figures = write_event_plots(scores, stage)
+            figures = write_event_plots(scores, stage, warn=warn)
             names += [str(p.relative_to(stage)) for p in figures]
     written = [out_dir / name for name in names]
     n_timelines = sum(1 for p in written if p.parent.name == TIMELINE_DIR)
