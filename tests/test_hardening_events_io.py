@@ -316,3 +316,21 @@ def test_names_the_font_cannot_draw_are_one_line_of_ours_not_matplotlibs(tmp_pat
     if font_lines:
         assert font_lines[0].startswith("warning: the figures' font")
         assert "会话一受试者" in font_lines[0]
+
+
+def test_a_name_a_spreadsheet_takes_for_a_formula_is_written_verbatim_and_scores(tmp_path, capsys):
+    # The decision on formula injection: names are data, written as they are (an apostrophe
+    # would make the session differ from the reference's, and score-events refuse it).
+    np.savez(tmp_path / "=1+1.npz", **{"@P1": stream(WALK_TURN_WALK)})
+    det = tmp_path / "det.csv"
+    args = ["detect", tmp_path / "=1+1.npz", "--layout", "h36m17", "--up-axis", "z"]
+    code, _, err = _run([*args, "--fps", "30", "--out", det], capsys)
+    assert code == 0, err
+    line = det.read_text().splitlines()[1]
+    assert line.startswith("=1+1,@P1,")
+    ref = tmp_path / "ref.csv"
+    start, end = line.split(",")[2:4]
+    ref.write_text(f"session,subject,start_s,end_s,angle_deg\n=1+1,@P1,{start},{end},90\n")
+    code, doc, err = _score(det, ref, capsys)
+    assert code == 0, err
+    assert doc["overall"]["tp"] == 1
