@@ -179,11 +179,11 @@ def test_sparse_matching_equals_a_dense_assignment_on_a_long_component():
 
 
 @pytest.mark.parametrize("duration", ["1", "1e-9"])
-def test_a_turn_past_its_sessions_duration_is_refused_before_any_work(
+def test_turns_longer_than_their_sessions_duration_are_refused_before_any_work(
     tmp_path, ref, capsys, duration
 ):
-    # Turns up to 12 s in a session said to last 1 s (or 1e-9 s) gave thousands (or 1e14)
-    # of turns per hour, after the bootstrap.
+    # Turns of 2 s in a session said to last 1 s (or 1e-9 s) gave thousands (or 1e14) of
+    # turns per hour, after the bootstrap.
     det = tmp_path / "det.csv"
     det.write_text("session,subject,start_s,end_s,angle_deg\ns1,P1,0,2,80\n")
     sessions = tmp_path / "sessions.csv"
@@ -191,28 +191,33 @@ def test_a_turn_past_its_sessions_duration_is_refused_before_any_work(
     args = ["score-events", det, "-r", ref, "--sessions", sessions, "--bootstrap", "200"]
     code, out, err = _run(args, capsys)
     assert code == EXIT_BAD_INPUT and out == ""
-    assert f"{ref}:2: end_s 2 is past the end of session 's1', subject 'P1'" in err
-    assert f"duration_s in {sessions} is {float(duration):g} (1 more row like it)" in err
+    assert (
+        f"{ref}:2: the turns of session 's1', subject 'P1' up to this one last 2 s, longer "
+        f"than its annotated duration_s in {sessions}, {float(duration):g} s (1 more row like it)"
+    ) in err
     assert "bootstrap" not in err  # refused before the resampling started
 
 
-def test_a_detection_past_its_sessions_duration_is_refused(tmp_path, ref, capsys):
+def test_detections_longer_than_their_sessions_duration_are_refused(tmp_path, ref, capsys):
     det = tmp_path / "det.csv"
     det.write_text("session,subject,start_s,end_s,angle_deg\ns1,P1,0,2,80\ns2,P2,50,60.5,80\n")
     sessions = tmp_path / "sessions.csv"
-    sessions.write_text("session,subject,duration_s\ns1,P1,12\ns2,P2,60.0005\n")
+    # duration_s is how long was annotated, not where the time line ends: the reference's
+    # turns (4 s and 3 s in all) fit, wherever they lie.
+    sessions.write_text("session,subject,duration_s\ns1,P1,12\ns2,P2,10\n")
     code, _, err = _run(["score-events", det, "-r", ref, "--sessions", sessions], capsys)
     assert code == EXIT_BAD_INPUT
-    assert f"{det}:3: end_s 60.5 is past the end of session 's2', subject 'P2'" in err
-    # Within a millisecond of the end (ELAN's resolution) is not past it.
+    assert f"{det}:3: the turns of session 's2', subject 'P2' up to this one last 10.5 s" in err
+    # Within a millisecond (ELAN's resolution) of the duration is not longer than it.
     det.write_text("session,subject,start_s,end_s,angle_deg\ns2,P2,50,60.001,80\n")
     code, out, err = _run(
         ["score-events", det, "-r", ref, "--sessions", sessions, "--format", "json"], capsys
     )
     assert code == 0, err
     rates = json.loads(out)["overall"]["turns_per_hour"]
-    # Reference: 2 turns in 12 s (600/h) and 1 in 60.0005 s; detected: 0 and 1.
-    assert rates["reference_per_hour_mean"] == pytest.approx((600 + 3600 / 60.0005) / 2)
+    # Reference: 2 turns in 12 s (600/h) and 1 in 10 s (360/h); detected: 0 and 1.
+    assert rates["reference_per_hour_mean"] == pytest.approx((600 + 360) / 2)
+    assert rates["detected_per_hour_mean"] == pytest.approx((0 + 360) / 2)
 
 
 def _stray_quote(path: Path, header: str, row: str, n: int, *, at: int = 3) -> int:

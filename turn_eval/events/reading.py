@@ -547,34 +547,52 @@ def read_sessions(path: str | os.PathLike[str]) -> pd.DataFrame:
     return check_sessions(_frame_of(table, ("duration_s",)), what=table.path)
 
 
-#: How far past its session's annotated duration a turn may end (seconds): ELAN's time
-#: resolution, a millisecond, so a turn ending on the last annotated instant is not refused.
+#: How much longer than its session's annotated duration the turns of a (session, subject)
+#: may last in all (seconds): ELAN's time resolution, a millisecond, so turns that fill the
+#: whole annotated time are not refused for rounding.
 DURATION_TOLERANCE_S = 1e-3
 
 
 def check_within_durations(
     frame: pd.DataFrame, unit: np.ndarray, duration: np.ndarray, *, what: str, sessions: str
 ) -> None:
-    """Refuse a row (a turn or a detection) that ends after its unit's annotated duration.
+    """Refuse turns (or detections) of a unit that last longer in all than its annotated
+    duration.
 
-    ``unit`` is each row's unit number, ``duration`` each unit's duration in seconds (from
-    ``sessions``, the file named in the message). Turns per hour divide by the duration:
-    a session of 1 s holding a 480 s turn gives thousands of turns per hour, so the row is
-    an error naming its file and line, not a rate.
+    ``unit`` is each row's unit number, ``duration`` each unit's ``duration_s`` (from
+    ``sessions``, the file named in the message). ``duration_s`` is how long the unit was
+    annotated, not where its time line ends (the annotated span may start after 0), so the
+    test is the one that holds either way: the turns of a unit do not overlap, so together
+    they fit in its annotated time. Turns per hour divide by the duration: a session of 1 s
+    holding a 480 s turn gave thousands of turns per hour. The error names the row, in time
+    order, at which the running total first exceeds the duration.
     """
-    end = frame["end_s"].to_numpy(dtype=np.float64)
-    limit = duration[np.asarray(unit, dtype=np.int64)] + DURATION_TOLERANCE_S
-    past = end > limit
-    if past.any():
-        i, count = _first(past)
-        u = int(unit[i])
+    if frame.shape[0] == 0:
+        return
+    start = frame["start_s"].to_numpy(dtype=np.float64)
+    length = frame["end_s"].to_numpy(dtype=np.float64) - start
+    unit = np.asarray(unit, dtype=np.int64)
+    order = np.lexsort((start, unit))
+    total = np.cumsum(length[order])
+    # the running total within each unit: subtract the total before the unit's first row
+    first = np.r_[True, unit[order][1:] != unit[order][:-1]]
+    offset = np.maximum.accumulate(np.where(first, np.arange(order.size), 0))
+    before = np.where(offset > 0, total[offset - 1], 0.0)
+    running = np.empty_like(total)
+    running[order] = total - before
+    over = running > duration[unit] + DURATION_TOLERANCE_S
+    if over.any():
+        # the first row in time order of the first unit that overflows
+        k = int(order[np.flatnonzero(over[order])[0]])
+        count = int(over.sum())
+        u = int(unit[k])
         raise _fail(
-            f"end_s {end[i]:g} is past the end of session {frame['session'].iat[i]!r}, "
-            f"subject {frame['subject'].iat[i]!r}: its duration_s in {sessions} is "
-            f"{duration[u]:g}",
+            f"the turns of session {frame['session'].iat[k]!r}, subject "
+            f"{frame['subject'].iat[k]!r} up to this one last {running[k]:g} s, longer than "
+            f"its annotated duration_s in {sessions}, {duration[u]:g} s",
             frame,
             what,
-            i,
+            k,
             count,
         )
 

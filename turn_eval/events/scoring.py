@@ -730,8 +730,8 @@ def score_events(
         warn(NO_DETECTIONS[0].lower() + NO_DETECTIONS[1:])
     duration = None
     if ses is not None:
-        # Before any work: a turn past its session's end means the durations (or the times)
-        # are wrong, and every rate would be too.
+        # Before any work: turns that do not fit in their session's annotated time mean the
+        # durations (or the times) are wrong, and every rate would be too.
         duration = _unit_durations(units, ses)
         where = str(ses.attrs.get("path", "sessions"))
         check_within_durations(ref, ref_unit, duration, what="reference", sessions=where)
