@@ -493,6 +493,24 @@ def _unit_durations(units: Units, sessions: pd.DataFrame) -> np.ndarray:
     return duration
 
 
+def _checked_durations(
+    units: Units,
+    sessions: pd.DataFrame,
+    ref: pd.DataFrame,
+    ref_unit: np.ndarray,
+    det: pd.DataFrame,
+    det_unit: np.ndarray,
+) -> np.ndarray:
+    """Each unit's duration (:func:`_unit_durations`), checked before any work: turns that do
+    not fit in their session's annotated time mean the durations (or the times) are wrong,
+    and every rate would be too (:func:`check_within_durations`)."""
+    duration = _unit_durations(units, sessions)
+    where = str(sessions.attrs.get("path", "sessions"))
+    check_within_durations(ref, ref_unit, duration, what="reference", sessions=where)
+    check_within_durations(det, det_unit, duration, what="detections", sessions=where)
+    return duration
+
+
 def _rates(
     units: Units,
     ref_unit: np.ndarray,
@@ -728,14 +746,7 @@ def score_events(
     )
     if det.shape[0] == 0 and warn is not None:
         warn(NO_DETECTIONS[0].lower() + NO_DETECTIONS[1:])
-    duration = None
-    if ses is not None:
-        # Before any work: turns that do not fit in their session's annotated time mean the
-        # durations (or the times) are wrong, and every rate would be too.
-        duration = _unit_durations(units, ses)
-        where = str(ses.attrs.get("path", "sessions"))
-        check_within_durations(ref, ref_unit, duration, what="reference", sessions=where)
-        check_within_durations(det, det_unit, duration, what="detections", sessions=where)
+    duration = None if ses is None else _checked_durations(units, ses, ref, ref_unit, det, det_unit)
 
     overlaps = overlapping_pairs(det, det_unit, ref, ref_unit)
     events = categorize_events(det, det_unit, ref, ref_unit, iou=iou, overlaps=overlaps)
