@@ -131,6 +131,24 @@ def test_staged_folder_refuses_a_destination_that_is_not_a_regular_file(tmp_path
     assert (out / "a.csv").read_text() == "old a\n"  # nothing moved: all or none
 
 
+def test_staged_folder_refuses_a_fifo_that_appears_while_moving_in(tmp_path, monkeypatch):
+    import turn_datasets.fileio as fileio
+
+    out = tmp_path / "o"
+    real_chmod = os.chmod
+
+    def chmod(path, mode, *args, **kwargs):
+        # just before the staged b.csv is renamed into place, someone makes a FIFO there
+        real_chmod(path, mode, *args, **kwargs)
+        if Path(path).name == "b.csv" and not (out / "b.csv").exists():
+            os.mkfifo(out / "b.csv")
+
+    monkeypatch.setattr(fileio.os, "chmod", chmod)
+    with pytest.raises(TurnbenchError, match="FIFO"), staged_dir(out) as stage:
+        (stage / "b.csv").write_text("new b\n")
+    assert stat.S_ISFIFO(os.lstat(out / "b.csv").st_mode)
+
+
 def test_staged_folder_never_writes_through_a_linked_subfolder(tmp_path):
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()

@@ -266,6 +266,7 @@ def _move_in(tmp: Path, target: Path, record: str | None) -> tuple[set[str], dic
         dst = target.joinpath(*PurePosixPath(name).parts)
         dst.parent.mkdir(parents=True, exist_ok=True)
         os.chmod(src, 0o666 & ~_umask())
+        check_output_path(dst, option="--out-dir")  # again: it may have appeared meanwhile
         os.replace(src, dst)
     return set(names), previous
 
