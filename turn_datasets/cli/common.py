@@ -24,7 +24,7 @@ from turn_datasets.errors import GateFailed, TurnbenchError
 from turn_datasets.fileio import check_not_input, check_owned, staged_dir
 from turn_datasets.params import param_fields
 from turn_datasets.render.numbers import counted
-from turn_datasets.skeleton import LAYOUTS, UP_AXES
+from turn_datasets.skeleton import LAYOUTS, UP_AXIS_CHOICES
 
 __all__ = [
     "EXIT_OK",
@@ -320,13 +320,14 @@ def check_out_dir(
 
 
 @contextlib.contextmanager
-def one_run(out_dir: Path, *, what: str, record: str) -> Iterator[Path]:
+def one_run(out_dir: Path, *, what: str, record: str | None = None) -> Iterator[Path]:
     """Yield a staging folder whose files replace ``out_dir``'s together, or none at all.
 
-    The folder holds one run: the run is recorded in ``out_dir/record`` and a file the
-    previous run's record lists that this run did not write is removed, and said on stderr;
-    one the user has changed since is kept, and said too (:func:`staged_dir`). A folder that
-    cannot be written is one line and exit 2 (:func:`writing`).
+    With ``record`` (a command that writes some files in one run and not in another), the
+    folder holds one run: the run is recorded in ``out_dir/record`` and a file the previous
+    run's record lists that this run did not write is removed, and said on stderr; one the
+    user has changed since is kept, and said too (:func:`staged_dir`). Without, nothing is
+    removed. A folder that cannot be written is one line and exit 2 (:func:`writing`).
     """
     removed: list[Path] = []
     kept: list[Path] = []
@@ -359,8 +360,9 @@ def layout_option(help: str, *, dest: str = "layout", **kwargs):
 
 
 def up_axis_option(help: str, **kwargs):
-    """``--up-axis``: the vertical axis of skeleton arrays (converted to z up)."""
-    return click.option("--up-axis", type=click.Choice(UP_AXES), help=help, **kwargs)
+    """``--up-axis``: the vertical axis of skeleton arrays (converted to z up), or ``auto``
+    (inferred per array from the trunk: :mod:`turn_datasets.up_axis`)."""
+    return click.option("--up-axis", type=click.Choice(UP_AXIS_CHOICES), help=help, **kwargs)
 
 
 def params_options(cls: type, *, prefix: str = "", defaults: object | None = None):
