@@ -122,7 +122,9 @@ def detect_command(
     params = replace(
         params_from(DetectParams, values), joints=tuple(joints.split(",")), miner=miner
     )
-    files = stream_files(skeletons, source_format=source.format)  # AlphaPose refused first
+    passed_over: list[tuple[Path, str]] = []
+    # first: an AlphaPose JSON is refused with its reason
+    files = stream_files(skeletons, source_format=source.format, skipped=passed_over)
     if source.format == "mocap":
         if fps_hz is not None:
             raise TurnbenchError(
@@ -135,6 +137,8 @@ def detect_command(
         # the rule's low-pass at this frame rate, refused before any file is read
         check_position_cutoff(miner.position_cutoff_hz, fps_hz)
     detector = MinerRule(params) if detector_spec is None else load_detector(detector_spec)
+    for path, why in passed_over:
+        info(f"skipped {path}: {why}")
     layout = source.layout()
     check_not_input(out, files)
     mpath = manifest_path(out)
