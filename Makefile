@@ -19,7 +19,7 @@ venv-video: $(VSTAMP)
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test,dev]'
+	$(BIN)/python -m pip install --quiet -e '.[test,dev,server]'
 	touch $(STAMP)
 
 $(VSTAMP): pyproject.toml
