@@ -149,3 +149,22 @@ def warm_job(root: str) -> None:
     from turn_eval.server.datadir import open_challenge
 
     reference_of(open_challenge(root))
+
+
+def watch_parent(parent_pid: int, interval_s: float = 1.0) -> None:
+    """A worker's initializer: exit when the server that started it is gone.
+
+    A server killed with SIGKILL cannot stop its pool, and a worker blocked on the job
+    queue would wait for ever; this thread ends it within ``interval_s`` of its parent's
+    death (the parent id changes when the orphan is re-parented).
+    """
+    import os
+    import threading
+    import time
+
+    def watch() -> None:
+        while os.getppid() == parent_pid:
+            time.sleep(interval_s)
+        os._exit(0)
+
+    threading.Thread(target=watch, name="turnbench-parent-watch", daemon=True).start()

@@ -47,6 +47,7 @@ from turn_eval.server.scoring import (
     side_arrays,
     validate_upload,
     warm_job,
+    watch_parent,
 )
 from turn_eval.server.split import PRIVATE, PUBLIC, draw_split
 from turn_eval.server.store import (
@@ -312,7 +313,10 @@ class Scorer:
     def _new_pool(self) -> cf.ProcessPoolExecutor:
         # spawn: the server has threads, and a forked copy of them is unsafe
         return cf.ProcessPoolExecutor(
-            max_workers=self.workers, mp_context=multiprocessing.get_context("spawn")
+            max_workers=self.workers,
+            mp_context=multiprocessing.get_context("spawn"),
+            initializer=watch_parent,
+            initargs=(os.getpid(),),
         )
 
     def _warm(self, pool: cf.ProcessPoolExecutor) -> cf.ProcessPoolExecutor:
