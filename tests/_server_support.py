@@ -59,9 +59,7 @@ def write_predictions(path: Path, ref: pd.DataFrame, *, noise_deg: float, seed: 
     """Predictions: the reference angle plus Gaussian noise, clipped at 0."""
     rng = np.random.default_rng(seed)
     angle = (ref["angle_deg"].to_numpy() + rng.normal(0.0, noise_deg, len(ref))).clip(0.0)
-    pd.DataFrame({"clip_id": ref["clip_id"], "angle_deg": angle.round(2)}).to_csv(
-        path, index=False
-    )
+    pd.DataFrame({"clip_id": ref["clip_id"], "angle_deg": angle.round(2)}).to_csv(path, index=False)
     return path
 
 
@@ -145,6 +143,34 @@ class Served:
         except subprocess.TimeoutExpired:
             self.proc.kill()
             self.proc.wait(timeout=30)
+
+
+def descendants(pid: int) -> set[int]:
+    """The process ids below ``pid`` (its pool's fork server and workers), from ps."""
+    out = subprocess.run(
+        ["ps", "-e", "-o", "pid=,ppid="], capture_output=True, text=True, check=True
+    ).stdout
+    children: dict[int, list[int]] = {}
+    for line in out.splitlines():
+        child, parent = (int(x) for x in line.split())
+        children.setdefault(parent, []).append(child)
+    found: set[int] = set()
+    todo = [pid]
+    while todo:
+        for child in children.get(todo.pop(), []):
+            if child not in found:
+                found.add(child)
+                todo.append(child)
+    return found
+
+
+def alive(pids: set[int]) -> set[int]:
+    """Those of ``pids`` still running (not zombies)."""
+    out = subprocess.run(
+        ["ps", "-e", "-o", "pid=,stat="], capture_output=True, text=True, check=True
+    ).stdout
+    running = {int(p) for p, stat in (line.split() for line in out.splitlines()) if "Z" not in stat}
+    return pids & running
 
 
 def wait_scored(client, url: str, token: str, ids: list[str], timeout_s: float = 120.0) -> dict:

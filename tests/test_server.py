@@ -8,10 +8,7 @@ errors) on the clips the recorded split makes public or private, not by the serv
 from __future__ import annotations
 
 import json
-import signal
 import sqlite3
-import time
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -46,8 +43,11 @@ def _expected(ref: pd.DataFrame, predictions: Path, split: pd.DataFrame, side: s
     on = ref[ref["clip_id"].isin(clips)]
     p = pred.loc[on["clip_id"]].to_numpy()
     r = on["angle_deg"].to_numpy()
-    return {"n": len(on), "accuracy": float(np.mean(_bins(p) == _bins(r))),
-            "mae_deg": float(np.mean(np.abs(p - r)))}
+    return {
+        "n": len(on),
+        "accuracy": float(np.mean(_bins(p) == _bins(r))),
+        "mae_deg": float(np.mean(np.abs(p - r))),
+    }
 
 
 @pytest.fixture(params=DBS)
@@ -105,8 +105,13 @@ def test_whole_flow(challenge, capsys):
             # a malformed upload: 422 with turn-eval score's own line, and nothing counted
             bad = tmp / "bad.csv"
             bad.write_text("clip_id,angle_deg\nclip0000,12\nclip0001,abc\n")
-            r = keep(c.post(f"{url}/api/submissions", headers=bearer(token_a),
-                            files={"file": ("bad.csv", bad.read_bytes(), "text/csv")}))
+            r = keep(
+                c.post(
+                    f"{url}/api/submissions",
+                    headers=bearer(token_a),
+                    files={"file": ("bad.csv", bad.read_bytes(), "text/csv")},
+                )
+            )
             assert r.status_code == 422
             code, _, err = _score_cli(tmp, "bad.csv", capsys)
             assert code == 2
@@ -115,38 +120,62 @@ def test_whole_flow(challenge, capsys):
             # missing clips: the count, never the reference's ids
             part = tmp / "part.csv"
             pd.read_csv(good).iloc[:10].to_csv(part, index=False)
-            r = keep(c.post(f"{url}/api/submissions", headers=bearer(token_a),
-                            files={"file": ("part.csv", part.read_bytes())}))
+            r = keep(
+                c.post(
+                    f"{url}/api/submissions",
+                    headers=bearer(token_a),
+                    files={"file": ("part.csv", part.read_bytes())},
+                )
+            )
             assert r.status_code == 422 and "230 of the reference's 240" in r.json()["detail"]
             assert "clip0239" not in r.text
             # no token, a wrong token, a baseline's non-token
             r = keep(c.post(f"{url}/api/submissions", files={"file": ("g.csv", good.read_bytes())}))
             assert r.status_code == 401
             wrong = token_a[:-2] + ("xy" if not token_a.endswith("xy") else "zz")
-            r = keep(c.post(f"{url}/api/submissions", headers=bearer(wrong),
-                            files={"file": ("g.csv", good.read_bytes())}))
+            r = keep(
+                c.post(
+                    f"{url}/api/submissions",
+                    headers=bearer(wrong),
+                    files={"file": ("g.csv", good.read_bytes())},
+                )
+            )
             assert r.status_code == 401
             # over the 0.05 MiB cap: 413, while streaming (no Content-Length to go by)
             big = b"clip_id,angle_deg\n" + b"x,1\n" * 20_000
 
             def chunks():
                 boundary = b"--tb"
-                yield boundary + b'\r\nContent-Disposition: form-data; name="file"; filename="b.csv"\r\n\r\n'
+                yield (
+                    boundary
+                    + b'\r\nContent-Disposition: form-data; name="file"; filename="b.csv"\r\n\r\n'
+                )
                 for i in range(0, len(big), 4096):
                     yield big[i : i + 4096]
                 yield b"\r\n" + boundary + b"--\r\n"
 
-            r = keep(c.post(f"{url}/api/submissions", content=chunks(),
-                            headers={**bearer(token_a),
-                                     "Content-Type": "multipart/form-data; boundary=tb"}))
+            r = keep(
+                c.post(
+                    f"{url}/api/submissions",
+                    content=chunks(),
+                    headers={**bearer(token_a), "Content-Type": "multipart/form-data; boundary=tb"},
+                )
+            )
             assert r.status_code == 413
             # two good uploads, queued at once
             ids = {}
             for name, path, token in (
-                ("a", good, token_a), ("b", poor, token_b), ("c", near, token_c)
+                ("a", good, token_a),
+                ("b", poor, token_b),
+                ("c", near, token_c),
             ):
-                r = keep(c.post(f"{url}/api/submissions", headers=bearer(token),
-                                files={"file": (f"../../{name}.csv", path.read_bytes())}))
+                r = keep(
+                    c.post(
+                        f"{url}/api/submissions",
+                        headers=bearer(token),
+                        files={"file": (f"../../{name}.csv", path.read_bytes())},
+                    )
+                )
                 assert r.status_code == 202, r.text
                 assert r.json()["status"] == "queued"
                 ids[name] = r.json()["id"]
@@ -167,7 +196,10 @@ def test_whole_flow(challenge, capsys):
             assert got["mae_deg"] == pytest.approx(want["mae_deg"], rel=1e-9)
             lo, hi = got["ci95"]["accuracy"]
             assert lo <= got["accuracy"] <= hi
-            assert set(got["by"]) == {"cohort"} and set(got["by"]["cohort"]["groups"]) == {"HC", "PD"}
+            assert set(got["by"]) == {"cohort"} and set(got["by"]["cohort"]["groups"]) == {
+                "HC",
+                "PD",
+            }
             # per-object permission: B cannot see A's submission or its receipt
             for path in (f"/api/submissions/{ids['a']}", f"/api/receipts/{ids['a']}"):
                 r = keep(c.get(url + path, headers=bearer(token_b)))
@@ -199,10 +231,19 @@ def test_whole_flow(challenge, capsys):
             page = keep(c.get(f"{url}/")).text
             assert "Team A" in page and ">baseline<" in page
             # nothing of the data directory is reachable by URL
-            for path in ("/private/reference.csv", "/reference.csv", "/challenge.json",
-                         "/labels.csv", f"/uploads/{ids['b']}.csv", "/static/reference.csv",
-                         "/api/../private/reference.csv", "/docs", "/openapi.json",
-                         "/private/secret", "/turnbench.db"):
+            for path in (
+                "/private/reference.csv",
+                "/reference.csv",
+                "/challenge.json",
+                "/labels.csv",
+                f"/uploads/{ids['b']}.csv",
+                "/static/reference.csv",
+                "/api/../private/reference.csv",
+                "/docs",
+                "/openapi.json",
+                "/private/secret",
+                "/turnbench.db",
+            ):
                 r = keep(c.get(url + path))
                 assert r.status_code == 404, path
             # closing the phase reveals the private scores, and ranks on them
@@ -232,8 +273,10 @@ def _baseline_file(root: Path) -> str:
         engine = create_engine(url)
         with engine.connect() as conn:
             sid = conn.execute(
-                text("select s.id from submissions s join teams t on t.id = s.team_id "
-                     "where t.is_baseline")
+                text(
+                    "select s.id from submissions s join teams t on t.id = s.team_id "
+                    "where t.is_baseline"
+                )
             ).scalar_one()
         engine.dispose()
         return f"{sid}.csv"

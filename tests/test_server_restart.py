@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import signal
+import time
 
 import pytest
 
@@ -13,8 +14,10 @@ httpx = pytest.importorskip("httpx")
 
 from _server_support import (  # noqa: E402
     Served,
+    alive,
     bearer,
     database,
+    descendants,
     run,
     wait_scored,
     write_predictions,
@@ -55,7 +58,15 @@ def test_kill_9_then_restart_scores_what_was_queued(db, tmp_path, capsys):
                 )
                 assert r.status_code == 202, r.text
                 ids.append(r.json()["id"])
+        assert served.proc is not None
+        workers = descendants(served.proc.pid)
+        assert workers, "the server has no pool processes"
         served.stop(signal.SIGKILL)
+        # the pool does not outlive its server
+        deadline = time.monotonic() + 30
+        while alive(workers) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert not alive(workers)
         before = _statuses(root, capsys)
         assert before["queued"] + before["scoring"] >= 3, before
         # one upload vanishes while the server is down: its scoring fails, alone

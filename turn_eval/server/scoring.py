@@ -155,15 +155,24 @@ def watch_parent(parent_pid: int, interval_s: float = 1.0) -> None:
     """A worker's initializer: exit when the server that started it is gone.
 
     A server killed with SIGKILL cannot stop its pool, and a worker blocked on the job
-    queue would wait for ever; this thread ends it within ``interval_s`` of its parent's
-    death (the parent id changes when the orphan is re-parented).
+    queue would wait for ever; this thread ends it within ``interval_s`` of the server's
+    death (the worker's own parent may be a fork server, so the server is watched by id).
     """
     import os
     import threading
     import time
 
+    def alive() -> bool:
+        try:
+            os.kill(parent_pid, 0)
+        except ProcessLookupError:
+            return False
+        except PermissionError:
+            return True
+        return True
+
     def watch() -> None:
-        while os.getppid() == parent_pid:
+        while alive():
             time.sleep(interval_s)
         os._exit(0)
 

@@ -276,6 +276,18 @@ def _one_line(exc: BaseException) -> str:
     return f"the scorer failed ({type(exc).__name__})"
 
 
+def _worker_context() -> multiprocessing.context.BaseContext:
+    """Where workers come from: a fork server that has imported the scorer once (a pool
+    rebuilt after a crash starts in milliseconds, not in a fresh interpreter's seconds), or
+    a fresh interpreter where there is no fork server. Never a plain fork: the server has
+    threads, and a forked copy of them is unsafe."""
+    if "forkserver" in multiprocessing.get_all_start_methods():
+        context = multiprocessing.get_context("forkserver")
+        context.set_forkserver_preload(["turn_eval.server.scoring"])
+        return context
+    return multiprocessing.get_context("spawn")
+
+
 class Scorer:
     """Scores queued submissions in worker processes, off the request path.
 
@@ -311,10 +323,9 @@ class Scorer:
         self.on_scored: Callable[[], None] = lambda: None
 
     def _new_pool(self) -> cf.ProcessPoolExecutor:
-        # spawn: the server has threads, and a forked copy of them is unsafe
         return cf.ProcessPoolExecutor(
             max_workers=self.workers,
-            mp_context=multiprocessing.get_context("spawn"),
+            mp_context=_worker_context(),
             initializer=watch_parent,
             initargs=(os.getpid(),),
         )
@@ -329,7 +340,6 @@ class Scorer:
         """Requeue what a stopped server was scoring, start the dispatcher; how many
         were requeued."""
         requeued = self.store.requeue_interrupted()
-        self._pool = self._warm(self._new_pool())
         self._thread = threading.Thread(target=self._run, name="turnbench-scorer", daemon=True)
         self._thread.start()
         return requeued
@@ -349,6 +359,8 @@ class Scorer:
             self._pool.shutdown(wait=False, cancel_futures=True)
 
     def _run(self) -> None:
+        # the pool starts here, not in start(): the server answers while its workers load
+        self._pool = self._warm(self._new_pool())
         while not self._stopping.is_set():
             try:
                 self._collect()
