@@ -3,7 +3,7 @@ paired bootstrap says it is worse.
 
 Entries are ordered by accuracy (the paper's headline metric; higher first), then MAE (lower
 first), then the earlier submission. The first entry has rank 1; each next entry is compared
-with the entry just above it by :func:`turn_eval.significance.compare_predictions` (the
+with the entry just above it by :func:`turn_eval.clips.significance.compare_predictions` (the
 paired bootstrap of ``turn-eval compare``, on the same clips, with the challenge's resamples
 and seed) and takes its own position as rank only if the accuracy difference's two-sided
 p-value is below ``alpha``; otherwise it shares the rank above. So a submission that beats
@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from turn_eval.significance import compare_predictions
+from turn_eval.clips.significance import compare_predictions
 
 __all__ = ["RANK_METRIC", "Ranked", "order_key", "gated_ranks"]
 

@@ -1,9 +1,9 @@
 """Validating and scoring an upload against the hidden reference: ``turn-eval score``'s code.
 
-An upload is read and validated by :func:`turn_eval.submission.read_predictions`, the very
+An upload is read and validated by :func:`turn_eval.clips.submission.read_predictions`, the very
 function ``turn-eval score`` calls, against the reference read by
-:func:`turn_eval.submission.read_reference`, and scored by
-:func:`turn_eval.scores.build_scores`; the server adds only what a hidden reference needs:
+:func:`turn_eval.clips.submission.read_reference`, and scored by
+:func:`turn_eval.clips.tables.build_scores`; the server adds only what a hidden reference needs:
 
 - a refusal names the upload by the name its sender gave and the reference as
   ``reference.csv`` (never a path on the server), and lists none of the reference's clip ids
@@ -24,11 +24,11 @@ import numpy as np
 import pandas as pd
 
 from turn_datasets.errors import TurnbenchError
-from turn_eval.metrics import METRICS
-from turn_eval.scores import build_scores
+from turn_eval.clips.metrics import METRICS
+from turn_eval.clips.submission import Joined, read_predictions, read_reference
+from turn_eval.clips.tables import build_scores
 from turn_eval.server.datadir import REFERENCE_NAME, Challenge
 from turn_eval.server.split import PRIVATE, PUBLIC
-from turn_eval.submission import Joined, read_predictions, read_reference
 
 __all__ = ["reference_of", "validate_upload", "score_upload", "side_arrays", "SIDES"]
 
@@ -126,7 +126,7 @@ def score_upload(challenge: Challenge, path: Path) -> dict[str, Any]:
 
 def side_arrays(challenge: Challenge, path: Path, side: str) -> dict[str, np.ndarray | None]:
     """One upload's predictions and the reference on one side's clips, in reference order,
-    as :func:`turn_eval.significance.compare_predictions` takes them."""
+    as :func:`turn_eval.clips.significance.compare_predictions` takes them."""
     part = _side(validate_upload(challenge, path, "the upload"), challenge.read_split(), side)
     t = part.table
     return {

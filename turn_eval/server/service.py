@@ -30,6 +30,7 @@ from typing import Any
 from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import sha256_file, to_json_text
+from turn_eval.clips.submission import read_reference
 from turn_eval.server.datadir import (
     SETTINGS_FILE,
     Challenge,
@@ -59,7 +60,6 @@ from turn_eval.server.store import (
     create_schema,
     make_engine,
 )
-from turn_eval.submission import read_reference
 
 __all__ = [
     "init_challenge",
