@@ -211,6 +211,24 @@ def test_init_refusals_leave_nothing(tmp_path, capsys):
     assert code == 2 and "Traceback" not in err
 
 
+def test_an_unreachable_database_is_one_line(tmp_path, capsys):
+    pytest.importorskip("sqlalchemy", reason="needs the server extra")
+    write_reference(tmp_path / "labels.csv")
+    nowhere = "postgresql+psycopg://nobody@/x?host=/nonexistent-socket-dir&port=1"
+    root = tmp_path / "c"
+    args = ["server", "init", root, "-r", tmp_path / "labels.csv", "--name", "x"]
+    code, _, err = run([*args, "--db", nowhere], capsys)
+    assert code == 2 and "cannot create the tables" in err and not root.exists()
+    assert len(err.strip().splitlines()) == 1
+    assert run(args, capsys)[0] == 0
+    settings = json.loads((root / "challenge.json").read_text())
+    (root / "challenge.json").write_text(json.dumps({**settings, "database": nowhere}))
+    for command in (["server", "add-team", root, "A"], ["server", "list", root], ["serve", root]):
+        code, _, err = run(command, capsys)
+        assert code == 2 and err.startswith("turn-eval: error: cannot reach the database")
+        assert "Traceback" not in err
+
+
 def test_team_and_receipt_commands(tmp_path, capsys):
     pytest.importorskip("sqlalchemy", reason="needs the server extra")
     write_reference(tmp_path / "labels.csv")

@@ -170,7 +170,10 @@ def init_challenge(
 
 
 def open_store(challenge: Challenge) -> Store:
-    return Store(make_engine(challenge.database_url))
+    """The challenge's database, checked reachable (a one-line error if not)."""
+    store = Store(make_engine(challenge.database_url))
+    store.check()
+    return store
 
 
 def _token_hash(token: str) -> str:

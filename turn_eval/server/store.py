@@ -167,6 +167,19 @@ class Store:
         self.engine = engine
         self.is_sqlite = engine.dialect.name == "sqlite"
 
+    def check(self) -> None:
+        """Raise a one-line :class:`TurnbenchError` if the database cannot be reached or
+        holds no challenge."""
+        try:
+            with self.engine.connect() as conn:
+                if not self.engine.dialect.has_table(conn, "teams"):
+                    raise TurnbenchError("the database holds no challenge (no 'teams' table)")
+        except SQLAlchemyError as exc:
+            reason = str(exc.orig if getattr(exc, "orig", None) is not None else exc)
+            raise TurnbenchError(
+                f"cannot reach the database: {' '.join(reason.split())[:300]}"
+            ) from None
+
     # teams ---------------------------------------------------------------------------------
     def add_team(
         self, name: str, hash_for: Callable[[int], str], *, baseline: bool, now: float
