@@ -109,6 +109,14 @@ def _sqlite_hooks(engine: Engine) -> None:
         conn.exec_driver_sql("BEGIN IMMEDIATE")
 
 
+def _reason(exc: BaseException) -> str:
+    """A database error in one line: the driver's own message where there is one (without
+    SQLAlchemy's "Background on this error" line)."""
+    orig: Any = getattr(exc, "orig", None)
+    text = str(orig if orig is not None else exc)
+    return f"{type(orig or exc).__name__}: {' '.join(text.split())[:300]}"
+
+
 def make_engine(url: str) -> Engine:
     """An engine for ``url`` (``sqlite:///...`` or ``postgresql+psycopg://...``)."""
     try:
@@ -135,7 +143,7 @@ def create_schema(engine: Engine) -> None:
                 )
             metadata.create_all(conn)
     except SQLAlchemyError as exc:
-        raise TurnbenchError(f"cannot create the tables: {exc.__class__.__name__}: {exc}") from None
+        raise TurnbenchError(f"cannot create the tables: {_reason(exc)}") from None
 
 
 class QuotaUsed(Exception):
@@ -175,10 +183,7 @@ class Store:
                 if not self.engine.dialect.has_table(conn, "teams"):
                     raise TurnbenchError("the database holds no challenge (no 'teams' table)")
         except SQLAlchemyError as exc:
-            reason = str(exc.orig if getattr(exc, "orig", None) is not None else exc)
-            raise TurnbenchError(
-                f"cannot reach the database: {' '.join(reason.split())[:300]}"
-            ) from None
+            raise TurnbenchError(f"cannot reach the database: {_reason(exc)}") from None
 
     # teams ---------------------------------------------------------------------------------
     def add_team(
