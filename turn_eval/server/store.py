@@ -126,9 +126,7 @@ def make_engine(url: str) -> Engine:
         else:
             engine = create_engine(url, pool_pre_ping=True, pool_size=10, max_overflow=20)
     except (SQLAlchemyError, ImportError, ValueError) as exc:
-        raise TurnbenchError(
-            f"cannot use the database URL ({exc.__class__.__name__}: {exc})"
-        ) from None
+        raise TurnbenchError(f"cannot use the database URL ({_reason(exc)})") from None
     return engine
 
 
