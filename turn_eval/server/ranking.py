@@ -13,7 +13,7 @@ leaderboard from being overfitted (Blum and Hardt 2015, "The Ladder").
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -94,8 +94,3 @@ def gated_ranks(
             out.append(Ranked(rank=i + 1 if separated else out[-1].rank, p_value=p))
         above = this
     return out
-
-
-def ranked_positions(ranks: Sequence[Ranked]) -> list[int]:
-    """The rank numbers alone."""
-    return [r.rank for r in ranks]

@@ -41,7 +41,6 @@ from turn_eval.server.datadir import (
 from turn_eval.server.ranking import gated_ranks, order_key
 from turn_eval.server.receipts import sign_receipt
 from turn_eval.server.scoring import (
-    SIDES,
     reference_of,
     score_job,
     score_upload,
@@ -71,6 +70,8 @@ __all__ = [
     "Scorer",
     "Leaderboard",
     "receipt_of",
+    "submission_view",
+    "challenge_summary",
     "QuotaUsed",
 ]
 
@@ -193,8 +194,7 @@ def add_team(store: Store, name: str, *, baseline: bool = False) -> str:
         return _token_hash(tokens[team_id])
 
     team_id = store.add_team(name, hash_for, baseline=baseline, now=time.time())
-    token = tokens[team_id]
-    return token
+    return tokens[team_id]
 
 
 def authenticate(store: Store, header: str | None) -> Team | None:
@@ -594,6 +594,3 @@ def challenge_summary(challenge: Challenge, store: Store) -> dict[str, Any]:
         "split": challenge.split,
         "teams": teams,
     }
-
-
-__all__ += ["submission_view", "challenge_summary", "SIDES"]

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import datetime as dt
 import json
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -367,8 +367,3 @@ class Store:
                 select(submissions.c.status, func.count()).group_by(submissions.c.status)
             ).all()
         return {str(status): int(n) for status, n in rows}
-
-
-def iter_ids(rows: Sequence[dict]) -> Iterator[str]:
-    for row in rows:
-        yield str(row["id"])
