@@ -162,6 +162,18 @@ def test_whole_flow(challenge, capsys):
                 )
             )
             assert r.status_code == 413
+            # ... and before reading, when the request announces its size
+            r = keep(
+                c.post(
+                    f"{url}/api/submissions",
+                    headers=bearer(token_a),
+                    files={"file": ("b.csv", big)},
+                )
+            )
+            assert r.status_code == 413 and r.json()["detail"] == (
+                "the upload is larger than 52428 bytes"
+            )
+            assert not any((root / "incoming").iterdir())
             # two good uploads, queued at once
             ids = {}
             for name, path, token in (
