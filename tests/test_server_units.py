@@ -322,3 +322,21 @@ def test_without_the_extra_the_commands_say_how_to_get_it(tmp_path):
         "pip install 'turnbench[server]'"
     )
     assert not (tmp_path / "c").exists()
+
+
+def test_without_by_no_group_leaves_the_server(tmp_path, capsys):
+    # `score` groups by every default column when none is named; the server must not
+    pytest.importorskip("sqlalchemy", reason="needs the server extra")
+    from turn_eval.server.datadir import open_challenge
+    from turn_eval.server.scoring import score_upload
+
+    ref = write_reference(tmp_path / "labels.csv")
+    root = tmp_path / "c"
+    args = ["server", "init", root, "-r", tmp_path / "labels.csv", "--name", "x"]
+    assert run([*args, "--bootstrap", "20"], capsys)[0] == 0
+    scores = score_upload(
+        open_challenge(root), write_predictions(tmp_path / "p.csv", ref, noise_deg=5, seed=0)
+    )
+    assert scores["public"]["by"] == {} and scores["private"]["by"] == {}
+    text = json.dumps(scores)
+    assert not any(word in text for word in ("P00", "PD", "scripted", "subject", "cohort"))

@@ -25,7 +25,7 @@ import pandas as pd
 
 from turn_datasets.errors import TurnbenchError
 from turn_eval.clips.metrics import METRICS
-from turn_eval.clips.submission import Joined, read_predictions, read_reference
+from turn_eval.clips.submission import BIN_COLUMN, Joined, read_predictions, read_reference
 from turn_eval.clips.tables import build_scores
 from turn_eval.server.datadir import REFERENCE_NAME, Challenge
 from turn_eval.server.split import PRIVATE, PUBLIC
@@ -78,8 +78,9 @@ def validate_upload(challenge: Challenge, path: Path, shown_name: str) -> Joined
         raise _hidden(exc, path, shown_name) from None
 
 
-def _reduced(scores: dict[str, Any]) -> dict[str, Any]:
-    """What of a scores document may leave the server (module docstring)."""
+def _reduced(scores: dict[str, Any], named: tuple[str, ...]) -> dict[str, Any]:
+    """What of a scores document may leave the server (module docstring): the groupings
+    ``named`` at init and no other."""
 
     def entry(values: dict[str, Any]) -> dict[str, Any]:
         out = {"n": values["n"], **{m: values.get(m) for m in METRICS}}
@@ -93,6 +94,7 @@ def _reduced(scores: dict[str, Any]) -> dict[str, Any]:
             "avg": entry(part["avg"]),
         }
         for col, part in scores["by"].items()
+        if col in named
     }
     return {**entry(scores["overall"]), "by": by}
 
@@ -115,12 +117,13 @@ def score_upload(challenge: Challenge, path: Path) -> dict[str, Any]:
     joined = validate_upload(challenge, path, "the upload")
     split = challenge.read_split()
     out: dict[str, Any] = {}
+    # build_scores groups by every default column when given none; with no --by the
+    # cheapest grouping is computed instead, and _reduced drops it
+    by = list(challenge.by) or [BIN_COLUMN]
     for side in SIDES:
         part = _side(joined, split, side)
-        scores = build_scores(
-            part, by=list(challenge.by), n_resamples=challenge.n_resamples, seed=challenge.seed
-        )
-        out[side] = _reduced(scores)
+        scores = build_scores(part, by=by, n_resamples=challenge.n_resamples, seed=challenge.seed)
+        out[side] = _reduced(scores, challenge.by)
     return out
 
 
