@@ -18,6 +18,7 @@ import multiprocessing
 import os
 import secrets
 import shutil
+import sys
 import tempfile
 import threading
 import time
@@ -369,7 +370,7 @@ class Scorer:
                 self._collect()
                 self._dispatch()
             except Exception as exc:  # the database went away for a moment: try again
-                print(f"turn-eval serve: scorer: {_one_line(exc)}", flush=True)
+                print(f"turn-eval serve: scorer: {_one_line(exc)}", file=sys.stderr, flush=True)
                 time.sleep(1.0)
             self._wake.wait(timeout=0.5)
             self._wake.clear()
