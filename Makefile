@@ -25,7 +25,7 @@ $(STAMP): pyproject.toml
 $(VSTAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV_VIDEO)
 	$(VBIN)/python -m pip install --quiet --upgrade pip
-	$(VBIN)/python -m pip install --quiet -e '.[test,video]'
+	$(VBIN)/python -m pip install --quiet -e '.[test,video,server]'
 	touch $(VSTAMP)
 
 demo: $(STAMP)
