@@ -6,6 +6,8 @@ STAMP := $(VENV)/.installed
 # A second environment with the optional `video` extra (mediapipe 0.10.21, which pins
 # numpy < 2): `make test` runs the whole suite there too, so the core is tested on numpy
 # 1.26 as well as 2.x, and the video tests, which skip in .venv, must run (and not skip).
+# Both environments have the `server` extra (FastAPI, SQLAlchemy, ...), so the scoring
+# server's tests run on both numpy versions.
 VENV_VIDEO := .venv-video
 VBIN := $(VENV_VIDEO)/bin
 VSTAMP := $(VENV_VIDEO)/.installed
