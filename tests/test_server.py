@@ -219,6 +219,10 @@ def test_whole_flow(challenge, capsys):
                 assert ids["a"] not in r.text
             r = keep(c.get(f"{url}/api/submissions/{ids['a']}"))
             assert r.status_code == 401
+            # each team's list holds its own submissions alone
+            mine = keep(c.get(f"{url}/api/submissions", headers=bearer(token_b))).json()
+            assert mine["team"] == "Team B"
+            assert [v["id"] for v in mine["submissions"]] == [ids["b"]]
             # the receipt verifies; a changed one does not
             r = keep(c.get(f"{url}/api/receipts/{ids['a']}", headers=bearer(token_a)))
             assert r.status_code == 200

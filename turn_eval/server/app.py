@@ -1,7 +1,7 @@
 """The web app of ``turn-eval serve``: the API and the leaderboard page (FastAPI).
 
 Routes (DESIGN.md, "Scoring server"): ``POST /api/submissions``, ``GET
-/api/submissions/{id}``, ``GET /api/leaderboard``, ``GET /api/receipts/{id}`` and ``GET /``.
+/api/submissions/{id}``, ``GET /api/submissions`` (the asking team's own, oldest first), ``GET /api/leaderboard``, ``GET /api/receipts/{id}`` and ``GET /``.
 Nothing else is served: no static folder, no API schema pages, so no URL reaches the data
 directory. Every answer about a submission checks that the asking team made it (another
 team's id is answered 404, as an id that does not exist: the missing per-object check was
@@ -41,6 +41,7 @@ from turn_eval.server.service import (
     authenticate,
     receipt_of,
     submission_view,
+    submissions_of,
 )
 from turn_eval.server.store import Store
 
@@ -218,6 +219,13 @@ def create_app(challenge: Challenge, store: Store, scorer: Scorer | None) -> Fas
         if scorer is not None:
             scorer.wake()
         return JSONResponse({"id": submission_id, "status": "queued"}, status_code=202)
+
+    @app.get("/api/submissions")
+    def list_submissions(request: Request) -> JSONResponse:
+        team = authenticate(store, request.headers.get("authorization"))
+        if team is None:
+            return _unauthorised()
+        return JSONResponse({"team": team.name, "submissions": submissions_of(store, team)})
 
     @app.get("/api/submissions/{submission_id}")
     def get_submission(submission_id: str, request: Request) -> JSONResponse:

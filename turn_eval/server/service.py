@@ -72,6 +72,7 @@ __all__ = [
     "Leaderboard",
     "receipt_of",
     "submission_view",
+    "submissions_of",
     "challenge_summary",
     "QuotaUsed",
 ]
@@ -461,6 +462,12 @@ def submission_view(store: Store, submission_id: str, team: Team) -> dict[str, A
     """What a team may see of one of its own submissions; None for any other id."""
     sub = store.submission(submission_id, team_id=team.id)
     return None if sub is None else _public_view(sub, store.is_closed())
+
+
+def submissions_of(store: Store, team: Team) -> list[dict[str, Any]]:
+    """What a team may see of all its own submissions, oldest first."""
+    closed = store.is_closed()
+    return [_public_view(sub, closed) for sub in store.submissions_of(team.id)]
 
 
 def receipt_of(
