@@ -265,10 +265,13 @@ def add_baseline(challenge: Challenge, store: Store, name: str, predictions: Pat
     assert team is not None
     fd, tmp = tempfile.mkstemp(suffix=".csv", dir=challenge.incoming_dir)
     os.close(fd)
-    shutil.copyfile(predictions, tmp)
-    submission_id = accept_upload(
-        challenge, store, team, Path(tmp), str(predictions), sha256_file(tmp)
-    )
+    try:
+        shutil.copyfile(predictions, tmp)
+        submission_id = accept_upload(
+            challenge, store, team, Path(tmp), str(predictions), sha256_file(tmp)
+        )
+    finally:
+        Path(tmp).unlink(missing_ok=True)
     store.claim(submission_id)
     scores = score_upload(challenge, challenge.upload_path(submission_id))
     store.finish(submission_id, status=SCORED, now=time.time(), scores=scores)
