@@ -400,9 +400,24 @@ class Scorer:
     def _submit(self, submission_id: str) -> None:
         assert self._pool is not None
         upload = str(self.challenge.upload_path(submission_id))
-        future = self._pool.submit(self.job, str(self.challenge.root), upload)
+        try:
+            future = self._pool.submit(self.job, str(self.challenge.root), upload)
+        except BrokenProcessPool:
+            # a worker died since the last collection: this one never ran
+            self.store.requeue(submission_id)
+            self._rebuild()
+            return
         future.add_done_callback(lambda _: self._wake.set())
         self._inflight[submission_id] = future
+
+    def _rebuild(self) -> None:
+        """Replace a broken pool; what it held goes back to the queue (to run alone)."""
+        assert self._pool is not None
+        self._pool.shutdown(wait=False, cancel_futures=True)
+        for submission_id in list(self._inflight):
+            self.store.requeue(submission_id)
+        self._inflight.clear()
+        self._pool = self._warm(self._new_pool())
 
     def _collect(self) -> None:
         broken = False
@@ -432,12 +447,7 @@ class Scorer:
             self.store.finish(submission_id, status=SCORED, now=time.time(), scores=scores)
             self.on_scored()
         if broken:
-            assert self._pool is not None
-            self._pool.shutdown(wait=False, cancel_futures=True)
-            for submission_id in list(self._inflight):
-                self.store.requeue(submission_id)
-            self._inflight.clear()
-            self._pool = self._warm(self._new_pool())
+            self._rebuild()
 
 
 def _public_view(sub: dict[str, Any], closed: bool) -> dict[str, Any]:
