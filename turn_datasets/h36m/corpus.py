@@ -31,6 +31,7 @@ from turn_datasets.fileio import atomic_path, sha256_file, to_json_text
 from turn_datasets.h36m.manifest import build_manifest, manifest_path
 from turn_datasets.h36m.miner import (
     FILTER_MAX_FRACTION_OF_FPS,
+    FILTER_MIN_FRACTION_OF_FPS,
     MinerParams,
     SequenceClips,
     build_index,
@@ -94,6 +95,8 @@ class FileRecord:
     sequences: int = 0
     frames: int = 0
     units: set[str] = field(default_factory=set)
+    #: The vertical axes the sequences were read with (generic arrays: stated or inferred).
+    up_axes: set[str] = field(default_factory=set)
     #: 1 for a BVH whose rest-pose frame 0 was dropped: index frame k is the file's k + 1.
     frame_offset: int = 0
     bad_sequences: list[TurnbenchError] = field(default_factory=list)
@@ -106,6 +109,8 @@ class FileRecord:
         self.sequences += 1
         self.frames += seq.n_frames
         self.units.add(seq.units)
+        if "up_axis" in seq.meta:
+            self.up_axes.add(str(seq.meta["up_axis"]))
         self.frame_offset = int(bool(seq.meta.get("skipped_first_frame", False)))
 
     def manifest_entry(self) -> dict[str, Any]:
@@ -119,6 +124,7 @@ class FileRecord:
             "sequences": self.sequences if read else 0,
             "frames": self.frames if read else 0,
             "units": sorted(self.units) if read else [],
+            "up_axes": sorted(self.up_axes) if read else [],
             "frame_offset": self.frame_offset,
             "skipped_sequences": len(self.bad_sequences) if read else 0,
         }
@@ -191,6 +197,20 @@ def _refuse_bad(
     raise TurnbenchError(
         f"{' and '.join(what)}; nothing written",
         hint="fix or remove them, or pass --skip-bad to write the index without them",
+    )
+
+
+def _unfiltered_note(cutoff_hz: float, fps: float, names: Sequence[str]) -> str:
+    """What the manifest and the warning say of sequences whose rate the cut-off does not fit
+    (:func:`turn_datasets.h36m.miner.position_filter_applies`)."""
+    side = (
+        f"at or above {FILTER_MAX_FRACTION_OF_FPS:g} x {fps:g} Hz"
+        if cutoff_hz >= FILTER_MAX_FRACTION_OF_FPS * fps
+        else f"below {FILTER_MIN_FRACTION_OF_FPS:g} x {fps:g} Hz"
+    )
+    return (
+        f"--position-cutoff-hz {cutoff_hz:g} is {side}: the hip positions of {len(names)} "
+        f"sequence(s) at that rate were not filtered (first: {names[0]})"
     )
 
 
@@ -279,9 +299,7 @@ def mine_corpus(
         for e in r.bad_sequences
     ]
     notes = [
-        f"--position-cutoff-hz {params.position_cutoff_hz:g} is at or above "
-        f"{FILTER_MAX_FRACTION_OF_FPS:g} x {fps:g} Hz: the hip positions of "
-        f"{len(names)} sequence(s) at that rate were not filtered (first: {names[0]})"
+        _unfiltered_note(params.position_cutoff_hz, fps, names)
         for fps, names in sorted(unfiltered.items())
     ] + odd_rates
     manifest = build_manifest(

@@ -1,6 +1,8 @@
 """Generic arrays of positions: ``.npy``, ``.npz``, ``.h5``/``.hdf5`` of shape ``(frames, joints, 3)``.
 
-Their layout, fps, up axis and units are not in the file and must be given. The parent
+Their layout, fps and units are not in the file and must be given; their vertical axis is
+given or inferred per array (``auto``, :mod:`turn_datasets.up_axis`) and recorded in each
+sequence's ``meta["up_axis"]``. The parent
 folder's name is the ``subject``, the file stem (with the array key for ``.npz``/``.h5``)
 the ``action``, so two files of the same name in different folders stay apart.
 """
@@ -17,18 +19,21 @@ import numpy as np
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.mocap.checks import (
     OnBadSequence,
+    check_declared_size,
     check_joint_count,
     checked_positions,
     skip_bad,
     unreadable,
 )
 from turn_datasets.skeleton import (
-    UP_AXES,
+    AUTO,
+    UP_AXIS_CHOICES,
     Layout,
     MocapSequence,
     get_layout,
     to_z_up,
 )
+from turn_datasets.up_axis import resolve_up_axis
 
 __all__ = [
     "UNITS",
@@ -36,6 +41,8 @@ __all__ = [
     "iter_arrays",
     "load_numpy",
     "read_arrays",
+    "read_h5_dataset",
+    "read_npz_member",
 ]
 
 
@@ -52,12 +59,13 @@ def read_arrays(
     units: str | None,
     on_bad: OnBadSequence | None,
 ) -> Iterator[MocapSequence]:
+    # the vertical axis, unless stated, is inferred per array (--up-axis auto)
+    up_axis = up_axis or AUTO
     missing = [
         opt
         for opt, value in (
             ("--layout", layout),
             ("--fps", fps),
-            ("--up-axis", up_axis),
             ("--units", units),
         )
         if value is None
@@ -66,19 +74,18 @@ def read_arrays(
         raise TurnbenchError(
             f"a generic array does not say its {', '.join(m.lstrip('-') for m in missing)}",
             file=path,
-            hint=f"give {' '.join(missing)} (layout: h36m32 or h36m17; up axis: "
-            f"{'/'.join(UP_AXES)}; units: {'/'.join(UNITS)})",
+            hint=f"give {' '.join(missing)} (layout: h36m32 or h36m17; units: {'/'.join(UNITS)})",
         )
-    assert fps is not None and up_axis is not None and units is not None  # all given (above)
+    assert fps is not None and units is not None  # both given (above)
     try:
         lay = layout if isinstance(layout, Layout) else get_layout(str(layout))
     except TurnbenchError as exc:
         raise TurnbenchError(exc.message, file=path) from None
     if not (np.isfinite(fps) and fps > 0):
         raise TurnbenchError(f"fps must be positive, got {fps}", file=path)
-    if up_axis not in UP_AXES:
+    if up_axis not in UP_AXIS_CHOICES:
         raise TurnbenchError(
-            f"unknown up axis {up_axis!r}; choose one of {', '.join(UP_AXES)}", file=path
+            f"unknown up axis {up_axis!r}; choose one of {', '.join(UP_AXIS_CHOICES)}", file=path
         )
     if units not in UNITS:
         raise TurnbenchError(
@@ -86,10 +93,17 @@ def read_arrays(
         )
     single = path.suffix.lower() == ".npy"
 
+    axes: dict[str, str] = {}
+
     def z_up(named: tuple[str, np.ndarray]) -> tuple[str, np.ndarray]:
         key, array = named
-        positions = to_z_up(np.asarray(array, dtype=np.float64), up_axis)
-        return key, checked_positions(positions, lay, path=path, item=None if single else key)
+        item = None if single else key
+        try:
+            axes[key] = resolve_up_axis(array, lay, up_axis, item=item)
+        except TurnbenchError as exc:
+            raise TurnbenchError(exc.message, file=path, item=item, hint=exc.hint) from None
+        positions = to_z_up(np.asarray(array, dtype=np.float64), axes[key])
+        return key, checked_positions(positions, lay, path=path, item=item)
 
     arrays = iter_arrays(path, layout=lay, on_bad_array=on_bad)
     for key, positions in skip_bad(arrays, z_up, None if single else on_bad):
@@ -102,7 +116,7 @@ def read_arrays(
             fps=float(fps),
             units=units,
             source=str(path),
-            meta={"format": "array", "key": key, "up_axis": up_axis},
+            meta={"format": "array", "key": key, "up_axis": axes[key], "up_axis_option": up_axis},
         )
 
 
@@ -111,10 +125,15 @@ ARRAY_SUFFIXES = (".npy", ".npz", ".h5", ".hdf5")
 
 def _checked(array: np.ndarray, layout: Layout | None, *, path: Path, key: str) -> np.ndarray:
     if array.ndim != 3 or array.shape[2] != 3 or array.shape[0] < 1 or array.shape[1] < 1:
+        # 2D keypoints (a REMAP Open skeletons_2d.npz, a detector's output) have no depth to
+        # turn about a vertical axis: say what to do, not only what the shape is
+        flat = array.ndim == 3 and array.shape[2] == 2
         raise TurnbenchError(
-            f"array has shape {tuple(array.shape)}, expected (frames, joints, 3)",
+            f"array has shape {tuple(array.shape)}, expected (frames, joints, 3)"
+            + ("; these are 2D keypoints" if flat else ""),
             file=path,
             item=key,
+            hint="lift them to 3D first" if flat else None,
         )
     if not (np.issubdtype(array.dtype, np.floating) or np.issubdtype(array.dtype, np.integer)):
         raise TurnbenchError(
@@ -153,10 +172,71 @@ def _check_numpy_container(path: Path, suffix: str) -> None:
         )
 
 
+def _npy_header(fh) -> tuple[tuple[int, ...], np.dtype]:
+    """The shape and dtype an ``.npy`` stream's header declares (the stream is left after
+    the header): read before NumPy allocates what they add up to."""
+    version = np.lib.format.read_magic(fh)
+    read = (
+        np.lib.format.read_array_header_1_0
+        if version == (1, 0)
+        else np.lib.format.read_array_header_2_0
+    )
+    shape, _, dtype = read(fh)
+    return tuple(shape), np.dtype(dtype)
+
+
 def _np_load(p: Path, suffix: str):
-    """``np.load`` without pickles; a file it cannot read is a :class:`TurnbenchError`."""
+    """``np.load`` without pickles; a file it cannot read is a :class:`TurnbenchError`. An
+    ``.npy``'s declared size is checked first (:func:`~turn_datasets.mocap.checks.check_declared_size`)."""
+    if suffix == ".npy":
+        with unreadable("the .npy header", p), open(p, "rb") as fh:
+            shape, dtype = _npy_header(fh)
+        check_declared_size(shape, dtype, path=p, item=None)
     with unreadable(suffix, p):
         return np.load(p, allow_pickle=False)
+
+
+def read_npz_member(archive, key: str, path: Path) -> np.ndarray:
+    """Member ``key`` of an open ``.npz`` (``np.load``'s ``NpzFile``), the size its ``.npy``
+    header declares checked before it is inflated (a few megabytes of deflated zeros can
+    declare gigabytes)."""
+    name = f"{key}.npy" if f"{key}.npy" in archive.zip.namelist() else key
+    with unreadable("this array", path, item=key, guess="pickled, truncated or corrupt?"):
+        with archive.zip.open(name) as fh:
+            shape, dtype = _npy_header(fh)
+    check_declared_size(shape, dtype, path=path, item=key)
+    with unreadable("this array", path, item=key, guess="pickled, truncated or corrupt?"):
+        return archive[key]
+
+
+def read_h5_dataset(fh: h5py.File, name: str, path: Path) -> np.ndarray:
+    """Dataset ``name`` of an open HDF5 file, read whole after two checks: its declared size
+    (:func:`~turn_datasets.mocap.checks.check_declared_size`), and that its data are in this
+    file. A virtual dataset or one with external storage reads other files, which the
+    manifest (the sha256 of each input) would not record: refused, naming them."""
+    with unreadable("this dataset", path, item=name):
+        dset = fh[name]
+        shape, dtype = tuple(dset.shape or ()), dset.dtype
+        virtual = bool(dset.is_virtual)
+        external = dset.external
+    if virtual or external:
+        where = (
+            sorted({str(m.file_name) for m in dset.virtual_sources()})
+            if virtual
+            else sorted({str(e[0]) for e in external})
+        )
+        kind = "a virtual dataset" if virtual else "stored in external files"
+        raise TurnbenchError(
+            f"the dataset is {kind}, reading {', '.join(where)}: only data held in the file "
+            "itself is read (its sha256 is what the manifest records)",
+            file=path,
+            item=name,
+            hint="copy the data into the file (h5repack, or h5py: f[name] = f[name][()])",
+        )
+    if dtype.kind in "fiu":
+        check_declared_size(shape, dtype, path=path, item=name)
+    with unreadable("this dataset", path, item=name):
+        return np.asarray(dset[()])
 
 
 def load_numpy(path: str | os.PathLike[str]):
@@ -226,9 +306,7 @@ def iter_arrays(
                 raise TurnbenchError("the .npz archive holds no array", file=p)
 
             def member(key: str) -> tuple[str, np.ndarray]:
-                with unreadable("this array", p, item=key, guess="pickled, truncated or corrupt?"):
-                    array = archive[key]
-                return key, _checked(array, layout, path=p, key=key)
+                return key, _checked(read_npz_member(archive, key, p), layout, path=p, key=key)
 
             yield from skip_bad(keys, member, on_bad_array)
         return
@@ -241,8 +319,6 @@ def iter_arrays(
             raise TurnbenchError("the HDF5 file holds no dataset", file=p)
 
         def dataset(name: str) -> tuple[str, np.ndarray]:
-            with unreadable("this dataset", p, item=name):
-                array = np.asarray(fh[name][()])
-            return name, _checked(array, layout, path=p, key=name)
+            return name, _checked(read_h5_dataset(fh, name, p), layout, path=p, key=name)
 
         yield from skip_bad(names, dataset, on_bad_array)

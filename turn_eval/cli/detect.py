@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import importlib
-import inspect
 import sys
 from dataclasses import replace
 from pathlib import Path
 
 import click
 
+from turn_datasets import limits
 from turn_datasets.cli.common import (
     CONTEXT_SETTINGS,
     FPS_HZ,
@@ -23,35 +22,13 @@ from turn_datasets.cli.common import (
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import atomic_path, check_not_input, to_json_text
 from turn_datasets.h36m.manifest import manifest_path
-from turn_datasets.h36m.miner import MinerParams
+from turn_datasets.h36m.miner import MinerParams, check_position_cutoff
 from turn_eval.cli import cli
 from turn_eval.cli.common import SkeletonSource, skeleton_source_options
 from turn_eval.detect.mapping import build_manifest, detect_files
-from turn_eval.detect.protocol import TurnDetector
+from turn_eval.detect.plugins import load_detector
 from turn_eval.detect.rule import DETECT_MINER_DEFAULTS, DetectParams, MinerRule
-from turn_eval.detect.streams import stream_files
-
-
-def _load_detector(spec: str | None, params: DetectParams) -> TurnDetector:
-    """The built-in rule, or ``MODULE:NAME`` (an object with ``detect``, or a class/factory
-    called without arguments that returns one)."""
-    if spec is None:
-        return MinerRule(params)
-    module_name, _, attr = spec.partition(":")
-    try:
-        obj = getattr(importlib.import_module(module_name), attr)
-    except (ImportError, AttributeError, ValueError) as exc:
-        raise TurnbenchError(
-            f"cannot load detector {spec!r}: {exc}", hint="give MODULE:NAME"
-        ) from None
-    detector = (
-        obj() if inspect.isclass(obj) or (callable(obj) and not hasattr(obj, "detect")) else obj
-    )
-    if not isinstance(detector, TurnDetector):
-        raise TurnbenchError(
-            f"{spec!r} is not a turn detector: it needs a name and detect(positions, fps_hz, layout)"
-        )
-    return detector
+from turn_eval.detect.streams import axes_found, stream_files
 
 
 @cli.command("detect", context_settings=CONTEXT_SETTINGS)
@@ -62,11 +39,12 @@ def _load_detector(spec: str | None, params: DetectParams) -> TurnDetector:
     help="Detections CSV to write (score-events reads it); <stem>.manifest.json goes beside it.",
 )
 @skeleton_source_options(
-    from_help="Whose files: generic arrays (give --layout and --up-axis), or an estimator's own "
+    from_help="Whose files: generic arrays (give --layout), or an estimator's own "
     "output by name (turnbench = `turn-eval estimate`'s npz).",
     layout_help="Joint layout of the skeletons; required with --from arrays.",
     up_axis_help="The vertical axis: z (world), y (y up), -y (camera axes: y down, as estimators "
-    "write); required with --from arrays, else the named format's own.",
+    "write), x, -x, -z, or auto (inferred per stream from the trunk, signed by the head above the "
+    "feet). Default: auto for generic arrays, else the named format's own.",
 )
 @click.option(
     "--fps",
@@ -92,9 +70,10 @@ def _load_detector(spec: str | None, params: DetectParams) -> TurnDetector:
 )
 @click.option(
     "--workers",
-    type=Number(int, min=1, max=4096),
+    type=Number(int, min=1, max=limits.MAX_LOCAL_WORKERS),
     default=None,
-    help="Map over files on a local Dask cluster of N processes (default: serial, no Dask).",
+    help="Map over files on a local Dask cluster of N processes, about 200 MB each; refused "
+    "beyond the free memory (default: serial, no Dask).",
 )
 @click.option(
     "--scheduler",
@@ -140,9 +119,12 @@ def detect_command(
     params = replace(
         params_from(DetectParams, values), joints=tuple(joints.split(",")), miner=miner
     )
-    detector = _load_detector(detector_spec, params)
+    if detector_spec is None:
+        # the rule's low-pass at this frame rate, refused before any file is read
+        check_position_cutoff(miner.position_cutoff_hz, fps_hz)
+    detector = MinerRule(params) if detector_spec is None else load_detector(detector_spec)
     files = stream_files(skeletons)  # first: an AlphaPose JSON is refused with its reason
-    layout = source.layout(need_up_axis=True)
+    layout = source.layout()
     check_not_input(out, files)
     mpath = manifest_path(out)
     check_not_input(mpath, files)
@@ -157,7 +139,7 @@ def detect_command(
             files,
             detector=detector,
             layout=layout,
-            up_axis=source.up_axis,
+            up_axis=source.up_axis_option,
             fps_hz=fps_hz,
             source_format=source.format,
             workers=workers,
@@ -172,10 +154,11 @@ def detect_command(
         detector=detector,
         params=params.as_dict() if detector_spec is None else {},
         layout=layout,
-        up_axis=source.up_axis,
+        up_axis=source.up_axis_option,
         fps_hz=fps_hz,
         source_format=source.format,
     )
+    info(axes_found(run.inputs, source.up_axis_option or source.format).summary())
     try:
         with atomic_path(out) as tmp_csv, atomic_path(mpath) as tmp_manifest:
             run.detections.to_csv(tmp_csv, index=False, lineterminator="\n")
