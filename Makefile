@@ -6,6 +6,8 @@ STAMP := $(VENV)/.installed
 # A second environment with the optional `video` extra (mediapipe 0.10.21, which pins
 # numpy < 2): `make test` runs the whole suite there too, so the core is tested on numpy
 # 1.26 as well as 2.x, and the video tests, which skip in .venv, must run (and not skip).
+# Both environments have the `server` extra (FastAPI, SQLAlchemy, ...), so the scoring
+# server's tests run on both numpy versions.
 VENV_VIDEO := .venv-video
 VBIN := $(VENV_VIDEO)/bin
 VSTAMP := $(VENV_VIDEO)/.installed
@@ -19,13 +21,13 @@ venv-video: $(VSTAMP)
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test,dev]'
+	$(BIN)/python -m pip install --quiet -e '.[test,dev,server]'
 	touch $(STAMP)
 
 $(VSTAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV_VIDEO)
 	$(VBIN)/python -m pip install --quiet --upgrade pip
-	$(VBIN)/python -m pip install --quiet -e '.[test,video]'
+	$(VBIN)/python -m pip install --quiet -e '.[test,video,server]'
 	touch $(VSTAMP)
 
 demo: $(STAMP)

@@ -22,6 +22,8 @@ from turn_datasets.cli.common import lazy_group, run_group
         "estimate": "turn_eval.cli.estimate",
         "score-events": "turn_eval.cli.score_events",
         "detect": "turn_eval.cli.detect",
+        "server": "turn_eval.cli.server",
+        "serve": "turn_eval.cli.serve",
     }
 )
 @click.version_option(__version__, prog_name="turn-eval")
@@ -36,6 +38,8 @@ def cli() -> None:
       turn-eval estimate walk.mp4 --out walk.npz   (needs: pip install 'turnbench[video]')
       turn-eval detect streams/ --layout h36m17 --up-axis -y --fps 30 --out detections.csv
       turn-eval score-events detections.csv --reference labels.csv
+      turn-eval server init challenge/ -r labels.csv --name NAME  (needs the server extra)
+      turn-eval serve challenge/ --port 8000
     """
 
 

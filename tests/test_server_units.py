@@ -1,0 +1,342 @@
+"""The scoring server's parts, each against values worked out here: the split, receipts
+(HMAC by RFC 2104's formula), gated ranks, the worker pool's crash handling, the command
+line's refusals, and that the core never imports the server's packages."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pandas as pd
+import pytest
+from _server_support import run, write_predictions, write_reference
+
+from turn_eval.server.ranking import gated_ranks
+from turn_eval.server.receipts import RECEIPT_FIELDS, sign_receipt, verify_receipt
+from turn_eval.server.split import draw_split
+
+SERVER_PACKAGES = ("fastapi", "uvicorn", "sqlalchemy", "jinja2", "python_multipart", "starlette")
+
+
+# --- the split ------------------------------------------------------------------------------
+def test_split_by_participant_is_the_seeded_permutation():
+    ref = pd.DataFrame(
+        {
+            "clip_id": [f"c{i}" for i in range(12)],
+            "subject": ["S10", "S2", "S1", "S3"] * 3,
+        }
+    )
+    split = draw_split(ref, private_fraction=0.5, seed=7)
+    # by hand: units in natural order S1, S2, S3, S10; the first two of the permutation
+    names = ["S1", "S2", "S3", "S10"]
+    order = np.random.default_rng(7).permutation(4)
+    private = {names[i] for i in order[:2]}
+    want = ["private" if s in private else "public" for s in ref["subject"]]
+    assert split.table["split"].tolist() == want
+    assert split.unit == "subject" and (split.n_units, split.n_units_private) == (4, 2)
+    # no participant on both sides
+    both = split.table.assign(subject=ref["subject"]).groupby("subject")["split"].nunique()
+    assert (both == 1).all()
+    # the same seed, the same split; another seed may differ
+    again = draw_split(ref, private_fraction=0.5, seed=7)
+    assert again.table.equals(split.table)
+
+
+def test_split_by_clip_without_subjects_and_bounds():
+    ref = pd.DataFrame({"clip_id": [f"c{i}" for i in range(10)], "subject": [""] * 10})
+    split = draw_split(ref, private_fraction=0.3, seed=0)
+    assert split.unit == "clip_id" and int(split.mask("private").sum()) == 3
+    one = pd.DataFrame({"clip_id": ["a"]})
+    from turn_datasets.errors import TurnbenchError
+
+    with pytest.raises(TurnbenchError, match="two or more"):
+        draw_split(one, private_fraction=0.5, seed=0)
+    # a fraction that rounds to nothing still keeps one unit private (and one public)
+    tiny = draw_split(ref, private_fraction=0.01, seed=0)
+    assert int(tiny.mask("private").sum()) == 1
+
+
+# --- receipts -------------------------------------------------------------------------------
+def _rfc2104(key: bytes, message: bytes) -> str:
+    """HMAC-SHA256 by the RFC's formula, without the hmac module."""
+    block = 64
+    key = key.ljust(block, b"\0")
+    inner = hashlib.sha256(bytes(k ^ 0x36 for k in key) + message).digest()
+    return hashlib.sha256(bytes(k ^ 0x5C for k in key) + inner).hexdigest()
+
+
+def test_receipt_signature_is_hmac_sha256_of_the_canonical_json():
+    secret = bytes(range(32))
+    payload = {
+        "submission": "ab12",
+        "team": "Équipe",
+        "sha256": "0" * 64,
+        "reference_version": "1" * 64,
+        "turnbench_version": "0.1.0",
+        "public_scores": {"n": 3, "accuracy": 0.5, "mae_deg": 12.25},
+    }
+    receipt = sign_receipt(secret, payload)
+    canonical = (
+        '{"public_scores":{"accuracy":0.5,"mae_deg":12.25,"n":3},'
+        '"reference_version":"' + "1" * 64 + '","sha256":"' + "0" * 64 + '",'
+        '"submission":"ab12","team":"Équipe","turnbench_version":"0.1.0"}'
+    ).encode()
+    assert receipt["signature"] == _rfc2104(secret, canonical)
+    assert verify_receipt(secret, receipt) == (True, "the signature matches")
+    for field in RECEIPT_FIELDS:
+        changed = json.loads(json.dumps(receipt))
+        changed[field] = "x" if field != "public_scores" else {"accuracy": 1.0}
+        ok, why = verify_receipt(secret, changed)
+        assert not ok and "does not match" in why
+    assert not verify_receipt(b"another secret", receipt)[0]
+    assert (
+        "lacks team" in verify_receipt(secret, {k: v for k, v in receipt.items() if k != "team"})[1]
+    )
+    assert "no receipt is signed with" in verify_receipt(secret, {**receipt, "extra": 1})[1]
+
+
+# --- ranks ----------------------------------------------------------------------------------
+def test_ranks_are_shared_unless_the_paired_bootstrap_separates_them():
+    rng = np.random.default_rng(0)
+    ref = rng.uniform(45, 270, 400)
+    good = ref + rng.normal(0, 5, 400)
+    same = good.copy()  # identical predictions: p = 1 exactly (module docstring of compare)
+    bad = ref + rng.normal(0, 60, 400)
+    entries = [good, same, bad]
+
+    def arrays(i):
+        return {
+            "pred_deg": entries[i],
+            "pred_speed_deg_s": None,
+            "ref_deg": ref,
+            "ref_duration_s": None,
+        }
+
+    ranks = gated_ranks(3, arrays, alpha=0.05, n_resamples=500, seed=0)
+    assert [r.rank for r in ranks] == [1, 1, 3]
+    assert ranks[0].p_value is None and ranks[1].p_value == 1.0
+    # accuracy about 0.9 against about 0.3 on 400 clips: p at its floor, 1 / (500 + 1)
+    assert ranks[2].p_value == pytest.approx(1 / 501)
+
+
+# --- the worker pool ------------------------------------------------------------------------
+def crashing_job(root: str, upload: str) -> dict:
+    """A scorer that kills its worker process on one file, as a segfault would."""
+    if upload.endswith("crash.csv"):
+        os._exit(7)
+    return {"public": {"n": 1}, "private": {"n": 1}}
+
+
+def test_a_worker_crash_fails_that_submission_alone(tmp_path, capsys):
+    pytest.importorskip("sqlalchemy", reason="needs the server extra")
+    from turn_eval.server.datadir import open_challenge
+    from turn_eval.server.service import Scorer, open_store
+
+    ref = write_reference(tmp_path / "labels.csv")
+    root = tmp_path / "c"
+    assert (
+        run(["server", "init", root, "-r", tmp_path / "labels.csv", "--name", "x"], capsys)[0] == 0
+    )
+    challenge = open_challenge(root)
+    store = open_store(challenge)
+    store.add_team("T", lambda i: "0" * 64, baseline=False, now=time.time())
+    names = ["a", "b", "crash", "c", "d"]
+    for n in names:
+        write_predictions(root / "uploads" / f"{n}.csv", ref, noise_deg=1, seed=1)
+        store.take_quota(1, n, sha256="0", n_rows=1, now=time.time(), daily=None, total=None)
+    # the crash's id is not alphanumeric-safe as a file name test, so name files by id
+    scorer = Scorer(challenge, store, workers=2, job=crashing_job)
+    scorer.start()
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline:
+            subs = {s["id"]: s for s in store.submissions_of()}
+            if all(s["status"] in ("scored", "failed") for s in subs.values()):
+                break
+            time.sleep(0.2)
+    finally:
+        scorer.stop()
+    status = {sid: s["status"] for sid, s in subs.items()}
+    assert status == {"a": "scored", "b": "scored", "crash": "failed", "c": "scored", "d": "scored"}
+    assert subs["crash"]["error"] == "the scorer crashed while scoring this submission"
+
+
+# --- the command line -----------------------------------------------------------------------
+def test_init_refusals_leave_nothing(tmp_path, capsys):
+    pytest.importorskip("sqlalchemy", reason="needs the server extra")
+    write_reference(tmp_path / "labels.csv")
+    root = tmp_path / "c"
+    code, _, err = run(
+        ["server", "init", root, "-r", tmp_path / "labels.csv", "--name", "x", "--by", "nosuch"],
+        capsys,
+    )
+    assert code == 2 and "--by 'nosuch'" in err and not root.exists()
+    # angle_deg is the label, never a group
+    code, _, err = run(
+        ["server", "init", root, "-r", tmp_path / "labels.csv", "--name", "x", "--by", "angle_deg"],
+        capsys,
+    )
+    assert code == 2 and not root.exists()
+    bad = tmp_path / "bad.csv"
+    bad.write_text("clip_id,angle_deg\na,1\na,2\n")
+    code, _, err = run(["server", "init", root, "-r", bad, "--name", "x"], capsys)
+    assert code == 2 and "bad.csv" in err and not root.exists()
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+    root.mkdir()
+    (root / "keep.txt").write_text("mine")
+    code, _, err = run(
+        ["server", "init", root, "-r", tmp_path / "labels.csv", "--name", "x"], capsys
+    )
+    assert code == 2 and "not empty" in err
+    assert [p.name for p in root.iterdir()] == ["keep.txt"]
+    code, _, err = run(
+        [
+            "server",
+            "init",
+            tmp_path / "d",
+            "-r",
+            tmp_path / "labels.csv",
+            "--name",
+            "x",
+            "--private-fraction",
+            "1.5",
+        ],
+        capsys,
+    )
+    assert code == 2 and "Traceback" not in err
+
+
+def test_an_unreachable_database_is_one_line(tmp_path, capsys):
+    pytest.importorskip("sqlalchemy", reason="needs the server extra")
+    write_reference(tmp_path / "labels.csv")
+    nowhere = "postgresql+psycopg://nobody@/x?host=/nonexistent-socket-dir&port=1"
+    root = tmp_path / "c"
+    args = ["server", "init", root, "-r", tmp_path / "labels.csv", "--name", "x"]
+    code, _, err = run([*args, "--db", nowhere], capsys)
+    assert code == 2 and "cannot create the tables" in err and not root.exists()
+    assert len(err.strip().splitlines()) == 1
+    assert run(args, capsys)[0] == 0
+    settings = json.loads((root / "challenge.json").read_text())
+    (root / "challenge.json").write_text(json.dumps({**settings, "database": nowhere}))
+    for command in (["server", "add-team", root, "A"], ["server", "list", root], ["serve", root]):
+        code, _, err = run(command, capsys)
+        assert code == 2 and err.startswith("turn-eval: error: cannot reach the database")
+        assert "Traceback" not in err
+
+
+def test_team_and_receipt_commands(tmp_path, capsys):
+    pytest.importorskip("sqlalchemy", reason="needs the server extra")
+    write_reference(tmp_path / "labels.csv")
+    root = tmp_path / "c"
+    assert (
+        run(["server", "init", root, "-r", tmp_path / "labels.csv", "--name", "x"], capsys)[0] == 0
+    )
+    code, token, err = run(["server", "add-team", root, "A"], capsys)
+    assert code == 0 and token.count("\n") == 1 and "shown once" in err
+    import sqlite3
+
+    con = sqlite3.connect(root / "turnbench.db")
+    # WAL: the page and the API read while an upload's quota transaction writes
+    assert con.execute("pragma journal_mode").fetchone() == ("wal",)
+    (stored,) = con.execute("select token_hash from teams where name = 'A'").fetchone()
+    con.close()
+    # only the hash is kept
+    assert stored == hashlib.sha256(token.strip().encode()).hexdigest()
+    code, _, err = run(["server", "add-team", root, "A"], capsys)
+    assert code == 2 and "already exists" in err
+    bad = tmp_path / "r.json"
+    bad.write_text("{not json")
+    code, _, err = run(["server", "verify-receipt", root, bad], capsys)
+    assert code == 2 and "not a receipt" in err
+    bad.write_text('{"team": "A"}')
+    code, _, err = run(["server", "verify-receipt", root, bad], capsys)
+    assert code == 3 and "lacks" in err
+    code, _, err = run(["serve", tmp_path], capsys)
+    assert code == 2 and "not a challenge data directory" in err
+    for command in (
+        "serve",
+        "server",
+        "server init",
+        "server add-team",
+        "server add-baseline",
+        "server close-phase",
+        "server list",
+        "server verify-receipt",
+    ):
+        code, out, _ = run([*command.split(), "--help"], capsys)
+        assert code == 0 and "Example:" in out, command
+
+
+def test_the_core_never_imports_the_server_packages(tmp_path):
+    ref = write_reference(tmp_path / "labels.csv")
+    write_predictions(tmp_path / "p.csv", ref, noise_deg=5, seed=0)
+    code = (
+        "import sys\n"
+        "from turn_datasets.cli.common import run_group\n"
+        "from turn_eval.cli import cli\n"
+        f"rc = run_group(cli, 'turn-eval', ['score', {str(tmp_path / 'p.csv')!r}, '-r', "
+        f"{str(tmp_path / 'labels.csv')!r}, '--bootstrap', '10', '--format', 'json'])\n"
+        "assert rc == 0, rc\n"
+        "run_group(cli, 'turn-eval', ['--help'])\n"
+        "run_group(cli, 'turn-eval', ['server', '--help'])\n"
+        "import turn_eval, turn_datasets, turn_eval.server, turn_eval.server.scoring\n"
+        f"loaded = [m for m in {SERVER_PACKAGES!r} if m in sys.modules]\n"
+        "print('LOADED:' + ','.join(loaded))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip().splitlines()[-1] == "LOADED:"
+
+
+def test_without_the_extra_the_commands_say_how_to_get_it(tmp_path):
+    # a sitecustomize that makes sqlalchemy unimportable, as on an install without the extra
+    blocker = tmp_path / "block"
+    blocker.mkdir()
+    (blocker / "sqlalchemy.py").write_text("raise ImportError('blocked', name='sqlalchemy')\n")
+    write_reference(tmp_path / "labels.csv")
+    env = {**os.environ, "PYTHONPATH": str(blocker)}
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "turn_eval",
+            "server",
+            "init",
+            str(tmp_path / "c"),
+            "-r",
+            str(tmp_path / "labels.csv"),
+            "--name",
+            "x",
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+    )
+    assert out.returncode == 2
+    assert out.stderr.strip() == (
+        "turn-eval: error: sqlalchemy is not installed; install the server extra: "
+        "pip install 'turnbench[server]'"
+    )
+    assert not (tmp_path / "c").exists()
+
+
+def test_without_by_no_group_leaves_the_server(tmp_path, capsys):
+    # `score` groups by every default column when none is named; the server must not
+    pytest.importorskip("sqlalchemy", reason="needs the server extra")
+    from turn_eval.server.datadir import open_challenge
+    from turn_eval.server.scoring import score_upload
+
+    ref = write_reference(tmp_path / "labels.csv")
+    root = tmp_path / "c"
+    args = ["server", "init", root, "-r", tmp_path / "labels.csv", "--name", "x"]
+    assert run([*args, "--bootstrap", "20"], capsys)[0] == 0
+    scores = score_upload(
+        open_challenge(root), write_predictions(tmp_path / "p.csv", ref, noise_deg=5, seed=0)
+    )
+    assert scores["public"]["by"] == {} and scores["private"]["by"] == {}
+    text = json.dumps(scores)
+    assert not any(word in text for word in ("P00", "PD", "scripted", "subject", "cohort"))
