@@ -28,6 +28,7 @@ from turn_eval.cli import cli
 from turn_eval.cli.common import SkeletonSource, skeleton_source_options
 from turn_eval.detect.mapping import build_manifest, detect_files
 from turn_eval.detect.protocol import TurnDetector
+from turn_eval.detect.rate import stream_rate
 from turn_eval.detect.rule import DETECT_MINER_DEFAULTS, DetectParams, MinerRule
 from turn_eval.detect.streams import stream_files
 
@@ -72,8 +73,14 @@ def _load_detector(spec: str | None, params: DetectParams) -> TurnDetector:
     "--fps",
     "fps_hz",
     type=FPS_HZ,
-    required=True,
-    help="Frame rate of the streams, Hz.",
+    default=None,
+    help="Frame rate of the streams, Hz; with --from turnbench, the rate estimate's manifests "
+    "record (a --fps that contradicts it is refused).",
+)
+@click.option(
+    "--force-fps",
+    is_flag=True,
+    help="Use --fps even where it contradicts the rate the manifests record.",
 )
 @click.option(
     "--joints",
@@ -111,7 +118,8 @@ def detect_command(
     skeletons: tuple[Path, ...],
     out: Path,
     source: SkeletonSource,
-    fps_hz: float,
+    fps_hz: float | None,
+    force_fps: bool,
     joints: str,
     detector_spec: str | None,
     workers: int | None,
@@ -133,7 +141,7 @@ def detect_command(
       turn-eval detect streams/ --layout h36m17 --up-axis -y --fps 30 \\
           --min-turn-deg 67.5 --out detections.csv
       turn-eval detect streams/ --layout h36m17 --up-axis -y --fps 30 --workers 4 --out d.csv
-      turn-eval detect skeletons/ --from turnbench --fps 30 --out d.csv   (estimate's npz)
+      turn-eval detect skeletons/ --from turnbench --out d.csv   (estimate's npz: its rate)
       turn-eval score-events detections.csv --reference labels.csv --context context.csv
     """
     miner = params_from(MinerParams, values)
@@ -146,6 +154,9 @@ def detect_command(
     check_not_input(out, files)
     mpath = manifest_path(out)
     check_not_input(mpath, files)
+    rate = stream_rate(files, fps_hz, source_format=source.format, force=force_fps)
+    info(rate.describe())
+    fps_hz = rate.fps_hz
     where = f"on {scheduler}" if scheduler else (f"on {workers} local workers" if workers else "")
     with click.progressbar(
         length=len(files),

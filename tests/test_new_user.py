@@ -1,0 +1,146 @@
+"""What a new user trips on: a folder walk that passes files over, a frame rate that
+contradicts its manifest, detections in the wrong unit, an agreement gate that forgets
+missed turns (each check fails without its fix)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from turn_datasets.cli import cli
+from turn_datasets.cli.common import run_group
+from turn_datasets.synthetic import mocap as sm
+from turn_datasets.synthetic.h36m_files import write_h36m_cdf, write_videopose_npz
+
+
+def _run_datasets(args, capsys) -> tuple[int, str, str]:
+    code = run_group(cli, "turn-datasets", [str(a) for a in args])
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+def _walk_and_turn(seed: int) -> np.ndarray:
+    segs = [sm.Segment.stand(1.0), sm.Segment.walk(2.0, 1.2), sm.Segment.pivot_turn(90.0, 1.4)]
+    segs += [sm.Segment.walk(2.0, 1.2), sm.Segment.stand(1.0)]
+    return sm.generate_sequence(seed=seed, segments=segs, noise_mm=5.0).positions
+
+
+def test_a_folder_walk_names_every_file_it_passes_over(tmp_path, capsys) -> None:
+    """VideoPose3D's npz one folder down, a stray array and a camera-coordinate CDF are not
+    read by a walk; each is named on stderr and in the manifest's skipped, with what to run."""
+    root = tmp_path / "corpus"
+    cdf = root / "h36m" / "S1" / "MyPoseFeatures" / "D3_Positions" / "Walking 1.cdf"
+    cdf.parent.mkdir(parents=True)
+    write_h36m_cdf(cdf, _walk_and_turn(1))
+    mono = root / "h36m" / "S1" / "MyPoseFeatures" / "D3_Positions_mono" / "Walking 1.cdf"
+    mono.parent.mkdir(parents=True)
+    write_h36m_cdf(mono, _walk_and_turn(1))
+    npz = root / "vp" / "data_3d_h36m.npz"
+    npz.parent.mkdir()
+    write_videopose_npz(npz, {"S9": {"Walking": _walk_and_turn(2) / 1000.0}})
+    stray = root / "cache.npy"
+    np.save(stray, np.zeros((3, 17, 3)))
+    (root / "notes.txt").write_text("not motion data\n")
+    out = tmp_path / "index.csv"
+
+    code, _, err = _run_datasets(["h36m", "mine", root, "--out", out], capsys)
+    assert code == 0, err
+    manifest = json.loads(out.with_name("index.manifest.json").read_text())
+    passed = {Path(s["path"]).name: s for s in manifest["skipped"] if s.get("passed_over")}
+    assert sorted(passed) == ["Walking 1.cdf", "cache.npy", "data_3d_h36m.npz"]
+    assert str(mono) == passed["Walking 1.cdf"]["path"]
+    assert f"run on {npz.parent}" in passed["data_3d_h36m.npz"]["error"]
+    assert "--format array" in passed["cache.npy"]["error"]
+    # each named on stderr, one warning per reason
+    assert str(npz) in err and str(stray) in err and str(mono) in err
+    assert err.count("passed over 1 file that may hold motion data") == 3
+    # and the one file read is still the only one read
+    assert [i["path"] for i in manifest["inputs"]] == [str(cdf)]
+
+    # pointing at the npz's folder reads it, and nothing is passed over
+    code, _, err = _run_datasets(["h36m", "mine", npz.parent, "--out", out], capsys)
+    assert code == 0, err
+    manifest = json.loads(out.with_name("index.manifest.json").read_text())
+    assert manifest["skipped"] == [] and "passed over" not in err
+
+
+# --- detect takes the frame rate estimate's manifest records -----------------------------
+
+
+def _run_eval(args, capsys) -> tuple[int, str, str]:
+    from turn_eval.cli import cli as eval_cli
+
+    code = run_group(eval_cli, "turn-eval", [str(a) for a in args])
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+def _estimate_like(folder: Path, fps_hz: float) -> Path:
+    """An npz as ``turn-eval estimate`` writes it (camera axes, metres, keyed by its stem)
+    with the manifest beside it recording ``fps_hz``."""
+    from test_detect import WALK_TURN_WALK, stream
+
+    zup = stream(WALK_TURN_WALK)
+    cam = np.stack([zup[..., 0], -zup[..., 2], zup[..., 1]], axis=-1).astype(np.float32)
+    folder.mkdir(parents=True, exist_ok=True)
+    npz = folder / "home01.npz"
+    np.savez(npz, home01=cam)
+    manifest = {"time": {"fps_hz": fps_hz, "n_frames": len(cam)}}
+    (folder / "home01.manifest.json").write_text(json.dumps(manifest))
+    return npz
+
+
+def test_detect_takes_the_rate_from_estimates_manifest(tmp_path, capsys) -> None:
+    import pandas as pd
+
+    npz = _estimate_like(tmp_path / "s", 25.0)
+    common = ["--min-turn-deg", "67.5"]
+    # the manifest's rate, said on stderr; the same turns as the arrays at --fps 25
+    code, _, err = _run_eval(
+        ["detect", npz, "--from", "turnbench", *common, "--out", tmp_path / "a.csv"], capsys
+    )
+    assert code == 0, err
+    assert "frame rate 25 Hz, from the estimate manifests" in err
+    code, _, err = _run_eval(
+        ["detect", npz, "--layout", "h36m17", "--up-axis", "-y", "--fps", "25", *common]
+        + ["--out", tmp_path / "b.csv"],
+        capsys,
+    )
+    assert code == 0, err
+    a, b = pd.read_csv(tmp_path / "a.csv"), pd.read_csv(tmp_path / "b.csv")
+    assert len(a) == 1 and a[["start_s", "end_s", "angle_deg"]].equals(
+        b[["start_s", "end_s", "angle_deg"]]
+    )
+
+    # the README's --fps 30 on a 25 fps video: one line naming both rates, exit 2, no file
+    out = tmp_path / "c.csv"
+    code, _, err = _run_eval(
+        ["detect", npz, "--from", "turnbench", "--fps", "30", *common, "--out", out], capsys
+    )
+    assert code == 2 and not out.exists()
+    (line,) = [x for x in err.splitlines() if x.startswith("turn-eval: error")]
+    assert "--fps 30 contradicts the 25 Hz" in line and "--force-fps" in err
+    # forced: the same frames, times scaled by 25/30
+    code, _, err = _run_eval(
+        ["detect", npz, "--from", "turnbench", "--fps", "30", "--force-fps", *common]
+        + ["--out", out],
+        capsys,
+    )
+    assert code == 0 and "from --fps (forced over the manifests' 25 Hz)" in err
+    c = pd.read_csv(out)
+    assert np.allclose(c["start_s"] * 30, a["start_s"] * 25, atol=1e-3)
+
+
+def test_a_phone_rate_prints_rounded_and_agrees_with_its_rounding(tmp_path, capsys) -> None:
+    npz = _estimate_like(tmp_path / "s", 31.249999999)
+    args = ["detect", npz, "--from", "turnbench", "--out", tmp_path / "d.csv"]
+    code, _, err = _run_eval(args, capsys)
+    assert code == 0 and "frame rate 31.25 Hz" in err and "31.2499" not in err
+    code, _, err = _run_eval([*args, "--fps", "31.25"], capsys)
+    assert code == 0, err
+    # a stream with no manifest still needs --fps, said in one line
+    (tmp_path / "s" / "home01.manifest.json").unlink()
+    code, _, err = _run_eval(args, capsys)
+    assert code == 2 and "--fps is needed" in err
