@@ -144,3 +144,56 @@ def test_a_phone_rate_prints_rounded_and_agrees_with_its_rounding(tmp_path, caps
     (tmp_path / "s" / "home01.manifest.json").unlink()
     code, _, err = _run_eval(args, capsys)
     assert code == 2 and "--fps is needed" in err
+
+
+# --- detections in milliseconds ------------------------------------------------------------
+
+EVENT_REF = """session,subject,start_s,end_s,angle_deg
+s1,P1,10,12,90
+s1,P1,200,203,180
+s2,P2,40,42,90
+"""
+
+
+def _ms(tmp_path: Path) -> tuple[Path, Path]:
+    """The reference's own turns as a detector in milliseconds writes them: F1 1.0 in seconds."""
+    ref = tmp_path / "ref.csv"
+    ref.write_text(EVENT_REF)
+    det = tmp_path / "det_ms.csv"
+    det.write_text(
+        "session,subject,start_s,end_s,angle_deg\n"
+        "s1,P1,10000,12000,90\ns1,P1,200000,203000,180\ns2,P2,40000,42000,90\n"
+    )
+    return det, ref
+
+
+def test_milliseconds_past_a_sessions_end_are_refused_in_one_line(tmp_path, capsys) -> None:
+    det, ref = _ms(tmp_path)
+    sessions = tmp_path / "sessions.csv"
+    sessions.write_text("session,subject,duration_s\ns1,P1,500\ns2,P2,500\n")
+    code, out, err = _run_eval(
+        ["score-events", det, "-r", ref, "--sessions", sessions, "--bootstrap", "0"], capsys
+    )
+    assert code == 2 and out == ""
+    (line,) = [x for x in err.splitlines() if "error" in x]
+    # the first detection past its end (line 2: 12000 s in a 500 s session), the count, the unit
+    assert f"{det}:2" in line and "12000 s" in line and "500 s" in line
+    assert "3 of 3 detections" in line and "milliseconds" in line
+    # the same detections in seconds score F1 1.0 against the same sessions
+    det.write_text("session,subject,start_s,end_s,angle_deg\n" + EVENT_REF.split("\n", 1)[1])
+    code, out, err = _run_eval(
+        ["score-events", det, "-r", ref, "--sessions", sessions, "--bootstrap", "0"]
+        + ["--format", "json"],
+        capsys,
+    )
+    assert code == 0 and json.loads(out)["overall"]["f1"] == 1.0
+
+
+def test_milliseconds_without_sessions_are_warned_about(tmp_path, capsys) -> None:
+    det, ref = _ms(tmp_path)
+    code, out, err = _run_eval(
+        ["score-events", det, "-r", ref, "--bootstrap", "0", "--format", "json"], capsys
+    )
+    assert code == 0 and json.loads(out)["overall"]["f1"] == 0.0
+    # 40000 and 200000 start past 100 x 203 s (the last reference end); 10000 does not
+    assert "warning: 2 of 3 detections start past 100 x" in err and "milliseconds" in err

@@ -67,6 +67,7 @@ from turn_eval.events.reading import (
     read_context,
     read_sessions,
 )
+from turn_eval.events.time_unit import check_time_unit
 from turn_eval.metrics import (
     CONFIDENCE,
     Partition,
@@ -716,6 +717,7 @@ def score_events(
     det, det_unit, n_dropped = drop_unknown(
         det, units, ignore_unknown=ignore_unknown, warn=warn, pairs=det_pairs
     )
+    check_time_unit(det, det_unit, ref, units, ses, warn=warn)
 
     overlaps = overlapping_pairs(det, det_unit, ref, ref_unit)
     events = categorize_events(det, det_unit, ref, ref_unit, iou=iou, overlaps=overlaps)
