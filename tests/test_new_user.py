@@ -8,6 +8,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from turn_datasets.cli import cli
 from turn_datasets.cli.common import run_group
@@ -197,3 +198,52 @@ def test_milliseconds_without_sessions_are_warned_about(tmp_path, capsys) -> Non
     assert code == 0 and json.loads(out)["overall"]["f1"] == 0.0
     # 40000 and 200000 start past 100 x 203 s (the last reference end); 10000 does not
     assert "warning: 2 of 3 detections start past 100 x" in err and "milliseconds" in err
+
+
+# --- the agreement gate counts missed turns ----------------------------------------------
+
+
+def test_the_agreement_gate_fails_a_rater_who_misses_turns(tmp_path, capsys) -> None:
+    """Two raters who agree on every turn they both marked (kappa over matched turns 1.0)
+    while one misses a fifth of them: the default gate fails on kappa counting missed turns,
+    worked out here with scikit-learn from the generator's truth; --gate-on matched passes."""
+    from sklearn.metrics import cohen_kappa_score
+
+    from turn_datasets.synthetic.eaf import Raters, write_sessions
+
+    synth = write_sessions(
+        tmp_path / "eaf",
+        seed=5,
+        n_pairs=3,
+        turns_per_subject=30,
+        raters=Raters(disagreement_rate=0.0, missed_rate=0.2, shifted_rate=0.0),
+    )
+    double = synth.truth[synth.truth["double_annotated"]]
+    a, b = double["a_angle_deg"], double["b_angle_deg"]
+    both = a.notna() & b.notna()
+    assert (a[both] == b[both]).all() and (~both).sum() > 0
+    # one item per matched pair, one per annotation the other rater has nothing for
+    ya = [str(int(x)) if x == x else "unmatched" for x in a]
+    yb = [str(int(x)) if x == x else "unmatched" for x in b]
+    with_missed = cohen_kappa_score(ya, yb)
+    assert with_missed < 0.9
+
+    folder = synth.paths[0].parent
+    args = ["remap", "agreement", folder, "--bootstrap", "0", "--min-kappa", "0.9"]
+    code, out, err = _run_datasets([*args, "--format", "json"], capsys)
+    assert code == 3
+    doc = json.loads(out)
+    assert doc["kappa"] == 1.0 and doc["kappa_with_unmatched"] == pytest.approx(with_missed)
+    assert doc["gate"]["failed"] == ["kappa_with_unmatched"] and doc["gate"]["on"] == "both"
+    (line,) = [x for x in err.splitlines() if "gate failed" in x]
+    assert f"kappa counting missed turns {with_missed:.3f} is below --min-kappa 0.9" in line
+    assert "Cohen's kappa 1.000" not in line  # the kappa that passed is not blamed
+    # both printed, on stderr and in the report
+    code, out, err = _run_datasets(args, capsys)
+    assert code == 3
+    gate = f"Kappa over matched turns 1.000 (passed); kappa counting missed turns {with_missed:.3f} (FAILED)."
+    assert gate in out and gate in err
+    # the old rule, asked for by name, passes and still prints both
+    code, out, err = _run_datasets([*args, "--gate-on", "matched"], capsys)
+    assert code == 0 and "Gate: kappa >= 0.9 passed." in out
+    assert f"kappa counting missed turns {with_missed:.3f} (not gated)" in out
