@@ -247,3 +247,50 @@ def test_the_agreement_gate_fails_a_rater_who_misses_turns(tmp_path, capsys) -> 
     code, out, err = _run_datasets([*args, "--gate-on", "matched"], capsys)
     assert code == 0 and "Gate: kappa >= 0.9 passed." in out
     assert f"kappa counting missed turns {with_missed:.3f} (not gated)" in out
+
+
+# --- commands: estimate's --help, detect's progress ----------------------------------------
+
+
+def test_estimate_help_says_what_fps_defaults_to(capsys) -> None:
+    code, out, _ = _run_eval(["estimate", "--help"], capsys)
+    assert code == 0
+    fps_help = " ".join(out.split("--fps", 1)[1].split("--level")[0].split())
+    assert "see --help" not in fps_help
+    assert "the rate the video declares" in fps_help and "within 1%" in fps_help
+
+
+def test_detect_prints_a_line_per_file_when_stderr_is_not_a_terminal(tmp_path, capsys) -> None:
+    for name in ("a", "b", "c"):
+        npz = _estimate_like(tmp_path / name, 30.0)
+        npz.rename(tmp_path / f"{name}.npz")
+        (tmp_path / name / "home01.manifest.json").rename(tmp_path / f"{name}.manifest.json")
+    out = tmp_path / "out" / "d.csv"
+    code, _, err = _run_eval(
+        ["detect", *(tmp_path / f"{n}.npz" for n in "abc"), "--from", "turnbench"]
+        + ["--min-turn-deg", "67.5", "--out", out],
+        capsys,
+    )
+    assert code == 0, err
+    lines = [x for x in err.splitlines() if x.startswith("detecting")]
+    assert [x.split(":")[1].split(" files")[0].strip() for x in lines] == ["1/3", "2/3", "3/3"]
+
+
+def test_the_first_time_estimate_leaves_out_the_start_up() -> None:
+    """A cluster that takes 60 s to start, then 2 s per file: after the second of ten files
+    the estimate is 8 x 2 s (click's bar said 8 x 31 s: the start-up over two files)."""
+    import io
+
+    from turn_eval.detect.progress import FileProgress
+
+    times = iter([60.0, 62.0, 64.0])
+    stream = io.StringIO()
+    bar = FileProgress(10, "detecting", stream=stream, clock=lambda: next(times))
+    bar.update()  # at 60 s: the first file, no estimate yet
+    bar.update()  # at 62 s (estimate read at 62 s)
+    bar.update()  # at 64 s
+    assert stream.getvalue().splitlines() == [
+        "detecting: 1/10 files",
+        "detecting: 2/10 files, about 16 s left",
+        "detecting: 3/10 files, about 14 s left",
+    ]

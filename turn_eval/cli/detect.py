@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import importlib
 import inspect
-import sys
 from dataclasses import replace
 from pathlib import Path
 
@@ -27,6 +26,7 @@ from turn_datasets.h36m.miner import MinerParams
 from turn_eval.cli import cli
 from turn_eval.cli.common import SkeletonSource, skeleton_source_options
 from turn_eval.detect.mapping import build_manifest, detect_files
+from turn_eval.detect.progress import FileProgress
 from turn_eval.detect.protocol import TurnDetector
 from turn_eval.detect.rate import stream_rate
 from turn_eval.detect.rule import DETECT_MINER_DEFAULTS, DetectParams, MinerRule
@@ -158,12 +158,7 @@ def detect_command(
     info(rate.describe())
     fps_hz = rate.fps_hz
     where = f"on {scheduler}" if scheduler else (f"on {workers} local workers" if workers else "")
-    with click.progressbar(
-        length=len(files),
-        label=f"detecting {where}".strip(),
-        file=sys.stderr,
-        show_pos=True,
-    ) as bar:
+    with FileProgress(len(files), f"detecting {where}".strip()) as bar:
         run = detect_files(
             files,
             detector=detector,
