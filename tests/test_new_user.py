@@ -294,3 +294,27 @@ def test_the_first_time_estimate_leaves_out_the_start_up() -> None:
         "detecting: 2/10 files, about 16 s left",
         "detecting: 3/10 files, about 14 s left",
     ]
+
+
+def test_a_detection_a_little_past_its_sessions_end_is_said_and_scored(tmp_path, capsys) -> None:
+    """A stream runs on past the annotated part (the demo's do, by up to 10 s): warned, not
+    refused; the detection there is a false one."""
+    ref = tmp_path / "ref.csv"
+    ref.write_text(EVENT_REF)
+    det = tmp_path / "det.csv"
+    det.write_text(
+        "session,subject,start_s,end_s,angle_deg\n"
+        + EVENT_REF.split("\n", 1)[1]
+        + "s2,P2,498,505,90\n"
+    )
+    sessions = tmp_path / "sessions.csv"
+    sessions.write_text("session,subject,duration_s\ns1,P1,500\ns2,P2,500\n")
+    code, out, err = _run_eval(
+        ["score-events", det, "-r", ref, "--sessions", sessions, "--bootstrap", "0"]
+        + ["--format", "json"],
+        capsys,
+    )
+    assert code == 0, err
+    assert json.loads(out)["overall"]["fp"] == 1
+    assert "warning: 1 of 4 detections end past their session's annotated duration" in err
+    assert "line 5, 505 s in session 's2' of 500 s" in err

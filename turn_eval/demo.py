@@ -589,8 +589,9 @@ def _agreement_line(audit: dict) -> str:
         f"Agreement of {raters[0]} and {raters[1]} on {audit.get('matched')} matched turns: "
         f"{fixed(100 * audit.get('percent_agreement', float('nan')), 1)}% agree, Cohen's kappa "
         f"{fixed(audit.get('kappa', float('nan')), 3)} "
-        f"(95% CI {fixed(ci[0], 3)} to {fixed(ci[1], 3)}); "
-        f"gate kappa >= {MIN_KAPPA} passed."
+        f"(95% CI {fixed(ci[0], 3)} to {fixed(ci[1], 3)}), "
+        f"{fixed(audit.get('kappa_with_unmatched', float('nan')), 3)} counting the turns one "
+        f"rater missed; gate kappa >= {MIN_KAPPA} on both passed."
     )
 
 

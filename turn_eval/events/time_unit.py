@@ -17,11 +17,13 @@ import pandas as pd
 from turn_datasets.errors import TurnbenchError
 from turn_eval.events.reading import Units
 
-__all__ = ["END_SLACK_S", "FAR_FACTOR", "check_time_unit"]
+__all__ = ["END_SLACK_FRACTION", "END_SLACK_S", "FAR_FACTOR", "check_time_unit"]
 
-#: How far past its session's annotated end a detection may run (a detector's last frame
-#: and the annotator's rounding of the duration): 1 s plus 1% of the duration.
+#: How far past its session's annotated end a detection may run before it is refused: 1 s
+#: plus half the duration. A stream often runs on a little past the annotated part (such a
+#: detection is warned about and scored as false); a unit 1000 times too small runs far past.
 END_SLACK_S = 1.0
+END_SLACK_FRACTION = 0.5
 
 #: A detection starting past this multiple of the last reference turn's end (over the whole
 #: reference) is far beyond anything annotated: the mark of a unit 1000 times too small.
@@ -49,8 +51,8 @@ def check_time_unit(
     *,
     warn: Callable[[str], None] | None = None,
 ) -> None:
-    """Refuse detections past their session's end (with ``sessions``); else warn about
-    detections far past every reference turn.
+    """Refuse detections far past their session's end, and warn about those a little past
+    it (with ``sessions``); else warn about detections far past every reference turn.
 
     Parameters
     ----------
@@ -68,8 +70,8 @@ def check_time_unit(
     Raises
     ------
     TurnbenchError
-        With ``sessions``: a detection ending more than :data:`END_SLACK_S` plus 1% past its
-        session's annotated duration (the first one, the count, and the likely unit).
+        With ``sessions``: a detection ending more than :data:`END_SLACK_S` plus
+        :data:`END_SLACK_FRACTION` of the duration past its session's annotated duration (the first one, the count, and the likely unit).
     """
     if det.shape[0] == 0:
         return
@@ -79,8 +81,18 @@ def check_time_unit(
         codes = units.codes(sessions)
         known = codes >= 0
         duration[codes[known]] = sessions["duration_s"].to_numpy(dtype=np.float64)[known]
-        limit = duration[det_unit] * 1.01 + END_SLACK_S
+        session_end = duration[det_unit]
+        limit = session_end * (1.0 + END_SLACK_FRACTION) + END_SLACK_S
         past = np.flatnonzero(end > limit)  # NaN (no duration) compares False: said elsewhere
+        over = np.flatnonzero((end > session_end) & ~(end > limit))
+        if over.size and warn is not None and not past.size:
+            i = int(over[0])
+            warn(
+                f"{over.size} of {det.shape[0]} detections end past their session's annotated "
+                f"duration (first: line {_line(det, i)}, {end[i]:g} s in session "
+                f"{units.sessions[int(det_unit[i])]!r} of {session_end[i]:g} s): scored as false "
+                "detections"
+            )
         if past.size:
             i = int(past[0])
             u = int(det_unit[i])
