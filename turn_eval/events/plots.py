@@ -23,6 +23,8 @@ from typing import Any
 
 import numpy as np
 
+from turn_datasets.render.numbers import fixed
+
 __all__ = ["EVENT_PLOT_FILES", "TIMELINE_DIR", "write_event_plots"]
 
 #: The summary figures, in the order :func:`write_event_plots` writes them.
@@ -57,24 +59,35 @@ def _timeline(unit_events, path: Path, session: str, subject: str) -> Path:
     span = max(t1 - t0, 1.0)
     fig = _figure(figsize=(min(4.0 + span / 10.0, _MAX_INCHES), 2.6))
     ax = fig.add_subplot()
-    for row in unit_events.itertuples(index=False):
-        colour = _COLOURS[row.kind]
+    # A label is about 0.45 in wide at 7 pt ("157.9°"); one closer than that to the previous
+    # label of its row goes one line higher, so that none overlaps.
+    seconds_per_inch = 1.04 * span / (0.85 * fig.get_figwidth())
+    min_gap_s = 0.45 * seconds_per_inch
+    last: dict[float, tuple[float, bool]] = {}
+    bars = [
+        (y, start, end, angle, row.kind)
+        for row in unit_events.itertuples(index=False)
         for y, start, end, angle in (
             (1.0, row.ref_start_s, row.ref_end_s, row.ref_angle_deg),
             (0.0, row.det_start_s, row.det_end_s, row.det_angle_deg),
-        ):
-            if not np.isfinite(start):
-                continue
-            ax.add_patch(
-                _bar(start, end, y, colour),
-            )
-            ax.text((start + end) / 2, y + 0.3, f"{angle:g}°", ha="center", fontsize=7)
+        )
+        if np.isfinite(start)
+    ]
+    for y, start, end, angle, kind in sorted(bars, key=lambda b: (b[0], b[1])):
+        ax.add_patch(_bar(start, end, y, _COLOURS[kind]))
+        mid = (start + end) / 2
+        prev_x, prev_raised = last.get(y, (-np.inf, True))
+        raised = not prev_raised if mid - prev_x < min_gap_s else False
+        last[y] = (mid, raised)
+        ax.text(mid, y + (0.44 if raised else 0.24), f"{fixed(angle, 1)}°", ha="center", fontsize=7)
+    for row in unit_events.itertuples(index=False):
+        colour = _COLOURS[row.kind]
         if row.kind == "TP":
             mid_ref = (row.ref_start_s + row.ref_end_s) / 2
             mid_det = (row.det_start_s + row.det_end_s) / 2
             ax.plot([mid_ref, mid_det], [0.8, 0.2], color=colour, linewidth=0.8)
     ax.set_xlim(t0 - 0.02 * span, t1 + 0.02 * span)
-    ax.set_ylim(-0.5, 1.7)
+    ax.set_ylim(-0.5, 1.8)
     ax.set_yticks([0.0, 1.0], ["detected", "reference"])
     ax.set_xlabel("time (s)")
     ax.set_title(f"session {session}, subject {subject}", fontsize=9)
@@ -112,6 +125,16 @@ def _f1_by_group(doc: Mapping[str, Any], path: Path) -> Path:
         x = np.arange(len(entries))
         colours = ["#1f77b4"] * (len(entries) - 1) + ["#7f7f7f"]
         ax.bar(x, np.nan_to_num(f1), color=colours)
+        for xi, value in zip(x, f1, strict=True):
+            if np.isfinite(value):
+                ax.annotate(
+                    f"{fixed(value, 1)}",
+                    (xi, value),
+                    xytext=(0, 2),
+                    textcoords="offset points",
+                    ha="center",
+                    fontsize=7,
+                )
         has = np.isfinite(low) & np.isfinite(f1)
         ax.errorbar(
             x[has],
@@ -122,8 +145,13 @@ def _f1_by_group(doc: Mapping[str, Any], path: Path) -> Path:
             capsize=3,
         )
         ax.set_xticks(x, names, rotation=30 if len(names) > 6 else 0, fontsize=8)
-        ax.set_ylim(0, 105)
-        ax.set_ylabel("F1 (%)")
+        # The axis starts just below the lowest F1 or interval, so that differences of a few
+        # points between groups show (from 0, groups at 95% and 99% look alike); the bars'
+        # base is marked in the axis label when it is not 0.
+        seen = np.concatenate([f1[np.isfinite(f1)], low[np.isfinite(low)]])
+        bottom = max(0.0, 5.0 * np.floor((float(seen.min()) - 3.0) / 5.0)) if seen.size else 0.0
+        ax.set_ylim(bottom, 101)
+        ax.set_ylabel("F1 (%)" if bottom == 0 else f"F1 (%), axis from {bottom:g}")
         ax.set_title(f"by {col}", fontsize=9)
     fig.tight_layout()
     return _save(fig, path)
