@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from turn_eval import plots
+from turn_eval.clips import plots
 
 
 @pytest.fixture()
@@ -19,7 +19,7 @@ def drawn(monkeypatch):
         figures[path.name] = fig
         return path
 
-    monkeypatch.setattr(plots, "_save", keep)
+    monkeypatch.setattr(plots, "save_figure", keep)
     return figures
 
 
@@ -50,7 +50,7 @@ def drawn_events(monkeypatch):
         figures[path.name] = fig
         return path
 
-    monkeypatch.setattr(event_plots, "_save", keep)
+    monkeypatch.setattr(event_plots, "save_figure", keep)
     return event_plots, figures
 
 
