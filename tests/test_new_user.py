@@ -318,3 +318,51 @@ def test_a_detection_a_little_past_its_sessions_end_is_said_and_scored(tmp_path,
     assert json.loads(out)["overall"]["fp"] == 1
     assert "warning: 1 of 4 detections end past their session's annotated duration" in err
     assert "line 5, 505 s in session 's2' of 500 s" in err
+
+
+# --- one error per run; a spreadsheet's export read and said -------------------------------
+
+SCORE_REF = """clip_id,angle_deg,duration_s
+a,90,2
+b,180,3
+c,135,2
+d,90,1
+e,225,3
+"""
+
+
+def test_score_reports_every_problem_of_a_file_in_one_run(tmp_path, capsys) -> None:
+    """A duplicate id, a missing clip, a non-numeric angle and negative angles (which "(1
+    more row like it)" used to hide behind the first kind): one run, every kind, exit 2."""
+    ref = tmp_path / "ref.csv"
+    ref.write_text(SCORE_REF)
+    pred = tmp_path / "pred.csv"
+    pred.write_text("clip_id,angle_deg\na,90\nb,ninety\na,95\nc,-10\nd,-20\n")
+    code, out, err = _run_eval(["score", pred, "-r", ref], capsys)
+    assert code == 2 and out == ""
+    assert err.startswith(f"turn-eval: error: {pred}:3: 5 problems of 4 kinds; nothing scored:")
+    body = err.splitlines()
+    assert "  duplicate clip_id 'a', first on line 2: line 4 ('a', first on line 2)" in body
+    assert "  angle_deg 'ninety' is not a number: line 3 ('ninety')" in body
+    assert any(
+        x.startswith("  angle_deg is negative (-10) (2 rows): lines 5 (-10), 6 (-20)") for x in body
+    )
+    assert any(
+        x.startswith("  1 of the reference's 5 clips is missing from the predictions: 'e'")
+        for x in body
+    )
+    assert "Traceback" not in err
+
+
+def test_a_semicolon_export_with_padded_ids_is_read_and_said(tmp_path, capsys) -> None:
+    ref = tmp_path / "ref.csv"
+    ref.write_text(SCORE_REF)
+    pred = tmp_path / "pred.csv"
+    pred.write_text("clip_id;angle_deg\na;90,0\n b;180\nc;135\n  d;90\ne;225\n")
+    code, out, err = _run_eval(
+        ["score", pred, "-r", ref, "--format", "json", "--bootstrap", "0"], capsys
+    )
+    assert code == 0, err
+    assert json.loads(out)["overall"]["accuracy"] == 1.0
+    assert f"{pred}: read as semicolon-separated (a spreadsheet export?)" in err
+    assert f"{pred}: 2 cells of clip_id had spaces around the value, read without them" in err
