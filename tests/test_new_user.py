@@ -317,7 +317,7 @@ def test_a_detection_a_little_past_its_sessions_end_is_said_and_scored(tmp_path,
     assert code == 0, err
     assert json.loads(out)["overall"]["fp"] == 1
     assert "warning: 1 of 4 detections end past their session's annotated duration" in err
-    assert "line 5, 505 s in session 's2' of 500 s" in err
+    assert "line 5, 505 s in session 's2' of 500 s in sessions.csv)" in err
 
 
 # --- one error per run; a spreadsheet's export read and said -------------------------------

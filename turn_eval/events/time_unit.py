@@ -21,7 +21,7 @@ __all__ = ["END_SLACK_FRACTION", "END_SLACK_S", "FAR_FACTOR", "check_time_unit"]
 
 #: How far past its session's annotated end a detection may run before it is refused: 1 s
 #: plus half the duration. A stream often runs on a little past the annotated part (such a
-#: detection is warned about and scored as false); a unit 1000 times too small runs far past.
+#: detection is warned about); a unit 1000 times too small runs far past.
 END_SLACK_S = 1.0
 END_SLACK_FRACTION = 0.5
 
@@ -90,8 +90,7 @@ def check_time_unit(
             warn(
                 f"{over.size} of {det.shape[0]} detections end past their session's annotated "
                 f"duration (first: line {_line(det, i)}, {end[i]:g} s in session "
-                f"{units.sessions[int(det_unit[i])]!r} of {session_end[i]:g} s): scored as false "
-                "detections"
+                f"{units.sessions[int(det_unit[i])]!r} of {session_end[i]:g} s in sessions.csv)"
             )
         if past.size:
             i = int(past[0])
