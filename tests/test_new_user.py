@@ -366,3 +366,38 @@ def test_a_semicolon_export_with_padded_ids_is_read_and_said(tmp_path, capsys) -
     assert json.loads(out)["overall"]["accuracy"] == 1.0
     assert f"{pred}: read as semicolon-separated (a spreadsheet export?)" in err
     assert f"{pred}: 2 cells of clip_id had spaces around the value, read without them" in err
+
+
+# --- make test says what it does during its quiet minutes ----------------------------------
+
+
+def test_every_quiet_step_of_make_test_is_announced() -> None:
+    """`make test` from a fresh clone: each command of the installs, lint and both suites
+    comes after a line saying what it does (pip --quiet and mypy print nothing for minutes)."""
+    import shutil
+    import subprocess
+
+    if shutil.which("make") is None:
+        pytest.skip("make is not installed")
+    repo = Path(__file__).resolve().parents[1]
+    # -B: as from a fresh clone (every target out of date); -n: print, run nothing
+    dry = subprocess.run(
+        [
+            "make",
+            "-B",
+            "-n",
+            "test",
+            "PYTHON=python3",
+            "VENV=/nonexistent/v",
+            "VENV_VIDEO=/nonexistent/w",
+        ],
+        cwd=repo,
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.splitlines()
+    commands = [x for x in dry if x.strip() and not x.startswith(("echo ", "touch "))]
+    assert any("pip install --quiet" in x for x in commands) and any("mypy" in x for x in commands)
+    for k, line in enumerate(dry):
+        if line in commands:
+            assert k > 0 and dry[k - 1].startswith('echo "make: '), line
