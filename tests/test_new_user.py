@@ -401,3 +401,23 @@ def test_every_quiet_step_of_make_test_is_announced() -> None:
     for k, line in enumerate(dry):
         if line in commands:
             assert k > 0 and dry[k - 1].startswith('echo "make: '), line
+
+
+def test_score_events_reports_every_kind_of_problem_in_one_run(tmp_path, capsys) -> None:
+    ref = tmp_path / "ref.csv"
+    ref.write_text(EVENT_REF)
+    det = tmp_path / "det.csv"
+    det.write_text(
+        "session,subject,start_s,end_s,angle_deg,direction\n"
+        "s1,P1,10,12,90,left\n"
+        "s1,,20,22,90,left\n"  # no subject
+        "s1,P1,30,31,-90,left\n"  # a negative angle
+        "s1,P1,40,41,90,sideways\n"  # no such direction
+        "s2,P2,40,42,90,right\n"
+    )
+    code, out, err = _run_eval(["score-events", det, "-r", ref, "--bootstrap", "0"], capsys)
+    assert code == 2 and out == ""
+    assert f"{det}:3: 3 problems of 3 kinds; nothing scored:" in err
+    assert "  subject is empty: line 3" in err
+    assert "  angle_deg -90 is outside the plausible range [0, 3600]" in err and ": line 4" in err
+    assert "  direction 'sideways' is not one of left, right (or empty): line 5" in err

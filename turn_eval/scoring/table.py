@@ -600,6 +600,20 @@ class Problems:
         self.singles.setdefault(kind, single or first or kind)
         self.firsts.setdefault(kind, first or kind)
 
+    def record(self, exc: TurnbenchError) -> None:
+        """A problem a check raised: its message (first row, the others counted) and line."""
+        row = exc.where.row
+        self.add(exc.message, [row] if row else [], hint=exc.hint, single=exc.message)
+
+    def run(self, check: Callable[[], object]) -> bool:
+        """Run one check, recording what it raises instead of stopping; True if it passed."""
+        try:
+            check()
+        except TurnbenchError as exc:
+            self.record(exc)
+            return False
+        return True
+
     def __bool__(self) -> bool:
         return bool(self.kinds)
 
