@@ -58,8 +58,7 @@ def _extents(fig):
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     renderer = FigureCanvasAgg(fig).get_renderer()
-    ax = fig.axes[0]
-    return [(t.get_text(), t.get_window_extent(renderer)) for t in ax.texts]
+    return [(t.get_text(), t.get_window_extent(renderer)) for ax in fig.axes for t in ax.texts]
 
 
 def test_timeline_angles_have_one_decimal_and_do_not_overlap(tmp_path, drawn_events) -> None:
@@ -86,6 +85,10 @@ def test_timeline_angles_have_one_decimal_and_do_not_overlap(tmp_path, drawn_eve
     for i in range(len(boxes)):
         for j in range(i + 1, len(boxes)):
             assert not boxes[i].overlaps(boxes[j]), (texts[i][0], texts[j][0])
+    # 100 s to 402 s: three rows of 120 s, each readable at a page's width (12 in)
+    fig = figures["t.png"]
+    assert len(fig.axes) == 3 and fig.get_figwidth() <= 12.0
+    assert [round(ax.get_xlim()[0] + 0.02 * 120, 6) for ax in fig.axes] == [100.0, 220.0, 340.0]
 
 
 def test_f1_axis_shows_the_differences_between_groups(tmp_path, drawn_events) -> None:

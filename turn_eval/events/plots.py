@@ -33,7 +33,6 @@ EVENT_PLOT_FILES = ("f1_by_group.png", "pr_curve.png")
 #: The folder of the per-(session, subject) timelines.
 TIMELINE_DIR = "timelines"
 _COLOURS = {"TP": "#2ca02c", "FP": "#ff7f0e", "FN": "#d62728"}
-_MAX_INCHES = 24.0
 _UNSAFE = re.compile(r"[^A-Za-z0-9._-]+")
 
 
@@ -47,18 +46,22 @@ def _figure(**kwargs):
     return Figure(**kwargs)
 
 
+#: A long session is drawn in rows of this many seconds (one 500 s row at page width made
+#: its bars and labels a few pixels tall), each row this many inches wide.
+TIMELINE_ROW_S = 120.0
+_TIMELINE_ROW_INCHES = 12.0
+
+
 def _timeline(unit_events, path: Path, session: str, subject: str) -> Path:
-    """One (session, subject): reference turns at y=1, detections at y=0."""
+    """One (session, subject): reference turns at y=1, detections at y=0, in rows of
+    :data:`TIMELINE_ROW_S` seconds."""
     t0 = float(np.nanmin(unit_events[["ref_start_s", "det_start_s"]].to_numpy()))
     t1 = float(np.nanmax(unit_events[["ref_end_s", "det_end_s"]].to_numpy()))
     span = max(t1 - t0, 1.0)
-    fig = _figure(figsize=(min(4.0 + span / 10.0, _MAX_INCHES), 2.6))
-    ax = fig.add_subplot()
-    # A label is about 0.45 in wide at 7 pt ("157.9°"); one closer than that to the previous
-    # label of its row goes one line higher, so that none overlaps.
-    seconds_per_inch = 1.04 * span / (0.85 * fig.get_figwidth())
-    min_gap_s = 0.45 * seconds_per_inch
-    last: dict[float, tuple[float, bool]] = {}
+    n_rows = max(1, int(np.ceil(span / TIMELINE_ROW_S)))
+    window = span if n_rows == 1 else TIMELINE_ROW_S
+    width = min(4.0 + window / 10.0, _TIMELINE_ROW_INCHES)
+    fig = _figure(figsize=(width, 0.7 + 1.9 * n_rows))
     bars = [
         (y, start, end, angle, row.kind)
         for row in unit_events.itertuples(index=False)
@@ -68,26 +71,41 @@ def _timeline(unit_events, path: Path, session: str, subject: str) -> Path:
         )
         if np.isfinite(start)
     ]
-    for y, start, end, angle, kind in sorted(bars, key=lambda b: (b[0], b[1])):
-        ax.add_patch(_bar(start, end, y, _COLOURS[kind]))
-        mid = (start + end) / 2
-        prev_x, prev_raised = last.get(y, (-np.inf, True))
-        raised = not prev_raised if mid - prev_x < min_gap_s else False
-        last[y] = (mid, raised)
-        ax.text(mid, y + (0.44 if raised else 0.24), f"{fixed(angle, 1)}°", ha="center", fontsize=7)
-    for row in unit_events.itertuples(index=False):
-        colour = _COLOURS[row.kind]
-        if row.kind == "TP":
-            mid_ref = (row.ref_start_s + row.ref_end_s) / 2
-            mid_det = (row.det_start_s + row.det_end_s) / 2
-            ax.plot([mid_ref, mid_det], [0.8, 0.2], color=colour, linewidth=0.8)
-    ax.set_xlim(t0 - 0.02 * span, t1 + 0.02 * span)
-    ax.set_ylim(-0.5, 1.8)
-    ax.set_yticks([0.0, 1.0], ["detected", "reference"])
-    ax.set_xlabel("time (s)")
-    ax.set_title(f"session {session}, subject {subject}", fontsize=9)
-    handles = [_bar(0, 0, 0, c) for c in _COLOURS.values()]
-    ax.legend(handles, list(_COLOURS), loc="upper right", fontsize=7, ncols=3)
+    # A label is about 0.45 in wide at 7 pt ("157.9°"); one closer than that to the previous
+    # label of its row goes one line higher, so that none overlaps.
+    min_gap_s = 0.45 * 1.04 * window / (0.85 * width)
+    for k in range(n_rows):
+        ax = fig.add_subplot(n_rows, 1, k + 1)
+        lo = t0 + k * window
+        hi = lo + window
+        last: dict[float, tuple[float, bool]] = {}
+        for y, start, end, angle, kind in sorted(bars, key=lambda b: (b[0], b[1])):
+            mid = (start + end) / 2
+            if end < lo - 0.02 * window or start > hi + 0.02 * window:
+                continue
+            ax.add_patch(_bar(start, end, y, _COLOURS[kind]))
+            if not lo <= mid < hi and not (k == n_rows - 1 and mid >= hi):
+                continue  # labelled in the row that holds its middle
+            prev_x, prev_raised = last.get(y, (-np.inf, True))
+            raised = not prev_raised if mid - prev_x < min_gap_s else False
+            last[y] = (mid, raised)
+            ax.text(
+                mid, y + (0.44 if raised else 0.24), f"{fixed(angle, 1)}°", ha="center", fontsize=7
+            )
+        for row in unit_events.itertuples(index=False):
+            if row.kind == "TP":
+                mid_ref = (row.ref_start_s + row.ref_end_s) / 2
+                mid_det = (row.det_start_s + row.det_end_s) / 2
+                ax.plot([mid_ref, mid_det], [0.8, 0.2], color=_COLOURS["TP"], linewidth=0.8)
+        ax.set_xlim(lo - 0.02 * window, hi + 0.02 * window)
+        ax.set_ylim(-0.5, 1.8)
+        ax.set_yticks([0.0, 1.0], ["detected", "reference"])
+        if k == 0:
+            ax.set_title(f"session {session}, subject {subject}", fontsize=9)
+            handles = [_bar(0, 0, 0, c) for c in _COLOURS.values()]
+            ax.legend(handles, list(_COLOURS), loc="upper right", fontsize=7, ncols=3)
+        if k == n_rows - 1:
+            ax.set_xlabel("time (s)")
     fig.tight_layout()
     return save_figure(fig, path)
 
@@ -120,16 +138,6 @@ def _f1_by_group(doc: Mapping[str, Any], path: Path) -> Path:
         x = np.arange(len(entries))
         colours = ["#1f77b4"] * (len(entries) - 1) + ["#7f7f7f"]
         ax.bar(x, np.nan_to_num(f1), color=colours)
-        for xi, value in zip(x, f1, strict=True):
-            if np.isfinite(value):
-                ax.annotate(
-                    f"{fixed(value, 1)}",
-                    (xi, value),
-                    xytext=(0, 2),
-                    textcoords="offset points",
-                    ha="center",
-                    fontsize=7,
-                )
         has = np.isfinite(low) & np.isfinite(f1)
         ax.errorbar(
             x[has],
@@ -146,6 +154,17 @@ def _f1_by_group(doc: Mapping[str, Any], path: Path) -> Path:
         seen = np.concatenate([f1[np.isfinite(f1)], low[np.isfinite(low)]])
         bottom = max(0.0, 5.0 * np.floor((float(seen.min()) - 3.0) / 5.0)) if seen.size else 0.0
         ax.set_ylim(bottom, 101)
+        for xi, value in zip(x, f1, strict=True):  # each value at its bar's foot, clear of the CI
+            if np.isfinite(value) and value > bottom + 2:
+                ax.text(
+                    xi,
+                    bottom + 0.5,
+                    fixed(value, 1),
+                    ha="center",
+                    va="bottom",
+                    fontsize=8,
+                    color="white",
+                )
         ax.set_ylabel("F1 (%)" if bottom == 0 else f"F1 (%), axis from {bottom:g}")
         ax.set_title(f"by {col}", fontsize=9)
     fig.tight_layout()
