@@ -201,7 +201,10 @@ def scores_table_html(
     if grouping == "bin_deg":
         present = [m for m in present if m[0] != "wprec"]
     counts = [groups[n].get("n") for n in names]
-    total = sum(int(c) for c in counts if not is_missing(c))
+    total = 0
+    for c in counts:
+        if c is not None and not is_missing(c):
+            total += int(c)
     rows = []
     for key, label, _ in present:
         rows.append(

@@ -291,7 +291,7 @@ def mine_corpus(
     index = build_index(c for r in good for c in r.clips)
     applied = [a for r in good for a in r.applied]
     unmatched = unmatched_overrides(overrides, applied)
-    skipped = [
+    skipped: list[dict[str, Any]] = [
         {"path": str(r.source.path), "item": None, "error": str(r.error)}
         for r in records
         if r.error is not None

@@ -87,7 +87,7 @@ def _clip_ids(table: Table, problems: Problems | None = None) -> np.ndarray:
     if problems is not None:
         where = np.flatnonzero(duplicate)
         if where.size:
-            first_line = {}
+            first_line: dict[object, int] = {}
             for k in range(ids.shape[0]):
                 first_line.setdefault(ids[k], int(table.lines[k]))
             k0 = int(where[0])

@@ -643,5 +643,5 @@ class Problems:
             rows = f" ({counted(len(lines), 'row')})" if len(lines) > 1 else ""
             out.append(f"  {self.firsts[kind]}{rows}{where}" + (f" [{hint}]" if hint else ""))
         # The error's line is the file's first problem (each kind's lines are listed).
-        first = min((lines[0] for lines, _, _ in self.kinds.values() if lines), default=None)
-        raise TurnbenchError("\n".join(out), file=self.path, row=first)
+        starts = [entry[0][0] for entry in self.kinds.values() if entry[0]]
+        raise TurnbenchError("\n".join(out), file=self.path, row=min(starts) if starts else None)
