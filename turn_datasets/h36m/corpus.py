@@ -301,10 +301,7 @@ def mine_corpus(
         for r in good
         for e in r.bad_sequences
     ]
-    skipped += [
-        {"path": str(p), "item": None, "error": f"{p}: not read: {why}", "passed_over": True}
-        for p, why in sorted(sources.passed_over.items())
-    ]
+    skipped += _passed_over_entries(sources.passed_over)
     notes = [
         f"--position-cutoff-hz {params.position_cutoff_hz:g} is at or above "
         f"{FILTER_MAX_FRACTION_OF_FPS:g} x {fps:g} Hz: the hip positions of "
@@ -338,6 +335,14 @@ def mine_corpus(
     return MinedCorpus(
         index=index, manifest=manifest, records=records, unmatched=unmatched, notes=notes
     )
+
+
+def _passed_over_entries(passed_over: Mapping[Path, str]) -> list[dict[str, Any]]:
+    """The manifest's ``skipped`` entries of the files a walk passed over."""
+    return [
+        {"path": str(p), "item": None, "error": f"{p}: not read: {why}", "passed_over": True}
+        for p, why in sorted(passed_over.items())
+    ]
 
 
 def passed_over_lines(

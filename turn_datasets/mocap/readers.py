@@ -219,9 +219,8 @@ def discover(
         Called with a subfolder that cannot be read and the error naming it; without it,
         that error is raised (a folder is never dropped in silence).
     on_passed_over
-        Called with each file of a walked folder that may hold motion data (a motion
-        format's suffix) but is not read, and why (:func:`passed_over_reason`), so that a
-        caller can name it.
+        Called with each walked file that may hold motion data but is not read, and why
+        (:func:`passed_over_reason`).
 
     Returns
     -------
@@ -280,10 +279,8 @@ def discover(
                         kind = None
                 if kind is not None:
                     hits.append(SourceFile(f, kind))
-                elif on_passed_over is not None:
-                    reason = passed_over_reason(f, item, fmt)
-                    if reason is not None:
-                        on_passed_over(f, reason)
+                elif on_passed_over is not None and (why := passed_over_reason(f, item, fmt)):
+                    on_passed_over(f, why)
             if not hits and not unreadable:
                 wanted = f"no {fmt} file" if fmt else "no motion-capture file"
                 raise TurnbenchError(

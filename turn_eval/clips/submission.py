@@ -281,6 +281,57 @@ def _place_in_reference(
     return position, covered, missing_ids
 
 
+def _checked_rows(
+    table: Table,
+    ref: pd.DataFrame,
+    *,
+    ref_path: str,
+    allow_missing: bool,
+    abs_angles: bool,
+    say: Callable[[str], None],
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, np.ndarray, tuple[str, ...]]:
+    """A submission's angles, speeds and place in the reference, after every check; every
+    problem of the file is found in one pass and raised together, grouped by kind."""
+    # Every problem of the file in one pass (grouped by kind), then one error.
+    problems = Problems(table.path)
+    ids = _clip_ids(table, problems)
+    hint = "angles are magnitudes; pass --abs to take the absolute value"
+    angle = numbers(
+        table,
+        "angle_deg",
+        allow_empty=False,
+        allow_negative=abs_angles,
+        negative_hint=hint,
+        problems=problems,
+    )
+    speed = None
+    if "speed_deg_s" in table.header:
+        # An empty speed means "not given": the metric falls back to angle / duration.
+        speed = numbers(
+            table,
+            "speed_deg_s",
+            allow_empty=True,
+            allow_negative=abs_angles,
+            negative_hint=hint,
+            problems=problems,
+        )
+    if abs_angles:
+        angle = np.abs(angle)
+        speed = None if speed is None else np.abs(speed)
+
+    position, covered, missing_ids = _place_in_reference(
+        table,
+        ids,
+        ref,
+        ref_path=ref_path,
+        allow_missing=allow_missing,
+        say=say,
+        problems=problems,
+    )
+    problems.raise_if_any()
+    return angle, speed, position, covered, missing_ids
+
+
 def read_predictions(
     path: str | os.PathLike[str],
     reference: pd.DataFrame | str | os.PathLike[str],
@@ -331,43 +382,9 @@ def read_predictions(
     for note in reading_notes(table):
         say(note)
     require(table, ("clip_id", "angle_deg"), what="the predictions")
-    # Every problem of the file in one pass (grouped by kind), then one error.
-    problems = Problems(table.path)
-    ids = _clip_ids(table, problems)
-    hint = "angles are magnitudes; pass --abs to take the absolute value"
-    angle = numbers(
-        table,
-        "angle_deg",
-        allow_empty=False,
-        allow_negative=abs_angles,
-        negative_hint=hint,
-        problems=problems,
+    angle, speed, position, covered, missing_ids = _checked_rows(
+        table, ref, ref_path=ref_path, allow_missing=allow_missing, abs_angles=abs_angles, say=say
     )
-    speed = None
-    if "speed_deg_s" in table.header:
-        # An empty speed means "not given": the metric falls back to angle / duration.
-        speed = numbers(
-            table,
-            "speed_deg_s",
-            allow_empty=True,
-            allow_negative=abs_angles,
-            negative_hint=hint,
-            problems=problems,
-        )
-    if abs_angles:
-        angle = np.abs(angle)
-        speed = None if speed is None else np.abs(speed)
-
-    position, covered, missing_ids = _place_in_reference(
-        table,
-        ids,
-        ref,
-        ref_path=ref_path,
-        allow_missing=allow_missing,
-        say=say,
-        problems=problems,
-    )
-    problems.raise_if_any()
     ref_angle = ref["angle_deg"].to_numpy(dtype=np.float64)
     if angle.size and float(np.max(angle)) < _TWO_PI and float(np.max(ref_angle)) >= _TWO_PI:
         say(
