@@ -462,7 +462,8 @@ def test_remap_open_stage_scores_by_medication_and_turn_type_in_the_report(ran) 
     assert "$ turn-datasets remap open" in said
     text = (out / "report.html").read_text(encoding="utf-8")
     section = text.split("Turn-REMAP as released (REMAP Open)</h2>")[1].split("<h2")[0]
-    for caption in ("by medication", "by turn_type", "by dbs", "by steps"):
+    # the captions name the columns in words (turn_type is "turn type")
+    for caption in ("by medication", "by turn type", "by dbs", "by steps"):
         assert f"Turn-REMAP as released, net {caption}" in section, caption
     # the page's numbers are the scores file's: overall accuracy with one decimal
     accuracy = f"{100 * scores['overall']['accuracy']:.1f}"
