@@ -134,7 +134,8 @@ def detect_command(
     mpath = manifest_path(out)
     check_not_input(mpath, files)
     rate = stream_rate(files, fps_hz, source_format=source.format, force=force_fps)
-    info(rate.describe())
+    if rate.origin != "option":  # a rate the user did not type is said
+        info(rate.describe())
     fps_hz = rate.fps_hz
     if detector_spec is None:
         # the rule's low-pass at this frame rate, refused before any stream is read
