@@ -18,15 +18,22 @@ venv: $(STAMP)
 
 venv-video: $(VSTAMP)
 
+# The installs are quiet (pip's output is long); each step says what it does first.
 $(STAMP): pyproject.toml
+	@echo "make: creating $(VENV) (numpy 2.x)"
 	$(PYTHON) -m venv $(VENV)
+	@echo "make: upgrading pip in $(VENV)"
 	$(BIN)/python -m pip install --quiet --upgrade pip
+	@echo "make: installing turnbench[test,dev,server] into $(VENV) (a minute or two on a cold cache)"
 	$(BIN)/python -m pip install --quiet -e '.[test,dev,server]'
 	touch $(STAMP)
 
 $(VSTAMP): pyproject.toml
+	@echo "make: creating $(VENV_VIDEO) (numpy 1.26, mediapipe)"
 	$(PYTHON) -m venv $(VENV_VIDEO)
+	@echo "make: upgrading pip in $(VENV_VIDEO)"
 	$(VBIN)/python -m pip install --quiet --upgrade pip
+	@echo "make: installing turnbench[test,video,server] into $(VENV_VIDEO) (mediapipe: about a minute)"
 	$(VBIN)/python -m pip install --quiet -e '.[test,video,server]'
 	touch $(VSTAMP)
 
@@ -38,10 +45,12 @@ demo: $(STAMP)
 test: lint test-core test-video
 
 test-core: $(STAMP)
+	@echo "make: the suite in $(VENV) (numpy 2.x)"
 	$(BIN)/python -m pytest -q
 
 # TURNBENCH_REQUIRE_VIDEO turns a skipped video test into a failure (tests/conftest.py).
 test-video: $(VSTAMP)
+	@echo "make: the suite in $(VENV_VIDEO) (numpy 1.26, the video tests)"
 	TURNBENCH_REQUIRE_VIDEO=1 $(VBIN)/python -m pytest -q -p no:cacheprovider
 
 # The estimate benchmark needs mediapipe: skipped in .venv, run in .venv-video.
@@ -52,8 +61,11 @@ bench: $(STAMP) $(VSTAMP)
 # ruff's rules, its formatting (checked, never rewritten here), and the packages' types
 # (they ship py.typed; mypy's settings are in pyproject.toml).
 lint: $(STAMP)
+	@echo "make: ruff check"
 	$(BIN)/ruff check turn_datasets turn_eval tests benchmarks
+	@echo "make: ruff format --check"
 	$(BIN)/ruff format --check turn_datasets turn_eval tests benchmarks
+	@echo "make: mypy (about half a minute)"
 	$(BIN)/mypy
 
 clean:

@@ -137,7 +137,14 @@ def test_gate_exit_codes(synth, capsys, tmp_path):
     assert code == EXIT_GATE
     assert "gate failed" in err and "below --min-kappa 0.999" in err
     doc = json.loads(out)  # the report is printed before the gate fails
-    assert doc["gate"] == {"min_kappa": 0.999, "passed": False}
+    assert doc["gate"] == {
+        "min_kappa": 0.999,
+        "on": "both",
+        "passed": False,
+        "kappa": doc["kappa"],
+        "kappa_with_unmatched": doc["kappa_with_unmatched"],
+        "failed": ["kappa", "kappa_with_unmatched"],
+    }
     # the outputs are complete: a failed release still needs its disagreements reviewed
     assert (
         json.loads((tmp_path / "audit" / "agreement.json").read_text())["gate"]["passed"] is False

@@ -27,6 +27,7 @@ from turn_datasets.synthetic.demo_corpus import (
 )
 from turn_eval import cli as eval_cli
 from turn_eval import demo
+from turn_eval.detect.demo_stage import telling_timeline
 
 
 @pytest.fixture(scope="module")
@@ -134,7 +135,10 @@ def test_report_is_one_self_contained_page_with_everything(ran) -> None:
     assert len(pngs) == 2 * 2 * 4 + 1
     # and the untrimmed sessions' (issue 13): one session's timeline, F1 per group, PR curve
     events = out / "untrimmed" / "events"
-    pngs += [sorted((events / "timelines").glob("*.png"))[0]]
+    # the session shown is one with a false and a missed detection where there is one
+    timeline = telling_timeline(events)
+    assert timeline is not None
+    pngs += [timeline]
     pngs += [events / "f1_by_group.png", events / "pr_curve.png"]
     assert len(sources) == len(pngs)
     embedded = set()
@@ -458,7 +462,8 @@ def test_remap_open_stage_scores_by_medication_and_turn_type_in_the_report(ran) 
     assert "$ turn-datasets remap open" in said
     text = (out / "report.html").read_text(encoding="utf-8")
     section = text.split("Turn-REMAP as released (REMAP Open)</h2>")[1].split("<h2")[0]
-    for caption in ("by medication", "by turn_type", "by dbs", "by steps"):
+    # the captions name the columns in words (turn_type is "turn type")
+    for caption in ("by medication", "by turn type", "by dbs", "by steps"):
         assert f"Turn-REMAP as released, net {caption}" in section, caption
     # the page's numbers are the scores file's: overall accuracy with one decimal
     accuracy = f"{100 * scores['overall']['accuracy']:.1f}"

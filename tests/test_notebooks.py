@@ -122,11 +122,15 @@ def test_submitting_predictions(executed) -> None:
     nb = executed["submitting_predictions.ipynb"]
     text = _text_of(nb)
     # the broken copy is refused on the duplicated line: the file has a header and the
-    # reference's clips, the last one replaced by a copy of the first (line 2)
+    # reference's clips, the last one replaced by a copy of the first (line 2); both
+    # problems, the duplicate and the clip it pushed out, in the one error
     refused = re.search(
-        r"refused: broken\.csv:(\d+): duplicate clip_id '[^']+', first on line 2", text
+        r"refused: broken\.csv:(\d+): 2 problems of 2 kinds; nothing scored:\s+"
+        r"duplicate clip_id '[^']+', first on line 2: line (\d+) ",
+        text,
     )
-    assert refused
+    assert refused and refused.group(1) == refused.group(2)
+    assert "1 of the reference's" in text and "clips is missing from the predictions" in text
     scored = re.search(r"\{'n': (\d+), 'accuracy'", text)
     assert scored and int(refused.group(1)) == int(scored.group(1)) + 1
     # the comparison is of the same clips as the score

@@ -192,7 +192,8 @@ def test_scores_table_is_laid_out_as_the_papers_table_4(tmp_path: Path, png: Pat
     assert rows[1] == ["Acc. (%)", "66.7", "100.0", "83.3"]
     assert rows[2] == ["MAE (°)", "10.0", "30.0", "20.0"]
     assert rows[3] == ["WPrec (%)", "50.0", "100.0", "75.0"]
-    assert rows[4] == ["# Turns", "3", "1", "2"]
+    # a count is summed (3 + 1 turns), not averaged: the "Avg." column gives its Total
+    assert rows[4] == ["# Turns", "3", "1", "Total 4"]
     assert len(rows) == 5
 
 
@@ -218,7 +219,8 @@ def test_csv_and_key_values(tmp_path: Path, png: Path) -> None:
     page = _parse(_build(tmp_path, png).read_text(encoding="utf-8"))
     rows = next(t for t in page.tables if t["caption"] == "Rows")["rows"]
     # 91.25 rounds half up, as every table of turnbench (it read 91.2 before the one rule)
-    assert rows == [["clip_id", "angle_deg", "room"], ["S9_Walking_0-10", "91.3", "<kitchen>"]]
+    # raw column names in words
+    assert rows == [["clip", "angle (°)", "room"], ["S9_Walking_0-10", "91.3", "<kitchen>"]]
     kv = next(t for t in page.tables if t["rows"][0] == ["item", "value"])["rows"]
     assert ["kappa", "0.9612"] in kv
     assert ["kappa_ci95", "[0.9, 0.99]"] in kv

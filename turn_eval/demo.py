@@ -47,7 +47,7 @@ from turn_datasets.cli.common import run_group
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import write_csv, write_text
 from turn_datasets.render.markdown import markdown_table
-from turn_datasets.render.numbers import MISSING, fixed, format_metric
+from turn_datasets.render.numbers import MISSING, elan_time, fixed, format_metric
 from turn_datasets.synthetic.degrade import degrade_skeleton
 from turn_datasets.synthetic.demo_corpus import (
     DEMO_SEED,
@@ -618,8 +618,9 @@ def _agreement_line(audit: dict) -> str:
         f"Agreement of {raters[0]} and {raters[1]} on {audit.get('matched')} matched turns: "
         f"{fixed(100 * audit.get('percent_agreement', float('nan')), 1)}% agree, Cohen's kappa "
         f"{fixed(audit.get('kappa', float('nan')), 3)} "
-        f"(95% CI {fixed(ci[0], 3)} to {fixed(ci[1], 3)}); "
-        f"gate kappa >= {MIN_KAPPA} passed."
+        f"(95% CI {fixed(ci[0], 3)} to {fixed(ci[1], 3)}), "
+        f"{fixed(audit.get('kappa_with_unmatched', float('nan')), 3)} counting the turns one "
+        f"rater missed; gate kappa >= {MIN_KAPPA} on both passed."
     )
 
 
@@ -661,8 +662,20 @@ def _scores_section(report: Report, scored: SetScores) -> None:
         present = [g for g in scored.groupings if g in scores.get("by", {})]
         sec.heading(f"Method {method}")
         sec.scores(scores, groupings=present, caption=f"{scored.title}, {method}")
-        pngs = scored.figures[method]
-        sec.figures(pngs, captions={p.name: _caption(p) for p in pngs})
+    # The two methods' figures side by side, one row per figure, to be compared
+    methods = list(scored.figures)
+    if len(methods) == 2:
+        left, right = (scored.figures[m] for m in methods)
+        by_name = {p.name: p for p in right}
+        pairs = [(p, by_name[p.name]) for p in left if p.name in by_name]
+        sec.heading(f"Figures: {methods[0]} beside {methods[1]}")
+        sec.figure_pairs(
+            pairs, captions=[_caption(a) for a, _ in pairs], heads=(methods[0], methods[1])
+        )
+    else:
+        for method in methods:
+            pngs = scored.figures[method]
+            sec.figures(pngs, captions={p.name: f"{method}: {_caption(p)}" for p in pngs})
     if scored.compare_md is not None:
         sec.heading("paper against net on the same clips")
         sec.markdown(scored.compare_md)
@@ -677,6 +690,11 @@ def _disagreements_table(path: Path, *, max_rows: int = 60) -> pd.DataFrame:
     df = df.drop(columns=[c for c in ("file",) if c in df.columns]).head(max_rows)
     for col in [c for c in df.columns if c.startswith("angle_")]:
         df[col] = df[col].map(lambda v: MISSING if pd.isna(v) else fixed(v, 0))
+    # Times as ELAN shows them (h:mm:ss.mmm, to find the turn in its player) beside seconds
+    for col in [c for c in df.columns if c.startswith(("start_", "end_")) and c.endswith("_s")]:
+        df[col] = df[col].map(
+            lambda v: MISSING if pd.isna(v) else f"{elan_time(v)} ({fixed(v, 3)} s)"
+        )
     return df
 
 
@@ -766,7 +784,7 @@ def write_report(results: DemoResults, path: str | Path) -> Path:
     if results.agreement_md is not None:
         sec.markdown(results.agreement_md)
     for png in results.confusion_pngs:
-        sec.figure(png, caption=f"Agreement confusion matrix ({png.name})", width_px=480)
+        sec.figure(png, caption=f"Agreement confusion matrix ({png.name})")
     if results.disagreements is not None:
         sec.heading("Disagreements to review (also marked in the review EAFs)")
         sec.frame(results.disagreements, float_digits=3)
@@ -778,7 +796,9 @@ def write_report(results: DemoResults, path: str | Path) -> Path:
     if results.remap_open is not None:
         remap_open_section(report, results.remap_open)
 
-    report.section("Files").files(_FILES, caption="Where everything is, relative to this page")
+    report.section("Files").files(
+        _FILES, caption="Where everything is, relative to this page", link=True
+    )
     return report.write(path)
 
 

@@ -43,7 +43,13 @@ from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import write_text
 from turn_datasets.render.labels import METRIC_LABELS
-from turn_datasets.render.numbers import MISSING, fixed, format_metric, is_missing
+from turn_datasets.render.numbers import (
+    MISSING,
+    column_words,
+    fixed,
+    format_metric,
+    is_missing,
+)
 
 __all__ = [
     "METRICS",
@@ -78,9 +84,21 @@ th,td{border:1px solid #d6dde6;padding:.25em .6em;vertical-align:top}
 th{background:#eef2f6;text-align:left}td.num{text-align:right;font-variant-numeric:tabular-nums}
 tr.avg td,tr.avg th{background:#f8f3e6}tr.count td,tr.count th{color:#56606b}
 .wrap{overflow-x:auto}
+td,th{overflow-wrap:anywhere}
 figure{margin:1em 0 1.6em;display:inline-block;max-width:100%;vertical-align:top}
-figure img{max-width:100%;border:1px solid #e3e8ee}
+figure img{max-width:100%;height:auto;border:1px solid #e3e8ee}
+figure a.open img{cursor:zoom-in}
+figure .close{display:none}
+figure:target{position:fixed;inset:0;z-index:10;margin:0;padding:1em;overflow:auto;
+background:#fff;max-width:none}
+figure:target img{max-width:none}
+figure:target .close{display:inline-block;position:sticky;top:0;left:0;background:#1f5fa8;
+color:#fff;padding:.2em .8em;text-decoration:none}
 figcaption{font-size:.9em;color:#44505c;max-width:640px}
+.pair{display:grid;grid-template-columns:1fr 1fr;gap:1em;align-items:start}
+.pair figure{display:block;margin:.4em 0}
+@media print{main{max-width:none;box-shadow:none;padding:0}.wrap{overflow:visible}
+table{font-size:.78em}figure{break-inside:avoid}nav{display:none}}
 pre{background:#f3f5f7;padding:.6em .8em;overflow-x:auto;font-size:.88em}
 code{background:#f3f5f7;padding:0 .2em}
 .note{background:#eef6ee;border-left:4px solid #5a9a5a;padding:.5em .9em}
@@ -142,6 +160,18 @@ def _looks_numeric(text: str) -> bool:
     return bool(_NUMERIC_RE.match(text.strip()))
 
 
+#: Beyond this many groups a scores table puts the groups in rows (24 subjects as columns
+#: ran off the page at PD06 and lost 13 columns in print).
+MAX_GROUP_COLUMNS = 10
+
+#: Why the "by bin" tables leave WPrec out: a bin holds one reference class, so every
+#: prediction's weight is that class and the weighted precision is 100% by construction.
+BIN_WPREC_NOTE = (
+    "WPrec is left out by bin: each bin holds one reference class, so its weighted "
+    "precision is 100% by construction."
+)
+
+
 def scores_table_html(
     scores: Mapping[str, Any],
     grouping: str,
@@ -153,7 +183,10 @@ def scores_table_html(
 
     Rows are the metrics (accuracy, MAE, WPrec, MAE of angular speed, as present), columns
     the groups in the order the scores list them, then ``Avg.`` (the unweighted mean over
-    groups, as computed by ``turn-eval score``) and the last row ``# Turns`` per group.
+    groups, as computed by ``turn-eval score``) and the last row ``# Turns`` per group with
+    their ``Total`` (a count is summed, not averaged). Over :data:`MAX_GROUP_COLUMNS` groups
+    the table is turned: groups in rows. By ``bin_deg`` WPrec is left out
+    (:data:`BIN_WPREC_NOTE`).
     """
     by = scores.get("by", {})
     if grouping not in by:
@@ -165,7 +198,13 @@ def scores_table_html(
     avg: Mapping[str, Any] = block.get("avg", {})
     names = list(groups)
     present = [m for m in metrics if any(not is_missing(g.get(m[0])) for g in groups.values())]
-    header = [grouping, *names, "Avg."]
+    if grouping == "bin_deg":
+        present = [m for m in present if m[0] != "wprec"]
+    counts = [groups[n].get("n") for n in names]
+    total = 0
+    for c in counts:
+        if c is not None and not is_missing(c):
+            total += int(c)
     rows = []
     for key, label, _ in present:
         rows.append(
@@ -175,15 +214,18 @@ def scores_table_html(
                 format_metric(key, avg.get(key)),
             ]
         )
-    rows.append(
-        [
-            "# Turns",
-            *(format_metric("n", groups[n].get("n")) for n in names),
-            format_metric("n", avg.get("n")),
-        ]
-    )
+    rows.append(["# Turns", *(format_metric("n", c) for c in counts), f"Total {total}"])
     classes = [""] * len(present) + ["count"]
-    return table_html(header, rows, caption=caption, row_classes=classes)
+    header = [column_words(grouping), *names, "Avg."]
+    note = f'<p class="sub">{_esc(BIN_WPREC_NOTE)}</p>' if grouping == "bin_deg" else ""
+    if len(names) > MAX_GROUP_COLUMNS:
+        turned = [[header[j], *(row[j] for row in rows)] for j in range(1, len(header))]
+        turned[-1][-1] = str(total)  # the Avg. row's "# Turns": the total
+        turned[-1][0] = "Avg. (# Turns: total)"
+        head = [column_words(grouping), *(row[0] for row in rows)]
+        classes = [""] * len(names) + ["avg"]
+        return table_html(head, turned, caption=caption, row_classes=classes) + note
+    return table_html(header, rows, caption=caption, row_classes=classes) + note
 
 
 def overall_rows(
@@ -193,7 +235,9 @@ def overall_rows(
 ) -> tuple[list[str], list[list[str]]]:
     """Header and rows of a summary table: one row per labelled scores JSON, overall metrics
     with their bootstrap 95% CI in brackets where the scores carry one."""
+    kappa = any(_kappa(s.get("overall", {})) is not None for s in labelled_scores.values())
     header = ["", "n"] + [label for _, label, _ in metrics]
+    header += ["κ (quadratic)"] if kappa else []
     rows = []
     for name, scores in labelled_scores.items():
         overall = scores.get("overall", {})
@@ -203,8 +247,20 @@ def overall_rows(
             cell = format_metric(key, overall.get(key))
             interval = _format_ci(key, ci.get(key))
             row.append(f"{cell} ({interval})" if interval and cell != MISSING else cell)
+        if kappa:
+            value = _kappa(overall)
+            row.append(MISSING if value is None else fixed(value, 3))
         rows.append(row)
     return header, rows
+
+
+def _kappa(overall: Mapping[str, Any]) -> float | None:
+    """The quadratic-weighted kappa ``turn-eval score`` prints (``kappa`` in its JSON: a
+    number, or a block with ``quadratic``)."""
+    value = overall.get("kappa")
+    if isinstance(value, Mapping):
+        value = value.get("quadratic", value.get("value"))
+    return None if is_missing(value) or not isinstance(value, (int, float)) else float(value)
 
 
 _SEPARATOR_RE = re.compile(r"^\s*\|?\s*:?-{2,}:?\s*(\|\s*:?-{2,}:?\s*)*\|?\s*$")
@@ -338,6 +394,7 @@ class Section:
     title: str
     anchor: str
     blocks: list[str] = field(default_factory=list)
+    n_figures: int = 0
 
     def paragraph(self, text: str, *, kind: str = "") -> Section:
         """A paragraph of plain text (escaped; `code` and **bold** honoured); ``kind`` is
@@ -369,7 +426,12 @@ class Section:
                 ]
             )
         self.blocks.append(
-            table_html(list(df.columns), rows, caption=caption, first_column_header=True)
+            table_html(
+                [column_words(str(c)) for c in df.columns],
+                rows,
+                caption=caption,
+                first_column_header=True,
+            )
         )
         return self
 
@@ -404,7 +466,7 @@ class Section:
         """Tables of a scores JSON: one per grouping (default: every one the scores have)."""
         names = list(scores.get("by", {})) if groupings is None else list(groupings)
         for name in names:
-            label = f"{caption} by {name}" if caption else f"by {name}"
+            label = f"{caption} by {column_words(name)}" if caption else f"by {column_words(name)}"
             self.blocks.append(scores_table_html(scores, name, caption=label))
         return self
 
@@ -416,17 +478,25 @@ class Section:
         self.blocks.append(table_html(header, rows, caption=caption))
         return self
 
-    def figure(
-        self, path: str | os.PathLike[str], *, caption: str = "", width_px: int | None = None
-    ) -> Section:
-        """A PNG embedded as a data URI, with its caption."""
+    def _figure_html(self, path: str | os.PathLike[str], caption: str) -> str:
+        """A PNG at its natural size, never wider than the page; a click on it shows it
+        whole (the figure becomes the ``:target`` of its own link: no script, no copy)."""
         p = Path(path)
-        style = f' style="width:{int(width_px)}px"' if width_px else ""
+        self.n_figures += 1
+        anchor = f"{self.anchor}-f{self.n_figures}"
         alt = caption or p.stem.replace("_", " ")
-        self.blocks.append(
-            f'<figure><img src="{_png_data_uri(p)}" alt="{_esc(alt)}"{style}>'
-            f"<figcaption>{_inline(caption or p.name)}</figcaption></figure>"
+        return (
+            f'<figure id="{_esc(anchor)}"><a class="close" href="#{_esc(self.anchor)}">'
+            "close full size</a>"
+            f'<a class="open" href="#{_esc(anchor)}" title="open full size">'
+            f'<img src="{_png_data_uri(p)}" alt="{_esc(alt)}"></a>'
+            f"<figcaption>{_inline(caption or p.name)} "
+            f'<a href="#{_esc(anchor)}">(full size)</a></figcaption></figure>'
         )
+
+    def figure(self, path: str | os.PathLike[str], *, caption: str = "") -> Section:
+        """A PNG embedded as a data URI, with its caption (:meth:`_figure_html`)."""
+        self.blocks.append(self._figure_html(path, caption))
         return self
 
     def figures(
@@ -434,18 +504,57 @@ class Section:
         paths: Iterable[str | os.PathLike[str]],
         *,
         captions: Mapping[str, str] | None = None,
-        width_px: int | None = 480,
     ) -> Section:
-        """Several PNGs side by side; ``captions`` maps file names to captions."""
+        """Several PNGs one after another, each at its natural size up to the page width;
+        ``captions`` maps file names to captions."""
         for path in paths:
             name = Path(path).name
-            self.figure(path, caption=(captions or {}).get(name, name), width_px=width_px)
+            self.figure(path, caption=(captions or {}).get(name, name))
         return self
 
-    def files(self, paths: Mapping[str, str], *, caption: str = "Files") -> Section:
-        """Where each result is: a table of description -> relative path."""
+    def figure_pairs(
+        self,
+        pairs: Iterable[tuple[str | os.PathLike[str], str | os.PathLike[str]]],
+        *,
+        captions: Sequence[str],
+        heads: tuple[str, str],
+    ) -> Section:
+        """Two columns of figures, row by row (``paper`` beside ``net``): ``heads`` name the
+        columns, ``captions`` each row."""
+        rows = [f'<div class="pair"><h4>{_esc(heads[0])}</h4><h4>{_esc(heads[1])}</h4></div>']
+        for (left, right), caption in zip(pairs, captions, strict=True):
+            rows.append(
+                '<div class="pair">'
+                + self._figure_html(left, f"{heads[0]}: {caption}")
+                + self._figure_html(right, f"{heads[1]}: {caption}")
+                + "</div>"
+            )
+        self.blocks.append("\n".join(rows))
+        return self
+
+    def files(
+        self, paths: Mapping[str, str], *, caption: str = "Files", link: bool = False
+    ) -> Section:
+        """Where each result is: a table of description -> relative path; with ``link``, each
+        path is a link to the file beside the page (paths separated by ", " are linked one
+        by one; a path with ``{a,b}`` stays text)."""
+        rows = []
+        for what, where in paths.items():
+            links = []
+            for part in re.split(r"(, (?![^{]*\}))", where):
+                plain = re.match(r"^([\w./-]+)(.*)$", part)
+                if not link or part == ", " or plain is None or "{" in part:
+                    links.append(_esc(part))
+                else:
+                    target, rest = plain.group(1), plain.group(2)
+                    links.append(f'<a href="{_esc(target)}">{_esc(target)}</a>{_esc(rest)}')
+            rows.append(f"<tr><th>{_esc(what)}</th><td>{''.join(links)}</td></tr>")
         self.blocks.append(
-            table_html(["result", "file"], [[k, v] for k, v in paths.items()], caption=caption)
+            '<div class="wrap"><table>'
+            + (f"<caption>{_esc(caption)}</caption>" if caption else "")
+            + "<thead><tr><th>result</th><th>file</th></tr></thead><tbody>"
+            + "".join(rows)
+            + "</tbody></table></div>"
         )
         return self
 

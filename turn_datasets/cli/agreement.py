@@ -35,9 +35,9 @@ from turn_datasets.fileio import (
 from turn_datasets.remap.agreement import AgreementAudit, audit_agreement
 from turn_datasets.remap.agreement_report import write_confusion_png
 from turn_datasets.remap.eaf import expand_eaf_paths, read_annotations
+from turn_datasets.remap.gate import GATE_ON, check_gate
 from turn_datasets.remap.review_eaf import write_review_eaf
 from turn_datasets.remap.schema import load_schema
-from turn_datasets.render.numbers import fixed
 
 #: Files written into --out-dir (review copies go to its ``review/`` folder).
 OUT_FILES = (
@@ -74,7 +74,16 @@ AGREEMENT_RECORD = "agreement.manifest.json"
     type=KAPPA,
     default=None,
     callback=warn_below(0.0, "a gate below chance agreement passes almost any audit"),
-    help="Gate: exit 3 after the report when Cohen's kappa is below this (or undefined).",
+    help="Gate: exit 3 after the report when Cohen's kappa is below this (or undefined): "
+    "kappa over matched turns and kappa counting missed turns, both (see --gate-on).",
+)
+@click.option(
+    "--gate-on",
+    type=click.Choice(GATE_ON),
+    default="both",
+    show_default=True,
+    help="Which kappas --min-kappa gates: both, or matched turns alone (a rater who misses "
+    "turns then passes).",
 )
 @format_option(default="md", choices=("md", "json"))
 @click.option(
@@ -101,6 +110,7 @@ def agreement(
     raters: tuple[str, str] | None,
     min_overlap: float,
     min_kappa: float | None,
+    gate_on: str,
     fmt: str,
     out_dir: Path | None,
     review_eaf: bool,
@@ -156,15 +166,14 @@ def agreement(
         )
     document = audit.to_dict()
     document["settings"]["version"] = __version__
-    passed: bool | None = None
-    if min_kappa is not None:
-        kappa = audit.overall.kappa
-        passed = kappa is not None and kappa >= min_kappa
-        document["gate"] = {"min_kappa": min_kappa, "passed": passed}
+    gate = check_gate(audit.overall, min_kappa, gate_on) if min_kappa is not None else None
+    if gate is not None:
+        document["gate"] = gate.to_dict()
 
     markdown = audit.to_markdown()
-    if passed is not None:
-        markdown += f"\nGate: kappa >= {min_kappa:g} {'passed' if passed else 'FAILED'}.\n"
+    if gate is not None:
+        markdown += f"\n{gate.line()}\n"
+        info(gate.line())
 
     if out_dir is not None:
         participants = annotations.groupby("session")["participant"].nunique().to_dict()
@@ -182,14 +191,8 @@ def agreement(
     check_stdout()
     click.echo(to_json_text(document) if fmt == "json" else markdown, nl=False)
 
-    if passed is False:
-        kappa = audit.overall.kappa
-        if kappa is None:
-            raise GateFailed(
-                f"Cohen's kappa is undefined ({audit.overall.kappa_undefined_reason}), so "
-                f"--min-kappa {min_kappa:g} is not met"
-            )
-        raise GateFailed(f"Cohen's kappa {fixed(kappa, 3)} is below --min-kappa {min_kappa:g}")
+    if gate is not None and not gate.passed:
+        raise GateFailed(gate.failure())
 
 
 def _write_outputs(

@@ -31,7 +31,12 @@ from turn_datasets.cli.common import (
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, to_json_text
 from turn_datasets.h36m.clip_index import read_clip_index
-from turn_datasets.h36m.corpus import find_sources, mine_corpus, write_corpus
+from turn_datasets.h36m.corpus import (
+    find_sources,
+    mine_corpus,
+    passed_over_lines,
+    write_corpus,
+)
 from turn_datasets.h36m.manifest import manifest_path
 from turn_datasets.h36m.miner import MinerParams
 from turn_datasets.h36m.overrides import read_overrides
@@ -194,7 +199,9 @@ def mine_cmd(
     for note in corpus.notes:
         warn(note)
     write_corpus(corpus, out)
-    if corpus.skipped:
+    for line in passed_over_lines(found.passed_over, mpath):
+        warn(line)
+    if corpus.bad_files or corpus.bad_sequences:
         what = [f"{len(corpus.bad_files)} unreadable file(s)"] if corpus.bad_files else []
         if corpus.bad_sequences:
             what.append(f"{len(corpus.bad_sequences)} unusable sequence(s)")

@@ -9,7 +9,8 @@ each sequence mined (:func:`turn_datasets.h36m.miner.mine_clips`) and curated
 The corpus policy for bad input: a file that cannot be read, or one unusable sequence in a
 file of many (VideoPose3D's npz holds all of Human3.6M), fails the run after every problem is
 reported, unless ``skip_bad``: then the index is made without them and the manifest lists
-them (``skipped``: whole files first, ``item`` null; then single sequences). A curation error
+them (``skipped``: whole files first, ``item`` null; then single sequences; then the files a
+folder walk passed over that may hold motion data, ``passed_over`` true). A curation error
 (an adjustment outside its sequence) always fails: it is the curator's, not the file's.
 
 The command line, the notebooks and the coming detector call :func:`find_sources`,
@@ -45,7 +46,15 @@ from turn_datasets.mocap.readers import SourceFile, discover, read_source, sorte
 from turn_datasets.render.numbers import counted
 from turn_datasets.skeleton import MocapSequence
 
-__all__ = ["FileRecord", "MinedCorpus", "Sources", "find_sources", "mine_corpus", "write_corpus"]
+__all__ = [
+    "FileRecord",
+    "MinedCorpus",
+    "Sources",
+    "find_sources",
+    "mine_corpus",
+    "passed_over_lines",
+    "write_corpus",
+]
 
 
 @dataclass
@@ -54,6 +63,8 @@ class Sources:
 
     files: list[SourceFile]
     unreadable: dict[Path, TurnbenchError] = field(default_factory=dict)
+    #: Files a walk passed over that may hold motion data, and why (never left unsaid).
+    passed_over: dict[Path, str] = field(default_factory=dict)
 
     @property
     def paths(self) -> list[Path]:
@@ -67,9 +78,12 @@ def find_sources(paths: Iterable[str | os.PathLike[str]], *, fmt: str | None = N
     any unreadable file) instead of stopping the search, and so is a subfolder that cannot be
     read (format ``folder``); a missing path or a folder with nothing to read is a mistake in
     the command and raises.
+    A file a walk passes over that may hold motion data is kept in ``passed_over`` with the
+    reason and what to run instead (unless another path given names it).
     """
     found: list[SourceFile] = []
     unreadable: dict[Path, TurnbenchError] = {}
+    passed_over: dict[Path, str] = {}
 
     def folder_unreadable(folder: Path, exc: TurnbenchError) -> None:
         unreadable[folder] = exc
@@ -77,13 +91,22 @@ def find_sources(paths: Iterable[str | os.PathLike[str]], *, fmt: str | None = N
 
     for item in map(Path, paths):
         try:
-            found.extend(discover([item], fmt=fmt, on_unreadable=folder_unreadable))
+            found.extend(
+                discover(
+                    [item],
+                    fmt=fmt,
+                    on_unreadable=folder_unreadable,
+                    on_passed_over=passed_over.__setitem__,
+                )
+            )
         except TurnbenchError as exc:
             if not item.is_file():
                 raise
             unreadable[item] = exc
             found.append(SourceFile(item, fmt or "unknown"))
-    return Sources(sorted_sources(found), unreadable)
+    taken = {f.path.resolve() for f in found}
+    passed_over = {p: r for p, r in passed_over.items() if p.resolve() not in taken}
+    return Sources(sorted_sources(found), unreadable, passed_over)
 
 
 @dataclass
@@ -291,7 +314,7 @@ def mine_corpus(
     index = build_index(c for r in good for c in r.clips)
     applied = [a for r in good for a in r.applied]
     unmatched = unmatched_overrides(overrides, applied)
-    skipped = [
+    skipped: list[dict[str, Any]] = [
         {"path": str(r.source.path), "item": None, "error": str(r.error)}
         for r in records
         if r.error is not None
@@ -301,6 +324,7 @@ def mine_corpus(
         for r in good
         for e in r.bad_sequences
     ]
+    skipped += _passed_over_entries(sources.passed_over)
     notes = [
         _unfiltered_note(params.position_cutoff_hz, fps, names)
         for fps, names in sorted(unfiltered.items())
@@ -332,6 +356,33 @@ def mine_corpus(
     return MinedCorpus(
         index=index, manifest=manifest, records=records, unmatched=unmatched, notes=notes
     )
+
+
+def _passed_over_entries(passed_over: Mapping[Path, str]) -> list[dict[str, Any]]:
+    """The manifest's ``skipped`` entries of the files a walk passed over."""
+    return [
+        {"path": str(p), "item": None, "error": f"{p}: not read: {why}", "passed_over": True}
+        for p, why in sorted(passed_over.items())
+    ]
+
+
+def passed_over_lines(
+    passed_over: Mapping[Path, str], manifest: str | os.PathLike[str], *, shown: int = 3
+) -> list[str]:
+    """One warning per reason for the files a walk passed over: how many, the first
+    ``shown`` of them, what to run instead, and where the full list is (the manifest)."""
+    by_reason: dict[str, list[Path]] = {}
+    for path, why in sorted(passed_over.items()):
+        by_reason.setdefault(why, []).append(path)
+    lines = []
+    for why, paths in by_reason.items():
+        names = ", ".join(str(p) for p in paths[:shown])
+        more = f" and {len(paths) - shown} more" if len(paths) > shown else ""
+        lines.append(
+            f"passed over {counted(len(paths), 'file')} that may hold motion data "
+            f"({names}{more}): {why}; all listed in {manifest}"
+        )
+    return lines
 
 
 def write_corpus(corpus: MinedCorpus, out: str | os.PathLike[str]) -> Path:

@@ -59,6 +59,7 @@ __all__ = [
     "FORMATS",
     "SourceFile",
     "discover",
+    "passed_over_reason",
     "sorted_sources",
     "read_source",
 ]
@@ -157,11 +158,51 @@ def _detect_in_folder(path: Path, root: Path) -> str | None:
     return None
 
 
+#: Suffixes of files that may hold motion data: a walk that passes one over says so.
+_MOTION_SUFFIXES = frozenset(x for xs in _FORMAT_SUFFIXES.values() for x in xs)
+
+
+def passed_over_reason(path: Path, root: Path, fmt: str | None = None) -> str | None:
+    """Why a walk of ``root`` does not read ``path``, a file that may hold motion data, and
+    what to run instead; None if it is no such file (or the walk reads it).
+
+    A walk reads only the releases' layouts (:func:`discover`), so a file of another layout
+    (a ``data_3d_h36m.npz`` one folder down, an array, a camera-coordinate ``.cdf``) would
+    otherwise be left out with nothing said, and the index would quietly miss its subjects.
+    """
+    suffix = path.suffix.lower()
+    if suffix not in _MOTION_SUFFIXES:
+        return None
+    kind = "array" if fmt == "array" and suffix in _FORMAT_SUFFIXES["array"] else None
+    kind = kind or (_detect_in_folder(path, root) if fmt != "array" else None)
+    if kind is not None and (fmt is None or kind == fmt):
+        return None
+    if kind is not None:
+        return f"a {kind} file, not the forced --format {fmt}: name it, or drop --format"
+    if path.name == VIDEOPOSE_FILE:
+        return (
+            "VideoPose3D's npz (a pickle) is read only at the top of the folder given: "
+            f"run on {path.parent} or name the file"
+        )
+    if suffix == ".cdf":
+        return (
+            f"not world 3-D positions (a walk reads D3_Positions/*.cdf, this is in "
+            f"{path.parent.name}/): name the file if it is"
+        )
+    if fmt is not None:
+        return f"not a {fmt} file: name it, or force its format"
+    return (
+        "a generic array, read only when named or with --format array "
+        "(and --layout, --fps, --up-axis, --units)"
+    )
+
+
 def discover(
     sources: str | os.PathLike[str] | Iterable[str | os.PathLike[str]],
     *,
     fmt: str | None = None,
     on_unreadable: Callable[[Path, TurnbenchError], None] | None = None,
+    on_passed_over: Callable[[Path, str], None] | None = None,
 ) -> list[SourceFile]:
     """The motion-capture files in the given dataset roots and files, each with its format.
 
@@ -177,6 +218,9 @@ def discover(
     on_unreadable
         Called with a subfolder that cannot be read and the error naming it; without it,
         that error is raised (a folder is never dropped in silence).
+    on_passed_over
+        Called with each walked file that may hold motion data but is not read, and why
+        (:func:`passed_over_reason`).
 
     Returns
     -------
@@ -235,6 +279,8 @@ def discover(
                         kind = None
                 if kind is not None:
                     hits.append(SourceFile(f, kind))
+                elif on_passed_over is not None and (why := passed_over_reason(f, item, fmt)):
+                    on_passed_over(f, why)
             if not hits and not unreadable:
                 wanted = f"no {fmt} file" if fmt else "no motion-capture file"
                 raise TurnbenchError(

@@ -29,12 +29,16 @@ def _k(value: float | None) -> str:
     return "n/a" if value is None else fixed(value, 3)
 
 
-def _k_ci(value: float | None, ci: tuple[float, float] | None) -> str:
+def _k_ci(value: float | None, ci: tuple[float, float] | None, n: int | None = None) -> str:
+    """Kappa with its interval; an interval of no width (every resample of a few pairs
+    agreeing) says how many pairs it rests on, so that 1.000 (1.000 to 1.000) is not read
+    as certainty."""
     if value is None:
         return "n/a"
     if ci is None:
         return _k(value)
-    return f"{_k(value)} ({_k(ci[0])} to {_k(ci[1])})"
+    size = f"; n = {n}" if n is not None and _k(ci[0]) == _k(ci[1]) else ""
+    return f"{_k(value)} ({_k(ci[0])} to {_k(ci[1])}{size})"
 
 
 def _s(value: float | None) -> str:
@@ -50,8 +54,8 @@ def _stats_row(st: PairStats) -> list[str]:
         str(st.unmatched[a]),
         str(st.unmatched[b]),
         _pct(st.percent_agreement),
-        _k_ci(st.kappa, st.kappa_ci95),
-        _k_ci(st.kappa_linear, st.kappa_linear_ci95),
+        _k_ci(st.kappa, st.kappa_ci95, st.matched),
+        _k_ci(st.kappa_linear, st.kappa_linear_ci95, st.matched),
         _k(st.kappa_with_unmatched),
         _s(st.median_start_diff_s),
         _s(st.median_end_diff_s),

@@ -17,9 +17,14 @@ from typing import Any
 from turn_datasets.render.labels import METRIC_LABELS
 
 __all__ = [
+    "COLUMN_WORDS",
+    "P_FLOOR",
+    "column_words",
     "counted",
+    "elan_time",
     "MISSING",
     "fixed",
+    "format_p",
     "format_deg",
     "format_metric",
     "is_missing",
@@ -95,3 +100,67 @@ def format_metric(key: str, value: Any) -> str:
     if abs(x) >= 1e6:
         return f"{x:.4g}"
     return fixed(x, 3).rstrip("0").rstrip(".")
+
+
+#: Below this a p-value prints as a bound: a bootstrap of 1000 resamples cannot resolve
+#: smaller values (its smallest is 1/1001 = 0.000999, which is no finding of 0.000999).
+P_FLOOR = 0.001
+
+
+def format_p(p: float) -> str:
+    """A p-value as a reader takes it: ``< 0.001`` below :data:`P_FLOOR`, else three
+    decimals (``0.008``, ``0.250``); :data:`MISSING` for a null."""
+    if is_missing(p):
+        return MISSING
+    return f"< {P_FLOOR:g}" if p < P_FLOOR else fixed(p, 3)
+
+
+#: Words for the raw column names a results page shows (``bin_deg`` is "bin (°)").
+COLUMN_WORDS = {
+    "bin_deg": "bin (°)",
+    "clip_id": "clip",
+    "angle_deg": "angle (°)",
+    "start_s": "start (s)",
+    "end_s": "end (s)",
+    "duration_s": "duration (s)",
+    "start_a_s": "start A",
+    "end_a_s": "end A",
+    "start_b_s": "start B",
+    "end_b_s": "end B",
+    "angle_a": "angle A (°)",
+    "angle_b": "angle B (°)",
+    "angle_a_deg": "angle A (°)",
+    "angle_b_deg": "angle B (°)",
+    "overlap_ratio": "overlap ratio",
+    "scenario": "scenario",
+    "location": "location",
+    "cohort": "cohort",
+    "subject": "subject",
+    "session": "session",
+    "action": "action",
+    "split": "split",
+    "participant": "participant",
+    "kind": "disagreement",
+}
+
+
+def column_words(name: str) -> str:
+    """A column name in words (:data:`COLUMN_WORDS`, else underscores as spaces and a unit
+    suffix as the unit: ``speed_deg_s`` is "speed (°/s)")."""
+    if name in COLUMN_WORDS:
+        return COLUMN_WORDS[name]
+    for suffix, unit in (("_deg_s", " (°/s)"), ("_deg", " (°)"), ("_s", " (s)")):
+        if name.endswith(suffix) and len(name) > len(suffix):
+            return name[: -len(suffix)].replace("_", " ") + unit
+    return name.replace("_", " ")
+
+
+def elan_time(seconds: float) -> str:
+    """Seconds in ELAN's own time format, ``h:mm:ss.mmm`` (what its media player shows)."""
+    if is_missing(seconds):
+        return MISSING
+    ms = int(round(float(seconds) * 1000))
+    h, rest = divmod(ms, 3_600_000)
+    m, rest = divmod(rest, 60_000)
+    s, ms = divmod(rest, 1000)
+    return f"{h}:{m:02d}:{s:02d}.{ms:03d}"

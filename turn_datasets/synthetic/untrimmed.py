@@ -65,6 +65,7 @@ same seed gives the same bytes.
 
 from __future__ import annotations
 
+import math
 import os
 import zlib
 from collections.abc import Mapping
@@ -261,6 +262,10 @@ class UntrimmedStream:
     labels: pd.DataFrame
 
 
+#: Two headings closer than this miss home equally (a tie in :meth:`_Builder.steer`).
+_TIE_DEG = 1e-9
+
+
 def _seed(seed: int, *names: str) -> np.random.Generator:
     # crc32 of the names, not hash(): Python salts str hashes per process.
     return np.random.default_rng([int(seed), zlib.crc32("/".join(names).encode("utf-8"))])
@@ -342,9 +347,12 @@ class _Builder:
             seg = Segment.pivot_turn(heading_deg, duration)
         else:
             seg = Segment.walking_turn(heading_deg, duration, speed or self.walk_m_s)
-        mid = np.radians(self.heading_deg + 0.5 * heading_deg)
-        self.x_mm += 1000.0 * seg.speed_m_s * duration * np.cos(mid)
-        self.y_mm += 1000.0 * seg.speed_m_s * duration * np.sin(mid)
+        # Scalar trigonometry from math (the C library, the same under every NumPy):
+        # NumPy 2 computes some of it to a different last bit than NumPy 1.26, and the
+        # position decides which way a turn goes.
+        mid = math.radians(self.heading_deg + 0.5 * heading_deg)
+        self.x_mm += 1000.0 * seg.speed_m_s * duration * math.cos(mid)
+        self.y_mm += 1000.0 * seg.speed_m_s * duration * math.sin(mid)
         self.heading_deg += heading_deg
         self.segments.append(seg)
         first = self.frame
@@ -353,12 +361,15 @@ class _Builder:
 
     def steer(self, magnitude_deg: float) -> float:
         """The signed heading change of ``magnitude_deg`` that mostly turns towards home."""
-        home = np.degrees(np.arctan2(-self.y_mm, -self.x_mm))
+        home = math.degrees(math.atan2(-self.y_mm, -self.x_mm))
         miss = [
             abs((self.heading_deg + s * magnitude_deg - home + 180.0) % 360.0 - 180.0)
             for s in (1, -1)
         ]
-        homeward = 1.0 if miss[0] <= miss[1] else -1.0
+        # Home exactly behind (after a straight walk from the origin) is a tie: both ways
+        # miss it equally, and the last bit of the arithmetic must not decide (it did, and
+        # the demo's streams differed between NumPy 1.26 and 2.x). Ties turn left.
+        homeward = 1.0 if miss[0] <= miss[1] + _TIE_DEG else -1.0
         sign = homeward if self.rng.random() < 0.85 else -homeward
         return sign * magnitude_deg
 

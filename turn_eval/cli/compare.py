@@ -21,7 +21,7 @@ from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, to_json_text, write_text
 from turn_datasets.render.labels import METRIC_LABELS
 from turn_datasets.render.markdown import markdown_table
-from turn_datasets.render.numbers import one_decimal
+from turn_datasets.render.numbers import format_p, one_decimal
 from turn_datasets.render.numbers import signed as with_sign
 from turn_eval.cli import cli
 from turn_eval.clips.significance import Comparison, compare_predictions
@@ -55,6 +55,11 @@ def _fmt(value: float, scale: float, *, signed: bool = False) -> str:
     return with_sign(text) if signed else text
 
 
+def _p_clause(p: float) -> str:
+    text = format_p(p)
+    return text if text.startswith("<") else f"= {text}"
+
+
 def _markdown(result: Comparison, *, a: str, b: str, reference: str, n_missing: int) -> str:
     lines = [
         f"A: {a}  ",
@@ -71,7 +76,7 @@ def _markdown(result: Comparison, *, a: str, b: str, reference: str, n_missing: 
             ci, p = "n/a", "n/a"  # some resample had no clip with a duration
         else:
             ci = f"[{_fmt(d.ci_low, scale, signed=True)}, {_fmt(d.ci_high, scale, signed=True)}]"
-            p = f"{d.p_value:.3g}"
+            p = format_p(d.p_value)
         rows.append(
             [label, _fmt(d.a, scale), _fmt(d.b, scale), _fmt(d.diff, scale, signed=True), ci, p]
         )
@@ -80,7 +85,7 @@ def _markdown(result: Comparison, *, a: str, b: str, reference: str, n_missing: 
     lines += [
         "",
         f"McNemar exact test on bin correctness: b = {m.b} (A right, B wrong), "
-        f"c = {m.c} (A wrong, B right), p = {m.p_value:.3g}",
+        f"c = {m.c} (A wrong, B right), p {_p_clause(m.p_value)}",
         "",
         f"signature: {result.signature}",
     ]

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 from dataclasses import replace
 from pathlib import Path
 
@@ -27,6 +26,8 @@ from turn_eval.cli import cli
 from turn_eval.cli.common import SkeletonSource, skeleton_source_options
 from turn_eval.detect.mapping import build_manifest, detect_files
 from turn_eval.detect.plugins import load_detector
+from turn_eval.detect.progress import FileProgress
+from turn_eval.detect.rate import stream_rate
 from turn_eval.detect.rule import DETECT_MINER_DEFAULTS, DetectParams, MinerRule
 from turn_eval.detect.streams import axes_found, stream_files
 
@@ -53,7 +54,13 @@ from turn_eval.detect.streams import axes_found, stream_files
     "fps_hz",
     type=FPS_HZ,
     default=None,
-    help="Frame rate of the streams, Hz (required, except with --from mocap: the file's own).",
+    help="Frame rate of the streams, Hz; with --from turnbench, the rate estimate's manifests "
+    "record (a --fps that contradicts it is refused); with --from mocap, each file's own.",
+)
+@click.option(
+    "--force-fps",
+    is_flag=True,
+    help="Use --fps even where it contradicts the rate the manifests record.",
 )
 @click.option(
     "--joints",
@@ -93,6 +100,7 @@ def detect_command(
     out: Path,
     source: SkeletonSource,
     fps_hz: float | None,
+    force_fps: bool,
     joints: str,
     detector_spec: str | None,
     workers: int | None,
@@ -114,7 +122,7 @@ def detect_command(
       turn-eval detect streams/ --layout h36m17 --up-axis -y --fps 30 \\
           --min-turn-deg 67.5 --out detections.csv
       turn-eval detect streams/ --layout h36m17 --up-axis -y --fps 30 --workers 4 --out d.csv
-      turn-eval detect skeletons/ --from turnbench --fps 30 --out d.csv   (estimate's npz)
+      turn-eval detect skeletons/ --from turnbench --out d.csv   (estimate's npz: its rate)
       turn-eval detect cmu/*.bvh --from mocap --out d.csv   (motion capture, its own rate)
       turn-eval score-events detections.csv --reference labels.csv --context context.csv
     """
@@ -125,17 +133,6 @@ def detect_command(
     passed_over: list[tuple[Path, str]] = []
     # first: an AlphaPose JSON is refused with its reason
     files = stream_files(skeletons, source_format=source.format, skipped=passed_over)
-    if source.format == "mocap":
-        if fps_hz is not None:
-            raise TurnbenchError(
-                "--from mocap files state their frame rate: drop --fps",
-                hint="each stream is read at its file's own rate (recorded in the manifest)",
-            )
-    elif fps_hz is None:
-        raise TurnbenchError("--fps is required (the frame rate of the streams, Hz)")
-    if detector_spec is None and fps_hz is not None:
-        # the rule's low-pass at this frame rate, refused before any file is read
-        check_position_cutoff(miner.position_cutoff_hz, fps_hz)
     detector = MinerRule(params) if detector_spec is None else load_detector(detector_spec)
     for path, why in passed_over:
         info(f"skipped {path}: {why}")
@@ -143,13 +140,22 @@ def detect_command(
     check_not_input(out, files)
     mpath = manifest_path(out)
     check_not_input(mpath, files)
+    if source.format == "mocap":
+        if fps_hz is not None:
+            raise TurnbenchError(
+                "--from mocap files state their frame rate: drop --fps",
+                hint="each stream is read at its file's own rate (recorded in the manifest)",
+            )
+    else:
+        rate = stream_rate(files, fps_hz, source_format=source.format, force=force_fps)
+        if rate.origin != "option":  # a rate the user did not type is said
+            info(rate.describe())
+        fps_hz = rate.fps_hz
+        if detector_spec is None:
+            # the rule's low-pass at this frame rate, refused before any stream is read
+            check_position_cutoff(miner.position_cutoff_hz, fps_hz)
     where = f"on {scheduler}" if scheduler else (f"on {workers} local workers" if workers else "")
-    with click.progressbar(
-        length=len(files),
-        label=f"detecting {where}".strip(),
-        file=sys.stderr,
-        show_pos=True,
-    ) as bar:
+    with FileProgress(len(files), f"detecting {where}".strip()) as bar:
         run = detect_files(
             files,
             detector=detector,

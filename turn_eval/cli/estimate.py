@@ -15,6 +15,7 @@ from turn_datasets.fileio import check_not_input, staged_dir
 from turn_eval.cli import cli
 from turn_eval.estimate.blazepose import load_mediapipe
 from turn_eval.estimate.pipeline import EstimateParams, estimate_video, write_estimate
+from turn_eval.estimate.timing import RATE_AGREEMENT_FRACTION
 
 if TYPE_CHECKING:
     from click._termui_impl import ProgressBar
@@ -93,7 +94,10 @@ class _FrameBar:
     "fps_hz",
     type=FPS_HZ,
     default=None,
-    help="Frame rate of the output grid (default: the video's own; see --help).",
+    help="Frame rate of the output grid, Hz. Default: the rate the video declares when its "
+    "frames' median interval agrees with it (within "
+    f"{100 * RATE_AGREEMENT_FRACTION:g}%), else one over that median interval "
+    "(a phone's variable rate); the manifest records the rate used.",
 )
 @click.option(
     "--level/--no-level",

@@ -1,7 +1,8 @@
 """The figures of ``turn-eval score --plots``, as PNG.
 
 - ``confusion_matrix.png``: reference bin against predicted bin, each cell's count, shaded
-  by the fraction of its reference bin (over 40 bins, runs of neighbouring bins are merged).
+  by the fraction of its reference bin; rows are the reference's bins, columns every bin of
+  either table, each one labelled (over 40 bins, runs of neighbouring bins are merged).
 - ``predicted_by_bin.png``: the distribution of predicted angles for each reference bin, as
   the paper's Figure 5a shows it, with the line where prediction equals reference.
 - ``abs_error.png``: the distribution of absolute angle errors (the paper's Figure 5b), with
@@ -69,20 +70,26 @@ def _confusion(
     ]
     n_ref = ref_bins.shape[0]
     counts = np.bincount(merged[:n_ref] * m + merged[n_ref:], minlength=m * m).reshape(m, m)
+    # Rows: the reference's bins (a bin only predicted would be an empty row); columns:
+    # every bin of either table. Every row and column is labelled (none skipped).
+    rows = np.unique(merged[:n_ref])
+    counts = counts[rows]
     with np.errstate(divide="ignore", invalid="ignore"):
         share = counts / counts.sum(axis=1, keepdims=True)
     share = np.nan_to_num(share)
-    size = min(1.6 + 0.55 * m, _MAX_INCHES)
-    fig = Figure(figsize=(size + 1.2, size))
+    r = rows.shape[0]
+    width = min(1.6 + 0.55 * m, _MAX_INCHES)
+    height = min(1.6 + 0.55 * r, _MAX_INCHES)
+    fig = Figure(figsize=(width + 1.2, max(height, 3.0)))
     ax = fig.add_subplot()
-    image = ax.imshow(share, cmap="Blues", vmin=0.0, vmax=1.0)
-    ticks = np.arange(0, m, -(-m // _MAX_TICKS))
-    ax.set_xticks(ticks, [names[t] for t in ticks], rotation=45)
-    ax.set_yticks(ticks, [names[t] for t in ticks])
+    image = ax.imshow(share, cmap="Blues", vmin=0.0, vmax=1.0, aspect="auto")
+    tick_size = 8 if m <= 20 else 6
+    ax.set_xticks(np.arange(m), names, rotation=45, fontsize=tick_size, ha="right")
+    ax.set_yticks(np.arange(r), [names[i] for i in rows], fontsize=tick_size)
     ax.set_xlabel("predicted bin (°)")
     ax.set_ylabel("reference bin (°)")
     # Counts are written in the cells only while they stay legible.
-    for i in range(m if m <= _MAX_COUNTED_CELLS else 0):
+    for i in range(r if m <= _MAX_COUNTED_CELLS else 0):
         for j in range(m):
             if counts[i, j]:
                 ax.text(

@@ -36,12 +36,14 @@ from turn_datasets.fileio import typed_frame
 from turn_datasets.geometry import quantise_deg
 from turn_eval.scoring.table import (
     NUMERIC,
+    Problems,
     Table,
     and_more,
     first_and_count,
     list_ids,
     numbers,
     read_table,
+    reading_notes,
     refuse_rows,
     require,
 )
@@ -72,14 +74,35 @@ JOINED_COLUMNS = {
 _TWO_PI = 2 * math.pi
 
 
-def _clip_ids(table: Table) -> np.ndarray:
+def _clip_ids(table: Table, problems: Problems | None = None) -> np.ndarray:
     ids = table.columns["clip_id"]
     if not table.ascii:
         # "Café" typed on a Mac (NFD) and on Windows (NFC) are different strings but the
         # same id; both sides are compared in NFC.
         ids = pd.Series(ids, dtype=object).str.normalize("NFC").to_numpy(dtype=object)
-    refuse_rows(table, ids == "", lambda _: "clip_id is empty")
-    duplicate = pd.Series(ids, dtype=object).duplicated(keep="first").to_numpy()
+    refuse_rows(
+        table, ids == "", lambda _: "clip_id is empty", problems=problems, kind="clip_id is empty"
+    )
+    duplicate = pd.Series(ids, dtype=object).duplicated(keep="first").to_numpy() & (ids != "")
+    if problems is not None:
+        where = np.flatnonzero(duplicate)
+        if where.size:
+            first_line: dict[object, int] = {}
+            for k in range(ids.shape[0]):
+                first_line.setdefault(ids[k], int(table.lines[k]))
+            k0 = int(where[0])
+            problems.add(
+                "duplicate clip_id",
+                table.lines[where],
+                [
+                    f"{ids[k]!r}, first on line {first_line[ids[k]]}"
+                    for k in where[: problems.shown]
+                ],
+                first=f"duplicate clip_id {ids[k0]!r}, first on line {first_line[ids[k0]]}",
+                single=f"duplicate clip_id {ids[k0]!r}, first on line {first_line[ids[k0]]}"
+                f"{and_more(int(where.size))}",
+            )
+        return ids
     if duplicate.any():
         i, line, count = first_and_count(table, duplicate)
         first = int(np.flatnonzero(ids == ids[i])[0])
@@ -210,13 +233,26 @@ def _place_in_reference(
     ref_path: str,
     allow_missing: bool,
     say: Callable[[str], None],
+    problems: Problems | None = None,
 ) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
     """Each prediction's row in the reference, which reference rows are covered, and the
-    ids of those that are not (refused unless ``allow_missing``; an unknown id always)."""
+    ids of those that are not (refused unless ``allow_missing``; an unknown id always;
+    with ``problems``, added there instead of raised)."""
     ref_ids = ref["clip_id"].to_numpy(dtype=object)
     position = pd.Index(ref_ids).get_indexer(ids)
-    unknown = position < 0
-    if unknown.any():
+    unknown = (position < 0) & (ids != "")
+    if problems is not None and unknown.any():
+        where = np.flatnonzero(unknown)
+        n = int(where.size)
+        problems.add(
+            f"clip_id not in the reference {ref_path}",
+            table.lines[where],
+            [repr(ids[k]) for k in where[: problems.shown]],
+            single=f"{n} clip id{'s are' if n > 1 else ' is'} not in the reference "
+            f"{ref_path}: {list_ids(list(ids[unknown]))}",
+            first=f"{n} clip id{'s are' if n > 1 else ' is'} not in the reference {ref_path}",
+        )
+    elif unknown.any():
         _, line, count = first_and_count(table, unknown)
         listed = list_ids(list(ids[unknown]))
         raise TurnbenchError(
@@ -235,14 +271,65 @@ def _place_in_reference(
             f"{list_ids(missing_ids)}"
         )
         if not allow_missing:
-            raise TurnbenchError(
-                message,
-                file=table.path,
-                hint="pass --allow-missing to score the clips that are there",
-            )
+            hint = "pass --allow-missing to score the clips that are there"
+            if problems is not None:
+                problems.add(message, [], hint=hint)
+                return position, covered, missing_ids
+            raise TurnbenchError(message, file=table.path, hint=hint)
         say(f"{table.path}: {message}; scoring the other {int(covered.sum())}")
 
     return position, covered, missing_ids
+
+
+def _checked_rows(
+    table: Table,
+    ref: pd.DataFrame,
+    *,
+    ref_path: str,
+    allow_missing: bool,
+    abs_angles: bool,
+    say: Callable[[str], None],
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, np.ndarray, tuple[str, ...]]:
+    """A submission's angles, speeds and place in the reference, after every check; every
+    problem of the file is found in one pass and raised together, grouped by kind."""
+    # Every problem of the file in one pass (grouped by kind), then one error.
+    problems = Problems(table.path)
+    ids = _clip_ids(table, problems)
+    hint = "angles are magnitudes; pass --abs to take the absolute value"
+    angle = numbers(
+        table,
+        "angle_deg",
+        allow_empty=False,
+        allow_negative=abs_angles,
+        negative_hint=hint,
+        problems=problems,
+    )
+    speed = None
+    if "speed_deg_s" in table.header:
+        # An empty speed means "not given": the metric falls back to angle / duration.
+        speed = numbers(
+            table,
+            "speed_deg_s",
+            allow_empty=True,
+            allow_negative=abs_angles,
+            negative_hint=hint,
+            problems=problems,
+        )
+    if abs_angles:
+        angle = np.abs(angle)
+        speed = None if speed is None else np.abs(speed)
+
+    position, covered, missing_ids = _place_in_reference(
+        table,
+        ids,
+        ref,
+        ref_path=ref_path,
+        allow_missing=allow_missing,
+        say=say,
+        problems=problems,
+    )
+    problems.raise_if_any()
+    return angle, speed, position, covered, missing_ids
 
 
 def read_predictions(
@@ -292,24 +379,11 @@ def read_predictions(
     )
     ref_path = str(ref.attrs.get("path", "reference"))
     table = read_table(path, what="predictions")
+    for note in reading_notes(table):
+        say(note)
     require(table, ("clip_id", "angle_deg"), what="the predictions")
-    ids = _clip_ids(table)
-    hint = "angles are magnitudes; pass --abs to take the absolute value"
-    angle = numbers(
-        table, "angle_deg", allow_empty=False, allow_negative=abs_angles, negative_hint=hint
-    )
-    speed = None
-    if "speed_deg_s" in table.header:
-        # An empty speed means "not given": the metric falls back to angle / duration.
-        speed = numbers(
-            table, "speed_deg_s", allow_empty=True, allow_negative=abs_angles, negative_hint=hint
-        )
-    if abs_angles:
-        angle = np.abs(angle)
-        speed = None if speed is None else np.abs(speed)
-
-    position, covered, missing_ids = _place_in_reference(
-        table, ids, ref, ref_path=ref_path, allow_missing=allow_missing, say=say
+    angle, speed, position, covered, missing_ids = _checked_rows(
+        table, ref, ref_path=ref_path, allow_missing=allow_missing, abs_angles=abs_angles, say=say
     )
     ref_angle = ref["angle_deg"].to_numpy(dtype=np.float64)
     if angle.size and float(np.max(angle)) < _TWO_PI and float(np.max(ref_angle)) >= _TWO_PI:

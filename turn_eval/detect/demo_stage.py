@@ -26,6 +26,7 @@ from turn_eval.report import Report
 
 __all__ = [
     "UNTRIMMED_DIR",
+    "telling_timeline",
     "UntrimmedResults",
     "load_untrimmed",
     "run_untrimmed_stage",
@@ -158,6 +159,31 @@ def load_untrimmed(out: Path) -> UntrimmedResults | None:
     )
 
 
+def telling_timeline(events_dir: Path) -> Path | None:
+    """The timeline that shows most: the first (session, subject), by unit number, with a
+    false and a missed detection beside its hits (else the one with the most of them);
+    None without timelines.
+
+    ``events.csv`` (``score-events --out-dir``) gives each unit's kinds; the timelines are
+    named ``<unit:04d>_<session>_<subject>.png``.
+    """
+    timelines = sorted((events_dir / "timelines").glob("*.png"))
+    if not timelines:
+        return None
+    events = _table(events_dir / "events.csv")
+    if events is None or events.empty:
+        return timelines[0]
+    kinds = events.groupby("unit")["kind"].agg(
+        lambda k: (("FP" in set(k)) + ("FN" in set(k)), len(k))
+    )
+    ranked = sorted(kinds.items(), key=lambda item: (-item[1][0], int(item[0])))
+    by_unit = {int(p.name.split("_", 1)[0]): p for p in timelines if p.name[:4].isdigit()}
+    for unit, _ in ranked:
+        if int(unit) in by_unit:
+            return by_unit[int(unit)]
+    return timelines[0]
+
+
 def untrimmed_section(report: Report, results: UntrimmedResults) -> None:
     """The report's "Untrimmed sessions" section (module docstring)."""
     sec = report.section("Untrimmed sessions")
@@ -177,12 +203,13 @@ def untrimmed_section(report: Report, results: UntrimmedResults) -> None:
         f"{matched.get('mae_deg', float('nan')):.1f}°."
     )
     sec.markdown_file(results.events / "event_scores.md")
-    timelines = sorted((results.events / "timelines").glob("*.png"))
-    if timelines:
+    timeline = telling_timeline(results.events)
+    if timeline is not None:
         sec.figure(
-            timelines[0],
-            caption="One session: labelled turns above, detections below (TP green, FP "
-            "orange, FN red), angles written on them",
+            timeline,
+            caption="One session, chosen to show a false and a missed detection beside the "
+            "hits: labelled turns above, detections below (TP green, FP orange, FN red), "
+            f"angles written on them ({timeline.name})",
         )
     for name, caption in (
         ("f1_by_group.png", "F1 per group with 95% intervals"),

@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from turn_datasets.render.numbers import fixed
 from turn_eval.scoring.figures import save_figure
 
 __all__ = ["EVENT_PLOT_FILES", "TIMELINE_DIR", "timeline_name", "write_event_plots"]
@@ -35,7 +36,6 @@ EVENT_PLOT_FILES = ("f1_by_group.png", "pr_curve.png")
 #: The folder of the per-(session, subject) timelines.
 TIMELINE_DIR = "timelines"
 _COLOURS = {"TP": "#2ca02c", "FP": "#ff7f0e", "FN": "#d62728"}
-_MAX_INCHES = 24.0
 _UNSAFE = re.compile(r"[^A-Za-z0-9._-]+")
 
 
@@ -70,36 +70,66 @@ def _figure(**kwargs):
     return Figure(**kwargs)
 
 
+#: A long session is drawn in rows of this many seconds (one 500 s row at page width made
+#: its bars and labels a few pixels tall), each row this many inches wide.
+TIMELINE_ROW_S = 120.0
+_TIMELINE_ROW_INCHES = 12.0
+
+
 def _timeline(unit_events, path: Path, session: str, subject: str) -> Path:
-    """One (session, subject): reference turns at y=1, detections at y=0."""
+    """One (session, subject): reference turns at y=1, detections at y=0, in rows of
+    :data:`TIMELINE_ROW_S` seconds."""
     t0 = float(np.nanmin(unit_events[["ref_start_s", "det_start_s"]].to_numpy()))
     t1 = float(np.nanmax(unit_events[["ref_end_s", "det_end_s"]].to_numpy()))
     span = max(t1 - t0, 1.0)
-    fig = _figure(figsize=(min(4.0 + span / 10.0, _MAX_INCHES), 2.6))
-    ax = fig.add_subplot()
-    for row in unit_events.itertuples(index=False):
-        colour = _COLOURS[row.kind]
+    n_rows = max(1, int(np.ceil(span / TIMELINE_ROW_S)))
+    window = span if n_rows == 1 else TIMELINE_ROW_S
+    width = min(4.0 + window / 10.0, _TIMELINE_ROW_INCHES)
+    fig = _figure(figsize=(width, 0.7 + 1.9 * n_rows))
+    bars = [
+        (y, start, end, angle, row.kind)
+        for row in unit_events.itertuples(index=False)
         for y, start, end, angle in (
             (1.0, row.ref_start_s, row.ref_end_s, row.ref_angle_deg),
             (0.0, row.det_start_s, row.det_end_s, row.det_angle_deg),
-        ):
-            if not np.isfinite(start):
+        )
+        if np.isfinite(start)
+    ]
+    # A label is about 0.45 in wide at 7 pt ("157.9°"); one closer than that to the previous
+    # label of its row goes one line higher, so that none overlaps.
+    min_gap_s = 0.45 * 1.04 * window / (0.85 * width)
+    for k in range(n_rows):
+        ax = fig.add_subplot(n_rows, 1, k + 1)
+        lo = t0 + k * window
+        hi = lo + window
+        last: dict[float, tuple[float, bool]] = {}
+        for y, start, end, angle, kind in sorted(bars, key=lambda b: (b[0], b[1])):
+            mid = (start + end) / 2
+            if end < lo - 0.02 * window or start > hi + 0.02 * window:
                 continue
-            ax.add_patch(
-                _bar(start, end, y, colour),
+            ax.add_patch(_bar(start, end, y, _COLOURS[kind]))
+            if not lo <= mid < hi and not (k == n_rows - 1 and mid >= hi):
+                continue  # labelled in the row that holds its middle
+            prev_x, prev_raised = last.get(y, (-np.inf, True))
+            raised = not prev_raised if mid - prev_x < min_gap_s else False
+            last[y] = (mid, raised)
+            ax.text(
+                mid, y + (0.44 if raised else 0.24), f"{fixed(angle, 1)}°", ha="center", fontsize=7
             )
-            ax.text((start + end) / 2, y + 0.3, f"{angle:g}°", ha="center", fontsize=7)
-        if row.kind == "TP":
-            mid_ref = (row.ref_start_s + row.ref_end_s) / 2
-            mid_det = (row.det_start_s + row.det_end_s) / 2
-            ax.plot([mid_ref, mid_det], [0.8, 0.2], color=colour, linewidth=0.8)
-    ax.set_xlim(t0 - 0.02 * span, t1 + 0.02 * span)
-    ax.set_ylim(-0.5, 1.7)
-    ax.set_yticks([0.0, 1.0], ["detected", "reference"])
-    ax.set_xlabel("time (s)")
-    ax.set_title(f"session {session}, subject {subject}", fontsize=9)
-    handles = [_bar(0, 0, 0, c) for c in _COLOURS.values()]
-    ax.legend(handles, list(_COLOURS), loc="upper right", fontsize=7, ncols=3)
+        for row in unit_events.itertuples(index=False):
+            if row.kind == "TP":
+                mid_ref = (row.ref_start_s + row.ref_end_s) / 2
+                mid_det = (row.det_start_s + row.det_end_s) / 2
+                ax.plot([mid_ref, mid_det], [0.8, 0.2], color=_COLOURS["TP"], linewidth=0.8)
+        ax.set_xlim(lo - 0.02 * window, hi + 0.02 * window)
+        ax.set_ylim(-0.5, 1.8)
+        ax.set_yticks([0.0, 1.0], ["detected", "reference"])
+        if k == 0:
+            ax.set_title(f"session {session}, subject {subject}", fontsize=9)
+            handles = [_bar(0, 0, 0, c) for c in _COLOURS.values()]
+            ax.legend(handles, list(_COLOURS), loc="upper right", fontsize=7, ncols=3)
+        if k == n_rows - 1:
+            ax.set_xlabel("time (s)")
     fig.tight_layout()
     return save_figure(fig, path)
 
@@ -142,8 +172,24 @@ def _f1_by_group(doc: Mapping[str, Any], path: Path) -> Path:
             capsize=3,
         )
         ax.set_xticks(x, names, rotation=30 if len(names) > 6 else 0, fontsize=8)
-        ax.set_ylim(0, 105)
-        ax.set_ylabel("F1 (%)")
+        # The axis starts just below the lowest F1 or interval, so that differences of a few
+        # points between groups show (from 0, groups at 95% and 99% look alike); the bars'
+        # base is marked in the axis label when it is not 0.
+        seen = np.concatenate([f1[np.isfinite(f1)], low[np.isfinite(low)]])
+        bottom = max(0.0, 5.0 * np.floor((float(seen.min()) - 3.0) / 5.0)) if seen.size else 0.0
+        ax.set_ylim(bottom, 101)
+        for xi, value in zip(x, f1, strict=True):  # each value at its bar's foot, clear of the CI
+            if np.isfinite(value) and value > bottom + 2:
+                ax.text(
+                    xi,
+                    bottom + 0.5,
+                    fixed(value, 1),
+                    ha="center",
+                    va="bottom",
+                    fontsize=8,
+                    color="white",
+                )
+        ax.set_ylabel("F1 (%)" if bottom == 0 else f"F1 (%), axis from {bottom:g}")
         ax.set_title(f"by {col}", fontsize=9)
     fig.tight_layout()
     return save_figure(fig, path)

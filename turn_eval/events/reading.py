@@ -40,7 +40,7 @@ from turn_eval.events.contract import (
     REFERENCE_REQUIRED,
     SESSIONS_COLUMNS,
 )
-from turn_eval.scoring.table import Table, numbers, read_table, require
+from turn_eval.scoring.table import Problems, Table, numbers, read_table, require
 
 __all__ = [
     "read_detections",
@@ -321,19 +321,28 @@ def _checked_detections(
     out.attrs = dict(frame.attrs)
     _set_texts(out, _UNIT)
     pairs = _Pairs.of(out)
-    _check_unit_names(out, what, pairs)
+    # Every kind of problem in one pass (each check's first line and count), then one error
+    problems = Problems(_path_of(out, what))
+    problems.run(lambda: _check_unit_names(out, what, pairs))
     _set_floats(out, (*_DETECTION_NUMBERS, *(c for c in _OPTIONAL_NUMBERS if c in out)))
-    _check_number(out, what, "start_s")
-    _check_number(out, what, "end_s")
+    times_ok = problems.run(lambda: _check_number(out, what, "start_s"))
+    times_ok &= problems.run(lambda: _check_number(out, what, "end_s"))
     hint = "; angles are magnitudes in degrees, with the sense in direction"
-    _check_number(out, what, "angle_deg", high=MAX_ANGLE_DEG, hint=hint)
+    problems.run(lambda: _check_number(out, what, "angle_deg", high=MAX_ANGLE_DEG, hint=hint))
     if "speed_deg_s" in out:
-        _check_number(out, what, "speed_deg_s", high=MAX_SPEED_DEG_S, allow_nan=True)
+        problems.run(
+            lambda: _check_number(out, what, "speed_deg_s", high=MAX_SPEED_DEG_S, allow_nan=True)
+        )
     if "score" in out:
-        out = _scores_given_or_none(out, what)
+        try:
+            out = _scores_given_or_none(out, what)
+        except TurnbenchError as exc:
+            problems.record(exc)
     if "direction" in out:
-        _check_direction(out, what)
-    _check_intervals(out, what, _UNIT, "detection", pairs.code)
+        problems.run(lambda: _check_direction(out, what))
+    if times_ok:  # overlaps of unreadable times would only repeat those problems
+        problems.run(lambda: _check_intervals(out, what, _UNIT, "detection", pairs.code))
+    problems.raise_if_any("nothing scored")
     return out.reset_index(drop=True).pipe(_keep_attrs, frame), pairs
 
 

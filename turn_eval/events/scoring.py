@@ -68,6 +68,7 @@ from turn_eval.events.reading import (
     read_context,
     read_sessions,
 )
+from turn_eval.events.time_unit import check_time_unit
 from turn_eval.scoring.bootstrap import CONFIDENCE, unit_sums
 from turn_eval.scoring.groups import BLANK_GROUP
 
@@ -746,6 +747,8 @@ def score_events(
     )
     if det.shape[0] == 0 and warn is not None:
         warn(NO_DETECTIONS[0].lower() + NO_DETECTIONS[1:])
+    # a unit mistake (milliseconds) first: it says more than a total past the duration
+    check_time_unit(det, det_unit, ref, units, ses, warn=warn)
     duration = None if ses is None else _checked_durations(units, ses, ref, ref_unit, det, det_unit)
 
     overlaps = overlapping_pairs(det, det_unit, ref, ref_unit)

@@ -138,11 +138,14 @@ def events_markdown(doc: Mapping[str, Any]) -> str:
         out += ["", f"## By {col}", ""]
         rows = []
         for m in (*_DETECTION, *_present(entries, _MATCHED[:4]), "tp", "fp", "fn", "n"):
-            rows.append(
-                [EVENT_LABELS[m][0]]
-                + [_format(m, _get(groups[g], m)) for g in names]
-                + [_format(m, _get(avg, m))]
-            )
+            cells = [_format(m, _get(groups[g], m)) for g in names]
+            if EVENT_LABELS[m][1] == "count":
+                # a count is summed over the groups, not averaged (# TP 452.7 said nothing)
+                given = [_get(groups[g], m) for g in names]
+                last = f"Total {sum(int(v) for v in given if not is_missing(v))}"
+            else:
+                last = _format(m, _get(avg, m))
+            rows.append([EVENT_LABELS[m][0], *cells, last])
         if "ci95" in avg:
             rows.append(
                 ["F1 95% CI"] + [_interval(groups[g], "f1") for g in names] + [_interval(avg, "f1")]
@@ -178,7 +181,7 @@ def events_markdown(doc: Mapping[str, Any]) -> str:
             if settings.get("resamples")
             else "; no bootstrap"
         )
-        + f"; Avg. is the unweighted mean over groups; turnbench {settings['version']}."
+        + f"; Avg. is the unweighted mean over groups (counts: their total); turnbench {settings['version']}."
     )
     out += ["", summary, *notes]
     return "\n".join(out) + "\n"

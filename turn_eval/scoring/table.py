@@ -27,13 +27,14 @@ import io
 import os
 import re
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
 
 from turn_datasets.errors import TurnbenchError, require_columns
 from turn_datasets.limits import MAX_ANGLE_DEG, MAX_SPEED_DEG_S
+from turn_datasets.render.numbers import counted
 from turn_datasets.strings import count, stripped_objects, text_array
 
 __all__ = [
@@ -47,6 +48,8 @@ __all__ = [
     "first_and_count",
     "and_more",
     "list_ids",
+    "Problems",
+    "reading_notes",
 ]
 
 #: At most this many ids are listed in one message (then "...").
@@ -78,6 +81,8 @@ class Table:
     delimiter: str
     header_line: int
     ascii: bool = True
+    #: How many cells of each text column had white space around them (read without it).
+    padded: dict[str, int] = field(default_factory=dict)
 
 
 def _sniff_delimiter(header_line: str) -> str:
@@ -195,6 +200,11 @@ def _read_quoted(text: str, name: str, delimiter: str) -> Table:
     assert header is not None  # the text has a non-blank line
     cells = np.array(rows, dtype=object).reshape(len(rows), len(header))
     columns = {col: _stripped(cells[:, i]) for i, col in enumerate(header) if col}
+    padded = {
+        col: int(np.count_nonzero(columns[col] != cells[:, i]))
+        for i, col in enumerate(header)
+        if col
+    }
     return Table(
         path=name,
         header=tuple(header),
@@ -203,6 +213,7 @@ def _read_quoted(text: str, name: str, delimiter: str) -> Table:
         lines=np.asarray(lines, dtype=np.int64),
         delimiter=delimiter,
         header_line=header_line,
+        padded={c: n for c, n in padded.items() if n},
     )
 
 
@@ -383,6 +394,10 @@ def _read_plain(
         else:
             cells = frame[i].to_numpy(dtype=object)
             table.columns[col] = _stripped(cells) if padded else cells
+            if padded:
+                n_padded = int(np.count_nonzero(table.columns[col] != cells))
+                if n_padded:
+                    table.padded[col] = n_padded
     return table
 
 
@@ -443,9 +458,25 @@ def and_more(count: int) -> str:
 
 
 def refuse_rows(
-    table: Table, bad: np.ndarray, message: Callable[[int], str], *, hint: str | None = None
+    table: Table,
+    bad: np.ndarray,
+    message: Callable[[int], str],
+    *,
+    hint: str | None = None,
+    problems: Problems | None = None,
+    kind: str | None = None,
+    detail: Callable[[int], str] | None = None,
 ) -> None:
-    """Raise for the first ``bad`` row (``message`` of its index), counting the others."""
+    """Raise for the first ``bad`` row (``message`` of its index), counting the others; with
+    ``problems``, add them all there as ``kind`` (``detail`` of each row says what is there)."""
+    if problems is not None and kind is not None:
+        where = np.flatnonzero(bad)
+        if where.size:
+            details = [detail(int(i)) for i in where[: problems.shown]] if detail else []
+            first = message(int(where[0]))
+            single = first + and_more(int(where.size))
+            problems.add(kind, table.lines[where], details, hint=hint, single=single, first=first)
+        return
     if bad.any():
         i, line, count = first_and_count(table, bad)
         raise TurnbenchError(message(i) + and_more(count), file=table.path, row=line, hint=hint)
@@ -458,8 +489,14 @@ def numbers(
     allow_empty: bool,
     allow_negative: bool,
     negative_hint: str | None,
+    problems: Problems | None = None,
 ) -> np.ndarray:
-    """A numeric column, strictly: empty cells are NaN only when ``allow_empty``."""
+    """A numeric column, strictly: empty cells are NaN only when ``allow_empty``.
+
+    Without ``problems`` the first kind of bad cell raises; with it, every kind (not a
+    number, empty, NaN, infinite, implausible, negative) is added there and the column is
+    returned with NaN in the unreadable cells.
+    """
     values = table.numbers.get(column)
     if values is None:
         raw = table.columns[column]
@@ -494,21 +531,37 @@ def numbers(
                 "nan": f"{column} is NaN ({raw[i]!r})",
                 "inf": f"{column} is infinite ({raw[i]!r})",
             }[kind]
+            if problems is not None:
+                words = {"bad": "is not a number", "empty": "is empty", "nan": "is NaN"}
+                problems.add(
+                    f"{column} {words.get(kind, 'is infinite')}",
+                    table.lines[hits],
+                    [repr(raw[k]) for k in hits[: problems.shown]] if kind != "empty" else (),
+                    single=message + and_more(count),
+                    first=message,
+                )
+                continue
             raise TurnbenchError(message + and_more(count), file=table.path, row=line)
     bound = PLAUSIBLE.get(column)
     if bound is not None:
         refuse_rows(
             table,
-            np.abs(values) > bound,
+            np.isfinite(values) & (np.abs(values) > bound),
             lambda i: f"{column} {values[i]:g} is beyond the plausible {bound:g}",
             hint="see the bounds in the README's error section",
+            problems=problems,
+            kind=f"{column} is beyond the plausible {bound:g}",
+            detail=lambda i: f"{values[i]:g}",
         )
     if not allow_negative:
         refuse_rows(
             table,
-            values < 0,
+            np.isfinite(values) & (values < 0),
             lambda i: f"{column} is negative ({values[i]:g})",
             hint=negative_hint,
+            problems=problems,
+            kind=f"{column} is negative",
+            detail=lambda i: f"{values[i]:g}",
         )
     return values
 
@@ -516,3 +569,109 @@ def numbers(
 def list_ids(ids: Sequence[str]) -> str:
     shown = ", ".join(repr(str(i)) for i in ids[:MAX_LISTED])
     return shown + (", ..." if len(ids) > MAX_LISTED else "")
+
+
+#: The delimiters as a reading note names them.
+_DELIMITER_NAMES = {";": "semicolon", "\t": "tab", ",": "comma"}
+
+
+def reading_notes(table: Table) -> list[str]:
+    """What the reader did that the file does not say, one line each, for stderr: a
+    delimiter other than the comma (a spreadsheet export; decimal commas read as points),
+    and cells read without the spaces around them (``" S9_Walking"`` is ``S9_Walking``)."""
+    notes = []
+    if table.delimiter != ",":
+        notes.append(
+            f"{table.path}: read as {_DELIMITER_NAMES[table.delimiter]}-separated (a "
+            "spreadsheet export?), with decimal commas read as points; turnbench writes "
+            "comma-separated CSV"
+        )
+    for col, n in table.padded.items():
+        notes.append(
+            f"{table.path}: {counted(n, 'cell')} of {col} had spaces around the value, read "
+            "without them"
+        )
+    return notes
+
+
+@dataclass
+class Problems:
+    """Every problem one pass over a table finds, grouped by kind, raised together.
+
+    A check adds its kind (``"angle_deg is not a number"``), the file lines of every row
+    with it and, for the first few, what is there; :meth:`raise_if_any` raises one
+    :class:`~turn_datasets.errors.TurnbenchError` listing each kind with its count and first
+    lines, so that a file with three kinds of problem needs one run, not three.
+    """
+
+    path: str
+    kinds: dict[str, tuple[list[int], list[str], str | None]] = field(default_factory=dict)
+    #: Lines listed per kind.
+    shown: int = 3
+    singles: dict[str, str] = field(default_factory=dict)
+    firsts: dict[str, str] = field(default_factory=dict)
+
+    def add(
+        self,
+        kind: str,
+        lines: Sequence[int] | np.ndarray,
+        details: Sequence[str] = (),
+        *,
+        hint: str | None = None,
+        single: str | None = None,
+        first: str | None = None,
+    ) -> None:
+        """Rows of one kind of problem (``lines`` in file order; ``details[k]`` says what is
+        on ``lines[k]``); ``first`` says the first row's problem in full and ``single`` is
+        the whole message when it is the only kind (the first, the others counted)."""
+        got, said, _ = self.kinds.setdefault(kind, ([], [], hint))
+        got.extend(int(x) for x in lines)
+        said.extend(details)
+        self.singles.setdefault(kind, single or first or kind)
+        self.firsts.setdefault(kind, first or kind)
+
+    def record(self, exc: TurnbenchError) -> None:
+        """A problem a check raised: its message (first row, the others counted) and line."""
+        row = exc.where.row
+        self.add(exc.message, [row] if row else [], hint=exc.hint, single=exc.message)
+
+    def run(self, check: Callable[[], object]) -> bool:
+        """Run one check, recording what it raises instead of stopping; True if it passed."""
+        try:
+            check()
+        except TurnbenchError as exc:
+            self.record(exc)
+            return False
+        return True
+
+    def __bool__(self) -> bool:
+        return bool(self.kinds)
+
+    def raise_if_any(self, what: str = "nothing scored") -> None:
+        """Raise every problem at once (grouped by kind, the first lines of each, a count)."""
+        if not self.kinds:
+            return
+        if len(self.kinds) == 1:
+            # One kind: the message its check has always given (first line, the rest counted)
+            kind, (lines, _, hint) = next(iter(self.kinds.items()))
+            raise TurnbenchError(
+                self.singles[kind], file=self.path, row=lines[0] if lines else None, hint=hint
+            )
+        n_rows = sum(max(len(lines), 1) for lines, _, _ in self.kinds.values())
+        out = [f"{counted(n_rows, 'problem')} of {counted(len(self.kinds), 'kind')}; {what}:"]
+        for kind, (lines, details, hint) in self.kinds.items():
+            first = [
+                f"{line}" + (f" ({details[k]})" if k < len(details) else "")
+                for k, line in enumerate(lines[: self.shown])
+            ]
+            where = (
+                f": line{'s' if len(lines) > 1 else ''} {', '.join(first)}"
+                + (", ..." if len(lines) > self.shown else "")
+                if lines
+                else ""
+            )
+            rows = f" ({counted(len(lines), 'row')})" if len(lines) > 1 else ""
+            out.append(f"  {self.firsts[kind]}{rows}{where}" + (f" [{hint}]" if hint else ""))
+        # The error's line is the file's first problem (each kind's lines are listed).
+        starts = [entry[0][0] for entry in self.kinds.values() if entry[0]]
+        raise TurnbenchError("\n".join(out), file=self.path, row=min(starts) if starts else None)

@@ -1,0 +1,110 @@
+"""The README's demo results are the full demo's own output, in every supported environment.
+
+The full demo (``make demo``'s corpus and settings) runs once here, so the suite checks
+what the README claims: the scores table, the untrimmed stage's detections and the
+agreement audit, as :mod:`turn_eval.demo_results` writes them. ``make test`` runs this in
+``.venv`` (NumPy 2.x) and in ``.venv-video`` (NumPy 1.26): both must give the README's
+block, so the two environments give the same detections (they did not: 1358 turns against
+1359, a tie in the synthetic streams broken by the last bit of NumPy's trigonometry).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from turn_datasets.errors import TurnbenchError
+from turn_eval import demo
+from turn_eval.demo_results import END, START, readme_block, replace_block, results_block
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+@pytest.fixture(scope="module")
+def full_demo(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("full") / "demo-output"
+    capture = pytest.MonkeyPatch()
+    capture.setattr(demo, "_say", lambda text="": None)
+    try:
+        demo.run_demo(out)  # make demo's corpus, seed and bootstrap
+    finally:
+        capture.undo()
+    return out
+
+
+def test_the_readme_shows_what_the_full_demo_prints(full_demo: Path) -> None:
+    block = results_block(full_demo)
+    assert readme_block(README.read_text(encoding="utf-8")) == block, (
+        "README.md's demo results differ from the demo's output: run make demo, then "
+        ".venv/bin/python -m turn_eval.demo_results demo-output README.md"
+    )
+
+
+def test_the_untrimmed_stage_finds_the_same_turns_in_every_environment(full_demo: Path) -> None:
+    """The detections' count and the matched turns, against the README's (one figure for
+    both NumPy versions), read from the detections file itself."""
+    import pandas as pd
+
+    detections = pd.read_csv(full_demo / "untrimmed" / "detections.csv")
+    text = readme_block(README.read_text(encoding="utf-8"))
+    found = text.split("`detect` finds ", 1)[1]
+    tp = int(found.split(" of ", 1)[0])
+    fp = int(found.split(" with ", 1)[1].split(" false", 1)[0])
+    assert len(detections) == tp + fp
+
+
+def test_results_block_by_hand(tmp_path: Path) -> None:
+    """The block's figures from hand-made result files: percentages with one decimal, the
+    speed MAE blank where absent, the untrimmed counts and both kappas."""
+    import json
+
+    def scores(folder: str, method: str, acc: float, mae: float, wprec: float, speed) -> None:
+        p = tmp_path / folder / f"scores-{method}" / "scores.json"
+        p.parent.mkdir(parents=True)
+        overall = {"n": 10, "accuracy": acc, "mae_deg": mae, "wprec": wprec}
+        p.write_text(json.dumps({"overall": {**overall, "mae_speed_deg_s": speed}}))
+
+    scores("h36m", "paper", 0.6034, 17.25, 0.6421, 15.04)
+    scores("h36m", "net", 0.7, 10.0, 0.75, None)
+    scores("remap", "paper", 0.5, 20.0, 0.7, 9.95)
+    scores("remap", "net", 0.8, 12.0, 0.9, 6.0)
+    ev = tmp_path / "untrimmed" / "events" / "event_scores.json"
+    ev.parent.mkdir(parents=True)
+    ev.write_text(
+        json.dumps(
+            {
+                "overall": {
+                    "tp": 9,
+                    "fp": 1,
+                    "fn": 1,
+                    "f1": 0.9,
+                    "matched": {"accuracy": 1.0, "mae_deg": 2.25},
+                }
+            }
+        )
+    )
+    ag = tmp_path / "remap" / "agreement" / "agreement.json"
+    ag.parent.mkdir(parents=True)
+    ag.write_text(
+        json.dumps(
+            {
+                "kappa": 0.9684,
+                "kappa_ci95": [0.95, 0.98],
+                "matched": 674,
+                "kappa_with_unmatched": 0.925,
+            }
+        )
+    )
+    block = results_block(tmp_path)
+    assert (
+        "| Turn-H3.6M-like | 10 | paper (eq. 3 as printed) | 60.3% | 17.3° | 64.2% | 15.0°/s |"
+        in block
+    )
+    assert "| Turn-H3.6M-like | 10 | net | 70.0% | 10.0° | 75.0% | – |" in block
+    assert "finds 9 of the 10 labelled turns with 1 false detections (F1 90.0%)" in block
+    assert "kappa 0.968 (95% CI 0.950 to 0.980) over 674 matched turns, and 0.925" in block
+    readme = f"intro\n{START}\nold\n{END}\nrest\n"
+    assert replace_block(readme, block) == f"intro\n{START}\n{block}{END}\nrest\n"
+    with pytest.raises(TurnbenchError, match="no demo-results markers"):
+        readme_block("no markers here")
