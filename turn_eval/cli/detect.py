@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import inspect
 import sys
@@ -30,6 +31,7 @@ from turn_eval.detect.mapping import build_manifest, detect_files
 from turn_eval.detect.protocol import TurnDetector
 from turn_eval.detect.rule import DETECT_MINER_DEFAULTS, DetectParams, MinerRule
 from turn_eval.detect.streams import stream_files
+from turn_eval.mapping import check_scheduler_address
 
 
 def _load_detector(spec: str | None, params: DetectParams) -> TurnDetector:
@@ -141,18 +143,26 @@ def detect_command(
         params_from(DetectParams, values), joints=tuple(joints.split(",")), miner=miner
     )
     detector = _load_detector(detector_spec, params)
+    if scheduler:
+        check_scheduler_address(scheduler)
     files = stream_files(skeletons)  # first: an AlphaPose JSON is refused with its reason
     layout = source.layout(need_up_axis=True)
     check_not_input(out, files)
     mpath = manifest_path(out)
     check_not_input(mpath, files)
     where = f"on {scheduler}" if scheduler else (f"on {workers} local workers" if workers else "")
-    with click.progressbar(
-        length=len(files),
-        label=f"detecting {where}".strip(),
-        file=sys.stderr,
-        show_pos=True,
-    ) as bar:
+    with contextlib.ExitStack() as stack:
+        bars: list = []
+
+        def start() -> None:  # once the cluster is up: a failure to start is one line
+            bar = click.progressbar(
+                length=len(files),
+                label=f"detecting {where}".strip(),
+                file=sys.stderr,
+                show_pos=True,
+            )
+            bars.append(stack.enter_context(bar))
+
         run = detect_files(
             files,
             detector=detector,
@@ -163,7 +173,8 @@ def detect_command(
             workers=workers,
             scheduler=scheduler,
             skip_bad=skip_bad,
-            on_file_done=lambda: bar.update(1),
+            on_file_done=lambda: bars[0].update(1),
+            on_start=start,
         )
     for s in run.skipped:
         info(f"skipped {s['file']}{', ' + s['item'] if s['item'] else ''}: {s['error']}")

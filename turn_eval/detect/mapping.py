@@ -149,6 +149,7 @@ def detect_files(
     scheduler: str | None = None,
     skip_bad: bool = False,
     on_file_done: Callable[[], None] | None = None,
+    on_start: Callable[[], None] | None = None,
 ) -> DetectRun:
     """Detect turns in every stream of every file (module docstring).
 
@@ -172,6 +173,8 @@ def detect_files(
         raising on the first.
     on_file_done
         Called once per finished file (a progress bar).
+    on_start
+        Called once the cluster is up (at once when serial): where the bar starts.
 
     Raises
     ------
@@ -205,6 +208,7 @@ def detect_files(
         workers=workers,
         scheduler=scheduler,
         on_result=finished,
+        on_start=on_start,
     )
     run = DetectRun(_empty())
     parts = []

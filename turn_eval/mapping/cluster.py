@@ -8,19 +8,26 @@ traceback of Dask's internals:
 - a scheduler that cannot be reached within :data:`SCHEDULER_TIMEOUT_S`, or that no worker
   joins within :data:`WORKER_WAIT_S` (a scheduler started without its workers would
   otherwise leave the run waiting at 0 of N for ever);
-- a local cluster that cannot start (an unwritable ``DASK_TEMPORARY_DIRECTORY``, too few
-  open files allowed by ``ulimit -n``).
+- a local cluster that cannot start (an unwritable ``DASK_TEMPORARY_DIRECTORY``), or that
+  would run out of file descriptors: its processes, pipes and sockets need
+  :func:`open_files_needed` of them, so the soft limit is raised towards the hard one, and a
+  hard limit below it (``ulimit -n 40``) is refused before anything starts (Dask's own
+  processes would otherwise fail one by one, each with its own traceback).
 
-A local cluster's worker processes ignore SIGINT: Ctrl-C at a terminal reaches every
-process of the foreground group, and each worker would print its own traceback. The command
-alone stops, closes the cluster (which ends its workers) and says "aborted".
+A local cluster's worker processes write nothing to the terminal: Ctrl-C at a terminal
+reaches every process of the foreground group, and each worker printed its own traceback
+(most of all while still importing). The command alone speaks: it stops, closes the cluster
+(which ends its workers) and says "aborted".
 """
 
 from __future__ import annotations
 
 import contextlib
 import logging
+import os
+import resource
 import signal
+import sys
 import threading
 import warnings
 from collections.abc import Iterator
@@ -34,6 +41,7 @@ __all__ = [
     "check_scheduler_address",
     "connect",
     "local_cluster",
+    "open_files_needed",
 ]
 
 #: How long to try to reach a ``--scheduler`` before giving up, seconds.
@@ -47,6 +55,28 @@ _SETUP_HINT = (
     "a local Dask cluster needs a writable temporary folder (DASK_TEMPORARY_DIRECTORY, or "
     "TMPDIR) and a few hundred open files (ulimit -n)"
 )
+
+
+def open_files_needed(n_workers: int) -> int:
+    """File descriptors a local cluster of ``n_workers`` needs, with room to spare: 256
+    for this process (Dask's scheduler, the files read) and 32 per worker (its pipes and
+    sockets), about twice what a cluster was seen to use on Linux."""
+    return 256 + 32 * int(n_workers)
+
+
+def _check_open_files(n_workers: int) -> None:
+    need = open_files_needed(n_workers)
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    if soft == resource.RLIM_INFINITY or soft >= need:
+        return
+    if hard == resource.RLIM_INFINITY or hard >= need:
+        resource.setrlimit(resource.RLIMIT_NOFILE, (need, hard))
+        return
+    raise TurnbenchError(
+        f"a local Dask cluster of {n_workers} workers needs {need} open files, but this "
+        f"session allows {hard} (ulimit -n)",
+        hint=f"raise the limit (ulimit -n {need}), or run without --workers",
+    )
 
 
 def _one_line(exc: BaseException) -> str:
@@ -77,17 +107,33 @@ def check_scheduler_address(address: str) -> str:
 
 
 @contextlib.contextmanager
-def _sigint_ignored() -> Iterator[None]:
-    # A process started meanwhile inherits SIG_IGN, and Python leaves an ignored SIGINT
-    # ignored (it installs its KeyboardInterrupt handler only over the default).
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+def _starting_workers(pressed: list[int]) -> Iterator[None]:
+    """While a local cluster starts: its processes get a null stderr, and Ctrl-C is noted.
+
+    Ctrl-C at a terminal signals every process of the foreground group; a worker process
+    interrupted while importing NumPy printed a traceback (every worker, dozens of lines).
+    Started with ``/dev/null`` as file descriptor 2, the workers' tracebacks, logs and
+    native libraries' chatter never reach the terminal (their errors come back as task
+    results). Meanwhile a Ctrl-C here is noted, not raised inside Dask's start-up (which
+    would print its own tracebacks at exit); the caller stops once the cluster is up.
+    Signal handlers can only be set in the main thread; elsewhere Ctrl-C is not ours.
+    """
+    main = threading.current_thread() is threading.main_thread()
+    previous = (
+        signal.signal(signal.SIGINT, lambda signum, frame: pressed.append(signum)) if main else None
+    )
+    sys.stderr.flush()
+    saved = os.dup(2)
+    null = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(null, 2)
+    os.close(null)
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, previous)
+        os.dup2(saved, 2)
+        os.close(saved)
+        if main:
+            signal.signal(signal.SIGINT, previous)
 
 
 @contextlib.contextmanager
@@ -104,7 +150,7 @@ def _quiet(level: int = logging.CRITICAL) -> Iterator[None]:
 
 def local_cluster(n_workers: int) -> Any:
     """A local Dask cluster of ``n_workers`` single-threaded processes, as ``--workers`` starts
-    it: no dashboard, quiet logs, workers that ignore SIGINT and keep freed memory for the
+    it: no dashboard, quiet logs, workers silent on the terminal that keep freed memory for the
     next file, and a task whose worker dies reported at once (not retried on another).
 
     Dask's workers start with ``MALLOC_TRIM_THRESHOLD_`` small, handing freed memory back to
@@ -112,6 +158,7 @@ def local_cluster(n_workers: int) -> Any:
     again: 25-35% more CPU per file than serially (measured on 10-minute streams). Keeping
     freed memory costs no more than the largest file per worker.
     """
+    _check_open_files(n_workers)
     # Imported here: a serial run never pays for Dask's import.
     import dask
     from dask.distributed import LocalCluster
@@ -124,17 +171,18 @@ def local_cluster(n_workers: int) -> Any:
         # another worker to kill that one too
         "distributed.scheduler.allowed-failures": 0,
     }
+    pressed: list[int] = []
     try:
         with (
             warnings.catch_warnings(),
             dask.config.set(settings),
-            _sigint_ignored(),
             _quiet(logging.ERROR),
+            _starting_workers(pressed),
         ):
             # the scheduler's HTTP server says so when another cluster has port 8787; it
             # then takes another port, and no dashboard is asked for
             warnings.filterwarnings("ignore", message="Port .* is already in use")
-            return LocalCluster(
+            cluster = LocalCluster(
                 n_workers=int(n_workers),
                 threads_per_worker=1,
                 processes=True,
@@ -142,10 +190,17 @@ def local_cluster(n_workers: int) -> Any:
                 silence_logs=logging.ERROR,
             )
     except Exception as exc:
+        if pressed:
+            raise KeyboardInterrupt from None
         raise TurnbenchError(
             f"cannot start a local Dask cluster of {n_workers} workers: {_one_line(exc)}",
             hint=_SETUP_HINT,
         ) from None
+    if pressed:  # Ctrl-C during start-up: stop now that the cluster can be closed cleanly
+        with _quiet(), contextlib.suppress(Exception):
+            cluster.close()
+        raise KeyboardInterrupt
+    return cluster
 
 
 def _join(scheduler: str) -> Any:

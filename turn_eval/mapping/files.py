@@ -151,6 +151,7 @@ def _distributed(
     *,
     workers: int | None,
     scheduler: str | None,
+    on_start: Callable[[], None],
 ) -> list[Any]:
     from dask.distributed import as_completed
     from distributed import KilledWorker
@@ -160,6 +161,7 @@ def _distributed(
     results: list[Any] = [None] * len(files)
     token = uuid.uuid4().hex
     with connect(workers=workers, scheduler=scheduler) as client:
+        on_start()
         topic = None
         if on_progress is not None:
             topic = f"turnbench-progress-{token}"
@@ -199,6 +201,7 @@ def map_files(
     sha256s: Sequence[str | None] | None = None,
     on_result: Callable[[int, Any], Any] | None = None,
     on_progress: Callable[[int], None] | None = None,
+    on_start: Callable[[], None] | None = None,
 ) -> list[Any]:
     """``fn`` over every file (module docstring); its results (or :class:`Failure`) in order.
 
@@ -224,6 +227,9 @@ def map_files(
         cluster is then closed, ending the other tasks.
     on_progress
         Progress counts from ``fn`` (module docstring).
+    on_start
+        Called once the cluster is up (at once when serial): where a progress bar starts,
+        so that a cluster that fails to start is one line, not a bar and then an error.
     """
     if workers is not None and workers < 1:
         raise TurnbenchError(f"workers must be at least 1, got {workers}")
@@ -234,10 +240,20 @@ def map_files(
     def keep(i: int, result: Any) -> Any:
         return on_result(i, result) if on_result is not None else result
 
+    start = on_start or (lambda: None)
     if scheduler or workers is not None:
         return _distributed(
-            fn, files, digests, extra, keep, on_progress, workers=workers, scheduler=scheduler
+            fn,
+            files,
+            digests,
+            extra,
+            keep,
+            on_progress,
+            workers=workers,
+            scheduler=scheduler,
+            on_start=start,
         )
+    start()
     results = []
     for i, (path, digest) in enumerate(zip(files, digests, strict=True)):
         if isinstance(digest, Failure):
