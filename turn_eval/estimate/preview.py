@@ -79,14 +79,16 @@ class PreviewWriter:
         self.guard = guard
         self._track = 0
         self._last: tuple[np.ndarray, float, float] | None = None
+        # `file:` and the absolute path: a name like `tcp:host:port` is a file here too; the
+        # format is named, since the path may be a temporary one without `.mp4`
         self._writer = imageio_ffmpeg.write_frames(
-            str(self.path),
+            "file:" + os.path.abspath(self.path),
             (self.out_w, self.out_h),
             fps=fps_hz,
             codec="libx264",
             pix_fmt_out="yuv420p",
             macro_block_size=2,
-            output_params=["-threads", "1"],
+            output_params=["-threads", "1", "-protocol_whitelist", "file", "-f", "mp4"],
         )
         self._writer.send(None)
 

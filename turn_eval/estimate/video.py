@@ -34,7 +34,14 @@ import numpy as np
 
 from turn_datasets.errors import TurnbenchError
 
-__all__ = ["TRUNCATION_TOLERANCE_S", "VideoStream", "check_complete", "ffmpeg_input", "open_video"]
+__all__ = [
+    "TRUNCATION_TOLERANCE_S",
+    "VideoStream",
+    "check_complete",
+    "expected_frames",
+    "ffmpeg_input",
+    "open_video",
+]
 
 #: A video whose decoded frames end earlier than its container's duration by more than this
 #: is refused as truncated, seconds. An audio track may outlast the video by a few frames
@@ -187,3 +194,25 @@ def open_video(path: str | os.PathLike[str]) -> VideoStream:
     stream = VideoStream(path=p, process=process)
     threading.Thread(target=stream._read_stderr, daemon=True).start()
     return stream
+
+
+def expected_frames(path: str | os.PathLike[str]) -> int:
+    """How many frames the container of ``path`` declares (duration times rate, from its
+    header alone, without decoding; 0 when it states neither or cannot be read): the length
+    of a progress bar over many videos."""
+    import imageio_ffmpeg
+
+    cmd = [imageio_ffmpeg.get_ffmpeg_exe(), "-nostdin", "-hide_banner", *ffmpeg_input(path)]
+    try:
+        text = subprocess.run(cmd, capture_output=True, timeout=60).stderr.decode(
+            "utf-8", "replace"
+        )
+    except (OSError, subprocess.TimeoutExpired):
+        return 0
+    duration = _DURATION.search(text)
+    stream = next((ln for ln in text.splitlines() if _STREAM.search(ln)), "")
+    rate = _rate(_FPS.search(stream)) or _rate(_TBR.search(stream))
+    if duration is None or rate is None or rate > 240:
+        return 0
+    h, m, sec = duration.groups()
+    return int(round((int(h) * 3600 + int(m) * 60 + float(sec)) * rate))

@@ -145,7 +145,7 @@ def _distributed(
     fn: Callable[..., Any],
     files: Sequence[str],
     digests: Sequence[str | Failure],
-    kwargs: dict,
+    kwargs: Sequence[dict],
     keep: Callable[[int, Any], Any],
     on_progress: Callable[[int], None] | None,
     *,
@@ -173,7 +173,14 @@ def _distributed(
                 continue
             name = getattr(fn, "__name__", "task")
             future = client.submit(
-                _on_worker, fn, path, digest, kwargs, topic, key=f"{name}-{i}-{token}", pure=False
+                _on_worker,
+                fn,
+                path,
+                digest,
+                kwargs[i],
+                topic,
+                key=f"{name}-{i}-{token}",
+                pure=False,
             )
             order[future.key] = (i, future)
         for future in as_completed([f for _, f in order.values()]):
@@ -202,6 +209,7 @@ def map_files(
     on_result: Callable[[int, Any], Any] | None = None,
     on_progress: Callable[[int], None] | None = None,
     on_start: Callable[[], None] | None = None,
+    per_file: Sequence[dict] | None = None,
 ) -> list[Any]:
     """``fn`` over every file (module docstring); its results (or :class:`Failure`) in order.
 
@@ -230,12 +238,15 @@ def map_files(
     on_start
         Called once the cluster is up (at once when serial): where a progress bar starts,
         so that a cluster that fails to start is one line, not a bar and then an error.
+    per_file
+        Keyword arguments of ``fn`` for each file (its output's name, say), added to
+        ``kwargs``.
     """
     if workers is not None and workers < 1:
         raise TurnbenchError(f"workers must be at least 1, got {workers}")
     files = [os.path.abspath(Path(p)) for p in paths]
     digests = _hashes(files, sha256s)
-    extra = dict(kwargs or {})
+    extra = [{**(kwargs or {}), **(per_file[i] if per_file else {})} for i in range(len(files))]
 
     def keep(i: int, result: Any) -> Any:
         return on_result(i, result) if on_result is not None else result
@@ -259,5 +270,5 @@ def map_files(
         if isinstance(digest, Failure):
             results.append(keep(i, digest))
         else:
-            results.append(keep(i, _call(fn, path, digest, extra, on_progress)))
+            results.append(keep(i, _call(fn, path, digest, extra[i], on_progress)))
     return results
