@@ -94,7 +94,8 @@ class PreviewWriter:
 
     def add(self, rgb: np.ndarray, image_xy: np.ndarray, time_s: float) -> None:
         """One decoded frame and its ``(33, 2)`` image landmarks (NaN when nobody is found)."""
-        img = np.ascontiguousarray(rgb[:: self.step, :: self.step][: self.out_h, : self.out_w])
+        # a copy: the decoded frame is read-only (and at most 640 wide, the frame itself)
+        img = np.array(rgb[:: self.step, :: self.step][: self.out_h, : self.out_w], order="C")
         if not np.isfinite(image_xy).all():
             img[:6], img[-6:], img[:, :6], img[:, -6:] = (_MISSING_RGB,) * 4
         else:
