@@ -257,19 +257,21 @@ def estimate_videos(
         return row
 
     kwargs = {"params": params, "token": token}
+    landed: list[dict] = []
     try:
-        landed = map_files(
-            estimate_file,
-            [jobs[i].video for i in todo],
-            kwargs=kwargs,
-            workers=workers,
-            scheduler=scheduler,
-            sha256s=[digests[i] for i in todo],
-            on_result=land,
-            on_progress=on_progress,
-            on_start=(lambda: on_start([jobs[i] for i in todo])) if on_start else None,
-            per_file=[{"preview": _preview_arg(jobs[i])} for i in todo],
-        )
+        if todo:  # all resumed: no cluster to start
+            landed = map_files(
+                estimate_file,
+                [jobs[i].video for i in todo],
+                kwargs=kwargs,
+                workers=workers,
+                scheduler=scheduler,
+                sha256s=[digests[i] for i in todo],
+                on_result=land,
+                on_progress=on_progress,
+                on_start=(lambda: on_start([jobs[i] for i in todo])) if on_start else None,
+                per_file=[{"preview": _preview_arg(jobs[i])} for i in todo],
+            )
     finally:
         _sweep(jobs, token)
     for k, row in zip(todo, landed, strict=True):
