@@ -217,3 +217,15 @@ def test_a_video_that_cannot_be_decoded_stops_the_run_or_is_listed(clips, tmp_pa
     # b's outputs of the earlier run described another video: gone, so detect cannot read them
     assert complete_outputs_only(out) == ["a", "c"]
     assert lines[-1].startswith("wrote skeletons (and manifests) of 3 videos (1 estimated, ")
+
+
+def test_progress_counts_every_frame_across_videos(clips, tmp_path):
+    from turn_eval.estimate import EstimateParams, VideoJob, estimate_videos
+
+    counted: list[int] = []
+    out = tmp_path / "out"
+    out.mkdir()
+    jobs = [VideoJob(v, out / f"{v.stem}.npz") for v in clips]
+    run = estimate_videos(jobs, params=EstimateParams(), on_progress=counted.append)
+    assert sum(counted) == 20 + 25 + 30
+    assert [v["frames"] for v in run.videos] == [20, 25, 30]

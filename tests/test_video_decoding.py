@@ -121,3 +121,12 @@ def test_a_still_image_renamed_mp4_is_not_a_one_frame_video(tmp_path) -> None:
     fake.write_bytes(_png(64, 48))
     with pytest.raises(TurnbenchError, match="one decoded frame: a still image, not a video"):
         list(open_video(fake))
+
+
+def test_a_progress_bar_is_sized_from_the_containers_header(sports2d_video, tmp_path) -> None:
+    from turn_eval.estimate.video import expected_frames
+
+    assert expected_frames(sports2d_video) == 232  # 7.73 s at 30 fps, from the header alone
+    (tmp_path / "x.mp4").write_bytes(_png(8, 8))
+    assert expected_frames(tmp_path / "x.mp4") == 0  # no duration stated
+    assert expected_frames(tmp_path / "none.mp4") == 0
