@@ -29,7 +29,9 @@ import pandas as pd
 
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import sha256_file, typed_frame
+from turn_datasets.machine import check_local_workers
 from turn_datasets.skeleton import Layout
+from turn_eval.detect.plugins import call_detector, check_picklable, detector_name
 from turn_eval.detect.protocol import TurnDetector, checked_turns
 from turn_eval.detect.streams import read_streams
 from turn_eval.events.contract import DETECTION_DTYPES
@@ -94,12 +96,11 @@ def detect_file(
     sha256: str | None = None,
 ) -> FileResult:
     """Every stream of one file through ``detector``; errors are returned, not raised, so a
-    worker process hands them back as data (the caller decides: stop, or skip the file).
-    ``sha256`` is the file's, when the caller has hashed it already."""
+    worker process hands them back as data (the caller decides: stop, or skip the file)."""
     streams: list[dict] = []
     parts: list[pd.DataFrame] = []
     try:
-        digest = sha256 or sha256_file(path)
+        digest = sha256 or sha256_file(path)  # the caller's, when it has hashed the file
     except OSError as exc:
         return FileResult(str(path), "", (), _columns([]), (str(exc.strerror or exc), None, None))
     try:
@@ -114,9 +115,9 @@ def detect_file(
                 }
             )
             try:
-                found = detector.detect(s.positions, fps_hz, layout)
+                found = call_detector(detector, s.positions, fps_hz, layout)
                 found = checked_turns(
-                    found, detector=detector.name, n_frames=s.n_frames, fps_hz=fps_hz
+                    found, detector=detector_name(detector), n_frames=s.n_frames, fps_hz=fps_hz
                 )
             except TurnbenchError as exc:
                 raise TurnbenchError(exc.message, file=path, item=s.key, hint=exc.hint) from None
@@ -141,6 +142,12 @@ def _columns(parts: Sequence[pd.DataFrame]) -> dict[str, np.ndarray]:
 
 def _empty() -> pd.DataFrame:
     return typed_frame(pd.DataFrame({c: [] for c in DETECTION_DTYPES}), DETECTION_DTYPES)
+
+
+_DIED = (
+    "the worker process died while detecting turns in this file (the detector exited the "
+    "process, or it was killed: out of memory?)"
+)
 
 
 def detect_files(
@@ -190,6 +197,8 @@ def detect_files(
     """
     if workers is not None and workers < 1:
         raise TurnbenchError(f"workers must be at least 1, got {workers}")
+    if workers is not None and not scheduler:
+        check_local_workers(workers)  # the processes must fit the machine's memory
     kwargs = {
         "detector": detector,
         "layout": layout,
@@ -199,12 +208,14 @@ def detect_files(
     }
     done = on_file_done or (lambda: None)
     files = [Path(p) for p in paths]
+    if scheduler or workers is not None:
+        check_picklable(detector)  # one line, before any cluster starts
 
     def finished(i: int, result: FileResult | Failure) -> FileResult:
         done()
-        if isinstance(result, Failure):  # not reachable, or another file, on a worker
-            error = (result.message, result.item, result.hint)
-            return FileResult(str(files[i]), "", (), _columns([]), error)
+        if isinstance(result, Failure):  # not reachable or another file on a worker; a dead one
+            message = _DIED if result.died else result.message
+            return FileResult(str(files[i]), "", (), _columns([]), (message, result.item, None))
         return replace(result, path=str(files[i]))  # the path as given, not the absolute one
 
     results = map_files(

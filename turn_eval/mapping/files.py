@@ -26,6 +26,7 @@ Progress: with ``on_progress``, ``fn`` is also given ``on_progress(n)`` to call 
 
 from __future__ import annotations
 
+import logging
 import os
 import time
 import uuid
@@ -56,6 +57,8 @@ class Failure:
     message: str
     item: str | None = None
     hint: str | None = None
+    #: The worker running it died (killed, out of memory): the caller may word it its way.
+    died: bool = False
 
     def error(self) -> TurnbenchError:
         """The failure as the error a command reports (one line naming the file)."""
@@ -127,6 +130,17 @@ def _on_worker(
             events.flush()
 
 
+class _NoDeathNotice(logging.Filter):
+    """Drops the scheduler's log line about a task whose worker died: :func:`map_files`
+    hands that file back as a :class:`Failure`, and the command says it in one line."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return "workers died while trying to run it" not in record.getMessage()
+
+
+_NO_DEATH_NOTICE = _NoDeathNotice()
+
+
 def _hashes(files: Sequence[str], given: Sequence[str | None] | None) -> list[str | Failure]:
     out: list[str | Failure] = []
     for i, path in enumerate(files):
@@ -160,6 +174,7 @@ def _distributed(
 
     results: list[Any] = [None] * len(files)
     token = uuid.uuid4().hex
+    logging.getLogger("distributed.scheduler").addFilter(_NO_DEATH_NOTICE)
     with connect(workers=workers, scheduler=scheduler) as client:
         on_start()
         topic = None
@@ -190,6 +205,7 @@ def _distributed(
                     files[i],
                     "the worker running it died (killed, or out of memory)",
                     hint="--skip-bad lists it and goes on; --resume then redoes it",
+                    died=True,
                 )
             else:
                 result = future.result()  # a bug on the worker re-raises here, with its traceback
