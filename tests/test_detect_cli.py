@@ -223,9 +223,9 @@ def test_serial_run_does_not_import_dask(tmp_path, turn_stream) -> None:
 
 
 def test_unreachable_scheduler_is_one_line(tmp_path, capsys, turn_stream, monkeypatch) -> None:
-    import turn_eval.detect.mapping as mapping
+    import turn_eval.mapping.cluster as cluster
 
-    monkeypatch.setattr(mapping, "SCHEDULER_TIMEOUT_S", 1)
+    monkeypatch.setattr(cluster, "SCHEDULER_TIMEOUT_S", 1)
     np.savez(tmp_path / "home.npz", P01=turn_stream)
     args = ["detect", tmp_path / "home.npz", *BASE, "--scheduler", "tcp://127.0.0.1:9"]
     code, _, stderr = run([*args, "--out", tmp_path / "d.csv"], capsys)

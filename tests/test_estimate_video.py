@@ -10,13 +10,15 @@ body's anatomy (nose above hip above ankle).
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 from conftest import require_mediapipe
-from test_estimate import make_vfr_video
+from test_estimate import _write_numbered_video, make_vfr_video
 
 from turn_datasets.cli.common import run_group
 from turn_datasets.geometry import frame_yaw_deg
@@ -193,3 +195,61 @@ def test_estimate_then_detect_finds_the_one_real_turn(sports2d, tmp_path, capsys
     assert turn.start_s >= 2.2 and turn.end_s <= 4.0  # around 2.7-3.5 s
     # labelled to the nearest 45° it is the 90° bin (67.5-112.5°)
     assert 67.5 <= turn.angle_deg < 112.5
+
+
+def test_mediapipe_warnings_are_not_printed_on_success(sports2d_video, tmp_path, capfd):
+    # MediaPipe logs "landmark_projection_calculator.cc:186] Using NORM_RECT without
+    # IMAGE_DIMENSIONS ..." straight to file descriptor 2 at the first frame where it finds
+    # a person, which is not the first frame here (three black ones lead in, as nobody is
+    # found in the bundled clip's first frame): it was printed on every successful run.
+    require_mediapipe()
+    import imageio_ffmpeg
+
+    clip = tmp_path / "walk.mp4"
+    subprocess.run(
+        [imageio_ffmpeg.get_ffmpeg_exe(), "-loglevel", "error", "-i", str(sports2d_video),
+         "-t", "2", "-an", "-vf", "scale=640:-2,tpad=start=3:color=black", "-c:v", "libx264",
+         "-preset", "veryfast",
+         str(clip)],
+        check=True,
+    )  # fmt: skip
+    capfd.readouterr()
+    code, _ = estimate([clip, "--out", tmp_path / "walk.npz"])
+    err = capfd.readouterr().err
+    assert code == 0, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 2, err
+    assert lines[0].startswith("walk.mp4: 60 frames, person detected in ")
+    assert lines[1] == f"wrote skeletons (and manifests) to {tmp_path / 'walk.npz'}"
+
+
+def test_two_workers_equal_the_serial_run_byte_for_byte(sports2d, sports2d_video, tmp_path):
+    # the bundled video (serial: the module's fixture) and a synthetic one, with previews
+    grey = tmp_path / "grey.mp4"
+    _write_numbered_video(grey, 45)
+    code, _ = estimate([grey, "--out-dir", tmp_path / "serial", "--preview", tmp_path / "sq"])
+    assert code == 0
+    proc = subprocess.run(
+        [sys.executable, "-m", "turn_eval", "estimate", str(sports2d_video), str(grey)]
+        + ["--out-dir", str(tmp_path / "w"), "--preview", str(tmp_path / "wq"), "--workers", "2"],
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout == ""
+    pairs = [
+        (sports2d["dir"] / "sports2d_demo.npz", tmp_path / "w" / "sports2d_demo.npz"),
+        (sports2d["dir"] / "sports2d_demo.manifest.json", tmp_path / "w" / "sports2d_demo.manifest.json"),
+        (sports2d["dir"] / "qa" / "sports2d_demo.preview.mp4", tmp_path / "wq" / "sports2d_demo.preview.mp4"),
+        (tmp_path / "serial" / "grey.npz", tmp_path / "w" / "grey.npz"),
+        (tmp_path / "serial" / "grey.manifest.json", tmp_path / "w" / "grey.manifest.json"),
+        (tmp_path / "sq" / "grey.preview.mp4", tmp_path / "wq" / "grey.preview.mp4"),
+    ]  # fmt: skip
+    for serial, on_workers in pairs:
+        assert serial.read_bytes() == on_workers.read_bytes(), on_workers.name
+    run = json.loads((tmp_path / "w" / "estimate.manifest.json").read_text())
+    assert [v["status"] for v in run["videos"]] == ["done", "done"]
+    assert [v["frames"] for v in run["videos"]] == [230, 45]
+    assert run["videos"][0]["sha256"] == sports2d["manifest"]["video"]["sha256"]
+    assert run["options"]["workers"] == 2 and run["counts"]["frames_estimated"] == 275

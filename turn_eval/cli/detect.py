@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import replace
 from pathlib import Path
 
@@ -30,6 +31,7 @@ from turn_eval.detect.progress import FileProgress
 from turn_eval.detect.rate import stream_rate
 from turn_eval.detect.rule import DETECT_MINER_DEFAULTS, DetectParams, MinerRule
 from turn_eval.detect.streams import axes_found, stream_files
+from turn_eval.mapping import check_scheduler_address
 
 
 @cli.command("detect", context_settings=CONTEXT_SETTINGS)
@@ -130,6 +132,8 @@ def detect_command(
     params = replace(
         params_from(DetectParams, values), joints=tuple(joints.split(",")), miner=miner
     )
+    if scheduler:
+        check_scheduler_address(scheduler)
     passed_over: list[tuple[Path, str]] = []
     # first: an AlphaPose JSON is refused with its reason
     files = stream_files(skeletons, source_format=source.format, skipped=passed_over)
@@ -155,7 +159,12 @@ def detect_command(
             # the rule's low-pass at this frame rate, refused before any stream is read
             check_position_cutoff(miner.position_cutoff_hz, fps_hz)
     where = f"on {scheduler}" if scheduler else (f"on {workers} local workers" if workers else "")
-    with FileProgress(len(files), f"detecting {where}".strip()) as bar:
+    with contextlib.ExitStack() as stack:
+        bars: list[FileProgress] = []
+
+        def start() -> None:  # once the cluster is up: a failure to start is one line
+            bars.append(stack.enter_context(FileProgress(len(files), f"detecting {where}".strip())))
+
         run = detect_files(
             files,
             detector=detector,
@@ -166,7 +175,8 @@ def detect_command(
             workers=workers,
             scheduler=scheduler,
             skip_bad=skip_bad,
-            on_file_done=lambda: bar.update(1),
+            on_file_done=lambda: bars[0].update(1),
+            on_start=start,
         )
     for s in run.skipped:
         info(f"skipped {s['file']}{', ' + s['item'] if s['item'] else ''}: {s['error']}")

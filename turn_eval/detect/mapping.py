@@ -1,12 +1,14 @@
 """Detect turns over many files: serially, or mapped over a Dask cluster, with the same result.
 
 Home monitoring means thousands of hours of streams. One file's turns never depend on
-another's, so :func:`detect_files` maps :func:`detect_file` over the files:
+another's, so :func:`detect_files` maps :func:`detect_file` over the files with
+:func:`turn_eval.mapping.map_files` (the mapping ``estimate`` uses too):
 
 - serially in this process (the default; Dask is not even imported);
-- on a local cluster of ``workers`` processes (``dask.distributed.LocalCluster`` with one
-  thread per worker: the rule is NumPy-bound and holds the GIL often enough that processes,
-  not threads, scale), or on an existing cluster at ``scheduler`` (``tcp://host:port``).
+- on a local cluster of ``workers`` processes (one thread per worker: the rule is
+  NumPy-bound and holds the GIL often enough that processes, not threads, scale), or on an
+  existing cluster at ``scheduler`` (``tcp://host:port``), each worker given the file's
+  absolute path and checking its sha256 against this machine's before reading it.
 
 Each task reads one file, detects and returns its turns (a small table) with the file's
 sha256 and frame counts; nothing is shared, so memory is bounded by the largest single
@@ -18,11 +20,9 @@ read raises a :class:`TurnbenchError` naming it, or with ``skip_bad`` is listed 
 
 from __future__ import annotations
 
-import logging
-import warnings
 from collections import Counter
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -32,16 +32,11 @@ from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import sha256_file, typed_frame
 from turn_datasets.machine import check_local_workers
 from turn_datasets.skeleton import Layout
-from turn_eval.detect.plugins import (
-    call_detector,
-    check_picklable,
-    detector_name,
-    hush_worker_deaths,
-    worker_result,
-)
+from turn_eval.detect.plugins import call_detector, check_picklable, detector_name
 from turn_eval.detect.protocol import TurnDetector, checked_turns
 from turn_eval.detect.streams import read_streams
 from turn_eval.events.contract import DETECTION_DTYPES
+from turn_eval.mapping import Failure, local_cluster, map_files
 
 __all__ = [
     "FileResult",
@@ -99,13 +94,14 @@ def detect_file(
     up_axis: str | None,
     fps_hz: float | None,
     source_format: str = "arrays",
+    sha256: str | None = None,
 ) -> FileResult:
     """Every stream of one file through ``detector``; errors are returned, not raised, so a
     worker process hands them back as data (the caller decides: stop, or skip the file)."""
     streams: list[dict] = []
     parts: list[pd.DataFrame] = []
     try:
-        digest = sha256_file(path)
+        digest = sha256 or sha256_file(path)  # the caller's, when it has hashed the file
     except OSError as exc:
         return FileResult(str(path), "", (), _columns([]), (str(exc.strerror or exc), None, None))
     try:
@@ -158,92 +154,10 @@ def _empty() -> pd.DataFrame:
     return typed_frame(pd.DataFrame({c: [] for c in DETECTION_DTYPES}), DETECTION_DTYPES)
 
 
-def _serial(paths: Sequence[Path], kwargs: dict, done: Callable[[], None]) -> list[FileResult]:
-    out = []
-    for p in paths:
-        out.append(detect_file(p, **kwargs))
-        done()
-    return out
-
-
-#: How long to try to reach a ``--scheduler`` before giving up, seconds.
-SCHEDULER_TIMEOUT_S = 10
-
-
-def local_cluster(n_workers: int):
-    """A local Dask cluster of ``n_workers`` single-threaded processes, as ``--workers`` starts
-    it: no dashboard, quiet logs, and workers that keep freed memory for the next file.
-
-    Dask's workers start with ``MALLOC_TRIM_THRESHOLD_`` small, handing freed memory back to
-    the system at once; every file's arrays (megabytes) are then fresh pages, faulted in
-    again: 25-35% more CPU per file than serially (measured on 10-minute streams). Keeping
-    freed memory costs no more than the largest file per worker.
-    """
-    # Imported here: a serial run never pays for Dask's import.
-    import dask
-    from dask.distributed import LocalCluster
-
-    environ = dict(dask.config.get("distributed.nanny.pre-spawn-environ", {}))
-    environ.update({"MALLOC_TRIM_THRESHOLD_": str(2**30), "MALLOC_MMAP_THRESHOLD_": str(2**30)})
-    with (
-        warnings.catch_warnings(),
-        dask.config.set({"distributed.nanny.pre-spawn-environ": environ}),
-    ):
-        # the scheduler's HTTP server says so when another cluster has port 8787; it then
-        # takes another port, and no dashboard is asked for
-        warnings.filterwarnings("ignore", message="Port .* is already in use")
-        return LocalCluster(
-            n_workers=int(n_workers),
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=None,
-            silence_logs=logging.ERROR,
-        )
-
-
-def _dead(path: str, message: str) -> FileResult:
-    """The result of a file whose worker died: its error, no sha256 (never hashed here)."""
-    return FileResult(path, "", (), _columns([]), (message, None, None))
-
-
-def _distributed(
-    paths: Sequence[Path],
-    kwargs: dict,
-    done: Callable[[], None],
-    *,
-    workers: int | None,
-    scheduler: str | None,
-) -> list[FileResult]:
-    from dask.distributed import Client, as_completed
-
-    cluster = None
-    if scheduler:
-        try:
-            client = Client(scheduler, timeout=f"{SCHEDULER_TIMEOUT_S}s")
-        except (OSError, ValueError) as exc:
-            raise TurnbenchError(
-                f"cannot reach the Dask scheduler at {scheduler}: {exc}",
-                hint="start one (`dask scheduler`, then `dask worker ADDRESS` per machine) "
-                "or use --workers N for a local cluster",
-            ) from None
-    else:
-        cluster = local_cluster(workers or 1)
-        client = Client(cluster)
-    try:
-        hush_worker_deaths()  # a dead worker is reported by worker_result, in one line
-        futures = client.map(detect_file, list(paths), pure=False, **kwargs)
-        order = {f.key: i for i, f in enumerate(futures)}
-        results: list[FileResult | None] = [None] * len(futures)
-        for fut in as_completed(futures):
-            # a worker that died on a file: that file's error (plugins.worker_result)
-            results[order[fut.key]] = worker_result(fut, str(paths[order[fut.key]]), _dead)
-            fut.release()  # the worker may drop it: memory stays one file per worker
-            done()
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
-    return [r for r in results if r is not None]
+_DIED = (
+    "the worker process died while detecting turns in this file (the detector exited the "
+    "process, or it was killed: out of memory?)"
+)
 
 
 def detect_files(
@@ -258,6 +172,7 @@ def detect_files(
     scheduler: str | None = None,
     skip_bad: bool = False,
     on_file_done: Callable[[], None] | None = None,
+    on_start: Callable[[], None] | None = None,
 ) -> DetectRun:
     """Detect turns in every stream of every file (module docstring).
 
@@ -281,6 +196,8 @@ def detect_files(
         raising on the first.
     on_file_done
         Called once per finished file (a progress bar).
+    on_start
+        Called once the cluster is up (at once when serial): where the bar starts.
 
     Raises
     ------
@@ -303,9 +220,23 @@ def detect_files(
     files = [Path(p) for p in paths]
     if scheduler or workers is not None:
         check_picklable(detector)  # one line, before any cluster starts
-        results = _distributed(files, kwargs, done, workers=workers, scheduler=scheduler)
-    else:
-        results = _serial(files, kwargs, done)
+
+    def finished(i: int, result: FileResult | Failure) -> FileResult:
+        done()
+        if isinstance(result, Failure):  # not reachable or another file on a worker; a dead one
+            message = _DIED if result.died else result.message
+            return FileResult(str(files[i]), "", (), _columns([]), (message, result.item, None))
+        return replace(result, path=str(files[i]))  # the path as given, not the absolute one
+
+    results = map_files(
+        detect_file,
+        files,
+        kwargs=kwargs,
+        workers=workers,
+        scheduler=scheduler,
+        on_result=finished,
+        on_start=on_start,
+    )
     run = DetectRun(_empty())
     parts = []
     seen: dict[tuple[str, str], str] = {}

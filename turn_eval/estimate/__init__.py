@@ -2,6 +2,8 @@
 
 - :mod:`~turn_eval.estimate.pipeline`: ``estimate_video`` / ``write_estimate``, the chain
   behind ``turn-eval estimate``, and ``skeletons_from_landmarks``, its steps after decoding.
+- :mod:`~turn_eval.estimate.batch`: ``estimate_videos``, many videos serially or on Dask,
+  resumable, with the run manifest.
 - :mod:`~turn_eval.estimate.joints`: BlazePose's 33 landmarks to Human3.6M's 17 joints.
 - :mod:`~turn_eval.estimate.timing`: constant and variable frame rates onto a regular grid.
 - :mod:`~turn_eval.estimate.guard`: where the single-person tracker jumps to someone else.
@@ -14,6 +16,7 @@
 Only ``blazepose`` needs the optional ``video`` extra (mediapipe), and only when run.
 """
 
+from turn_eval.estimate.batch import RUN_MANIFEST, VideoJob, estimate_videos
 from turn_eval.estimate.formats import ESTIMATOR_FORMATS, FORMAT_CHOICES, read_estimator_output
 from turn_eval.estimate.guard import IdentityBreak, IdentityGuardParams, identity_breaks, tracks
 from turn_eval.estimate.joints import (
@@ -35,6 +38,9 @@ from turn_eval.estimate.timing import TimeGrid, nominal_rate_hz, regular_grid, r
 
 __all__ = [
     "AXES",
+    "RUN_MANIFEST",
+    "VideoJob",
+    "estimate_videos",
     "BLAZEPOSE_LANDMARKS",
     "ESTIMATOR_FORMATS",
     "FORMAT_CHOICES",

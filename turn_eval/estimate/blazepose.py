@@ -19,6 +19,7 @@ fractions of the image's width and height), or nothing when no person is found.
 from __future__ import annotations
 
 import os
+import re
 import sys
 import tempfile
 from dataclasses import dataclass
@@ -86,12 +87,32 @@ def load_mediapipe() -> ModuleType:
     return mediapipe
 
 
+#: What MediaPipe's C++ side prints on a good run, line by line: absl's INFO and WARNING
+#: lines (``W0000 00:00:1795679640.942330    7024 landmark_projection_calculator.cc:186]
+#: Using NORM_RECT without IMAGE_DIMENSIONS ...``, logged at the first frame with a person,
+#: however late in the video), TFLite's delegate line and absl's note before its set-up.
+NATIVE_CHATTER = re.compile(
+    r"^(?:[IW]\d{4} [\d:.]+\s+\d+ [\w.]+:\d+\] "
+    r"|INFO: Created TensorFlow Lite"
+    r"|WARNING: All log messages before absl::InitializeLog\(\) is called)"
+)
+
+
+def without_chatter(text: str) -> str:
+    """``text`` without the lines :data:`NATIVE_CHATTER` matches (errors are kept)."""
+    return "".join(
+        line for line in text.splitlines(keepends=True) if not NATIVE_CHATTER.match(line)
+    )
+
+
 class _HeldNativeStderr:
-    """MediaPipe's C++ libraries write set-up chatter (TFLite's "Created TensorFlow Lite
-    XNNPACK delegate", absl's warnings) straight to file descriptor 2, past ``sys.stderr``
-    and past any log level, where it stood before a command's one-line error or summary.
-    It is held in a temporary file from the graph's construction to its first result, then
-    dropped, or shown after all when something fails meanwhile."""
+    """MediaPipe's C++ libraries write straight to file descriptor 2, past ``sys.stderr``
+    and past any log level: set-up chatter, and a warning at the first frame where a person
+    is found, which may come at any time. File descriptor 2 is held in a temporary file for
+    the whole tracking session; at its end the held text is written out without the
+    :data:`NATIVE_CHATTER` lines (its errors stay, and so does anything else written
+    meanwhile). A command's progress bar draws meanwhile on its own duplicate of the
+    terminal's descriptor."""
 
     def __init__(self) -> None:
         sys.stderr.flush()
@@ -99,17 +120,20 @@ class _HeldNativeStderr:
         self._saved: int | None = os.dup(2)
         os.dup2(self._file.fileno(), 2)
 
-    def release(self, *, show: bool = False) -> None:
+    def release(self) -> None:
         if self._saved is None:
             return
+        sys.stderr.flush()
         os.dup2(self._saved, 2)
         os.close(self._saved)
         self._saved = None
-        if show:
-            self._file.seek(0)
-            sys.stderr.write(self._file.read().decode("utf-8", errors="replace"))
-            sys.stderr.flush()
+        self._file.seek(0)
+        text = self._file.read().decode("utf-8", errors="replace")
         self._file.close()
+        shown = without_chatter(text)
+        if shown:
+            sys.stderr.write(shown)
+            sys.stderr.flush()
 
 
 class BlazePose:
@@ -135,28 +159,25 @@ class BlazePose:
                 min_tracking_confidence=self.params.min_tracking_confidence,
             )
         except BaseException:
-            self._release(show=True)
+            self._release()
             raise
 
-    def _release(self, *, show: bool = False) -> None:
+    def _release(self) -> None:
         if self._held is not None:
-            self._held.release(show=show)
+            self._held.release()
             self._held = None
 
     def __enter__(self) -> BlazePose:
         return self
 
-    def __exit__(self, exc_type: object, *rest: object) -> None:
-        self._release(show=exc_type is not None)
-        self._pose.close()
+    def __exit__(self, *exc: object) -> None:
+        try:
+            self._pose.close()  # it may log as it closes: still held
+        finally:
+            self._release()
 
     def process(self, rgb: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        try:
-            result = self._pose.process(rgb)
-        except BaseException:
-            self._release(show=True)
-            raise
-        self._release()  # the graph has run once: its set-up chatter is over
+        result = self._pose.process(rgb)
         if result.pose_world_landmarks is None or result.pose_landmarks is None:
             return np.full((33, 3), np.nan), np.full((33, 2), np.nan), np.full(33, np.nan)
         world = np.array(

@@ -206,13 +206,15 @@ def estimate_video(
     params: EstimateParams | None = None,
     preview: str | os.PathLike[str] | None = None,
     on_frame: Callable[[int], None] | None = None,
+    sha256: str | None = None,
 ) -> SkeletonEstimate:
     """Run MediaPipe Pose over every frame of one video (module docstring).
 
     ``preview`` is the path of a QA preview video to write alongside
     (:mod:`turn_eval.estimate.preview`); ``on_frame(expected_frames)`` is called after each
     decoded frame (a progress bar), with the container's duration times its rate (0 if
-    unknown). The manifest's ``speed`` block (frames per second, wall time) is the
+    unknown). ``sha256`` is the video's, when the caller has hashed it already. The
+    manifest's ``speed`` block (frames per second, wall time) is the
     only part that changes between runs; :func:`write_estimate` leaves it out of the file.
     """
     prm = params or EstimateParams()
@@ -271,7 +273,7 @@ def estimate_video(
         "tool": f"turn-eval estimate {__version__}",
         "video": {
             "file": src.name,
-            "sha256": sha256_file(src),
+            "sha256": sha256 or sha256_file(src),
             "width_px": size[0],
             "height_px": size[1],
             "codec": stream.codec,
@@ -294,7 +296,13 @@ def manifest_path(npz: str | os.PathLike[str]) -> Path:
 
 
 def write_estimate(result: SkeletonEstimate, out_npz: str | os.PathLike[str]) -> tuple[Path, Path]:
-    """Write the arrays (fixed zip timestamps) and the manifest, without its speed block."""
+    """Write the arrays (fixed zip timestamps), then the manifest without its speed block.
+
+    Each file lands whole (written aside, then renamed); the manifest comes last and records
+    the npz's sha256 (``skeletons.sha256``), so an npz without a manifest that vouches for
+    it is an unfinished output (``estimate --resume`` redoes it).
+    """
     npz = write_npz(out_npz, result.arrays)
     manifest = {k: v for k, v in result.manifest.items() if k != "speed"}
+    manifest["skeletons"] = {"sha256": sha256_file(npz)}
     return npz, write_json(manifest_path(npz), manifest)

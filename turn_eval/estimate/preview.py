@@ -79,20 +79,23 @@ class PreviewWriter:
         self.guard = guard
         self._track = 0
         self._last: tuple[np.ndarray, float, float] | None = None
+        # `file:` and the absolute path: a name like `tcp:host:port` is a file here too; the
+        # format is named, since the path may be a temporary one without `.mp4`
         self._writer = imageio_ffmpeg.write_frames(
-            str(self.path),
+            "file:" + os.path.abspath(self.path),
             (self.out_w, self.out_h),
             fps=fps_hz,
             codec="libx264",
             pix_fmt_out="yuv420p",
             macro_block_size=2,
-            output_params=["-threads", "1"],
+            output_params=["-threads", "1", "-protocol_whitelist", "file", "-f", "mp4"],
         )
         self._writer.send(None)
 
     def add(self, rgb: np.ndarray, image_xy: np.ndarray, time_s: float) -> None:
         """One decoded frame and its ``(33, 2)`` image landmarks (NaN when nobody is found)."""
-        img = np.ascontiguousarray(rgb[:: self.step, :: self.step][: self.out_h, : self.out_w])
+        # a copy: the decoded frame is read-only (and at most 640 wide, the frame itself)
+        img = np.array(rgb[:: self.step, :: self.step][: self.out_h, : self.out_w], order="C")
         if not np.isfinite(image_xy).all():
             img[:6], img[-6:], img[:, :6], img[:, -6:] = (_MISSING_RGB,) * 4
         else:

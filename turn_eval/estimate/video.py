@@ -6,8 +6,17 @@ to a constant rate, hiding a variable-frame-rate file), and ffmpeg's ``showinfo`
 reports each one's presentation time and size on stderr, read alongside. Rotation metadata
 (phone videos) is applied by ffmpeg as usual, so people are upright in the frames.
 
-Nothing here touches the network: the ffmpeg binary is the one inside the imageio-ffmpeg
-wheel.
+Only the named local file is opened: ffmpeg is given ``file:`` and the absolute path, with
+``-protocol_whitelist file``. Given the bare name, ffmpeg reads a file called
+``tcp:127.0.0.1:18999`` as a network address, ``concat:a.mp4|b.mp4`` as two other files and
+``subfile,,start,0,end,0,,:a.mp4`` as a part of another: a video never leaves the machine,
+and what is decoded is the file whose sha256 the manifest records. The ffmpeg binary is the
+one inside the imageio-ffmpeg wheel.
+
+A video must decode whole (:func:`check_complete`): a copy cut short (its container still
+declaring the full duration) decodes, without an error from ffmpeg, to the frames before
+the cut; a still image renamed ``.mp4`` decodes to one frame. Both are refused, naming what
+was decoded against what the container declares, rather than giving a partial result.
 """
 
 from __future__ import annotations
@@ -25,7 +34,19 @@ import numpy as np
 
 from turn_datasets.errors import TurnbenchError
 
-__all__ = ["VideoStream", "open_video"]
+__all__ = [
+    "TRUNCATION_TOLERANCE_S",
+    "VideoStream",
+    "check_complete",
+    "expected_frames",
+    "ffmpeg_input",
+    "open_video",
+]
+
+#: A video whose decoded frames end earlier than its container's duration by more than this
+#: is refused as truncated, seconds. An audio track may outlast the video by a few frames
+#: (the container's duration is the longer of the two); a cut-off copy lacks seconds.
+TRUNCATION_TOLERANCE_S = 1.0
 
 _SHOWINFO = re.compile(
     r"\bn:\s*(\d+)\s+pts:\s*(-?\d+)\s+pts_time:\s*(-?[\d.eE+-]+).*?\bs:(\d+)x(\d+)"
@@ -35,6 +56,39 @@ _FPS = re.compile(r"([\d.]+)(k?) fps")
 _TBR = re.compile(r"([\d.]+)(k?) tbr")
 _DURATION = re.compile(r"Duration: (\d+):(\d+):([\d.]+)")
 _END = object()
+
+
+def ffmpeg_input(path: str | os.PathLike[str]) -> list[str]:
+    """ffmpeg's input options for exactly the local file ``path`` (module docstring)."""
+    return ["-protocol_whitelist", "file", "-i", "file:" + os.path.abspath(path)]
+
+
+def check_complete(
+    pts_s: list[float], *, duration_s: float | None, fps_hz: float | None, path: Path
+) -> None:
+    """Refuse a decode that is not the whole video (module docstring).
+
+    The decoded span is from the first frame's time to one frame after the last (at the
+    declared rate, else the frames' own); it must reach the container's duration less
+    :data:`TRUNCATION_TOLERANCE_S`. One frame is a still image, not a video.
+    """
+    if len(pts_s) == 1:
+        raise TurnbenchError(
+            "one decoded frame: a still image, not a video",
+            file=path,
+            hint="turn-eval estimate takes video files (MP4, MOV, WebM, ...)",
+        )
+    if len(pts_s) < 2 or not duration_s:
+        return
+    step = 1.0 / fps_hz if fps_hz and fps_hz <= 240 else (pts_s[-1] - pts_s[0]) / (len(pts_s) - 1)
+    span = pts_s[-1] - pts_s[0] + step
+    if duration_s - span > TRUNCATION_TOLERANCE_S:
+        raise TurnbenchError(
+            f"truncated: {len(pts_s)} frames decode to {span:.2f} s of the {duration_s:.2f} s "
+            "its container declares",
+            file=path,
+            hint="the file was cut short (an interrupted copy or download): copy it again",
+        )
 
 
 def _rate(match: re.Match[str] | None) -> float | None:
@@ -81,6 +135,7 @@ class VideoStream:
 
     def __iter__(self) -> Iterator[tuple[np.ndarray, float]]:
         assert self.process.stdout is not None
+        times: list[float] = []
         while True:
             item = self._frames.get()
             if item is _END:
@@ -90,11 +145,15 @@ class VideoStream:
             data = self.process.stdout.read(size)
             if len(data) < size:
                 break
+            times.append(pts_s)
             yield np.frombuffer(data, dtype=np.uint8).reshape(height, width, 3), pts_s
         self.close()
         if self.process.returncode not in (0, None):
             tail = next((ln for ln in reversed(self._log) if ln.strip()), "ffmpeg failed")
             raise TurnbenchError(f"cannot decode this video: {tail.strip()}", file=self.path)
+        check_complete(
+            times, duration_s=self.duration_s, fps_hz=self.declared_fps_hz, path=self.path
+        )
 
     def close(self) -> None:
         if self.process.poll() is None:
@@ -116,8 +175,7 @@ def open_video(path: str | os.PathLike[str]) -> VideoStream:
         imageio_ffmpeg.get_ffmpeg_exe(),
         "-nostdin",
         "-hide_banner",
-        "-i",
-        str(p),
+        *ffmpeg_input(p),
         "-map",
         "0:v:0",
         "-vf",
@@ -136,3 +194,25 @@ def open_video(path: str | os.PathLike[str]) -> VideoStream:
     stream = VideoStream(path=p, process=process)
     threading.Thread(target=stream._read_stderr, daemon=True).start()
     return stream
+
+
+def expected_frames(path: str | os.PathLike[str]) -> int:
+    """How many frames the container of ``path`` declares (duration times rate, from its
+    header alone, without decoding; 0 when it states neither or cannot be read): the length
+    of a progress bar over many videos."""
+    import imageio_ffmpeg
+
+    cmd = [imageio_ffmpeg.get_ffmpeg_exe(), "-nostdin", "-hide_banner", *ffmpeg_input(path)]
+    try:
+        text = subprocess.run(cmd, capture_output=True, timeout=60).stderr.decode(
+            "utf-8", "replace"
+        )
+    except (OSError, subprocess.TimeoutExpired):
+        return 0
+    duration = _DURATION.search(text)
+    stream = next((ln for ln in text.splitlines() if _STREAM.search(ln)), "")
+    rate = _rate(_FPS.search(stream)) or _rate(_TBR.search(stream))
+    if duration is None or rate is None or rate > 240:
+        return 0
+    h, m, sec = duration.groups()
+    return int(round((int(h) * 3600 + int(m) * 60 + float(sec)) * rate))
