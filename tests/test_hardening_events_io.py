@@ -200,16 +200,17 @@ def test_turns_longer_than_their_sessions_duration_are_refused_before_any_work(
 
 def test_detections_longer_than_their_sessions_duration_are_refused(tmp_path, ref, capsys):
     det = tmp_path / "det.csv"
-    det.write_text("session,subject,start_s,end_s,angle_deg\ns1,P1,0,2,80\ns2,P2,50,60.5,80\n")
+    det.write_text("session,subject,start_s,end_s,angle_deg\ns1,P1,0,2,80\ns2,P2,4,14.5,80\n")
     sessions = tmp_path / "sessions.csv"
     # duration_s is how long was annotated, not where the time line ends: the reference's
-    # turns (4 s and 3 s in all) fit, wherever they lie.
+    # turns (4 s and 3 s in all) fit, wherever they lie; a detection may end a little past
+    # the duration (far past it is a unit mistake, refused as such: test_new_user).
     sessions.write_text("session,subject,duration_s\ns1,P1,12\ns2,P2,10\n")
     code, _, err = _run(["score-events", det, "-r", ref, "--sessions", sessions], capsys)
     assert code == EXIT_BAD_INPUT
     assert f"{det}:3: the turns of session 's2', subject 'P2' up to this one last 10.5 s" in err
     # Within a millisecond (ELAN's resolution) of the duration is not longer than it.
-    det.write_text("session,subject,start_s,end_s,angle_deg\ns2,P2,50,60.001,80\n")
+    det.write_text("session,subject,start_s,end_s,angle_deg\ns2,P2,4,14.001,80\n")
     code, out, err = _run(
         ["score-events", det, "-r", ref, "--sessions", sessions, "--format", "json"], capsys
     )

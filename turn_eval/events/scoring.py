@@ -501,6 +501,7 @@ def _checked_durations(
     ref_unit: np.ndarray,
     det: pd.DataFrame,
     det_unit: np.ndarray,
+    warn: Callable[[str], None] | None = None,
 ) -> np.ndarray:
     """Each unit's duration (:func:`_unit_durations`), checked before any work: turns that do
     not fit in their session's annotated time mean the durations (or the times) are wrong,
@@ -508,6 +509,9 @@ def _checked_durations(
     duration = _unit_durations(units, sessions)
     where = str(sessions.attrs.get("path", "sessions"))
     check_within_durations(ref, ref_unit, duration, what="reference", sessions=where)
+    # detections far past their session's end are a unit mistake (milliseconds): said as
+    # such before the plainer "longer than the session" below
+    check_time_unit(det, det_unit, ref, units, sessions, warn=warn)
     check_within_durations(det, det_unit, duration, what="detections", sessions=where)
     return duration
 
@@ -747,9 +751,11 @@ def score_events(
     )
     if det.shape[0] == 0 and warn is not None:
         warn(NO_DETECTIONS[0].lower() + NO_DETECTIONS[1:])
-    # a unit mistake (milliseconds) first: it says more than a total past the duration
-    check_time_unit(det, det_unit, ref, units, ses, warn=warn)
-    duration = None if ses is None else _checked_durations(units, ses, ref, ref_unit, det, det_unit)
+    if ses is None:
+        check_time_unit(det, det_unit, ref, units, ses, warn=warn)
+        duration = None
+    else:
+        duration = _checked_durations(units, ses, ref, ref_unit, det, det_unit, warn)
 
     overlaps = overlapping_pairs(det, det_unit, ref, ref_unit)
     events = categorize_events(det, det_unit, ref, ref_unit, iou=iou, overlaps=overlaps)
