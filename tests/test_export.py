@@ -10,9 +10,9 @@ import imageio_ffmpeg
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import run_turn_datasets as run
 
-from turn_datasets.cli import cli
-from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
+from turn_datasets.cli.common import EXIT_BAD_INPUT
 from turn_datasets.h36m import export
 
 FPS = 50
@@ -79,12 +79,6 @@ def _index(path: Path, rows: list[tuple]) -> Path:
         )
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
-
-
-def run(args: list, capsys) -> tuple[int, str, str]:
-    code = run_group(cli, "turn-datasets", [str(a) for a in args])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 WALK = ("S1_Walking_63-100", "S1", "Walking", "1", 63, 100, 50)

@@ -12,18 +12,16 @@ from scipy import signal
 
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.geometry import turning_angle
+from turn_datasets.h36m.clip_index import CLIP_INDEX_DTYPES, clip_id_of, split_of
 from turn_datasets.h36m.evaluation import match_turns
 from turn_datasets.h36m.miner import (
-    CLIP_INDEX_DTYPES,
     MinerParams,
     _moving_mean,
     _zero_phase_lowpass,
-    clip_id_of,
     find_turns,
     measure_clip,
     mine,
     mine_sequence,
-    split_of,
 )
 from turn_datasets.mocap import readers
 from turn_datasets.skeleton import H36M17, H36M17_FROM_32, H36M32, MocapSequence

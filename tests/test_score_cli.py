@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import run_turn_eval as run
 
 from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
-from turn_eval.cli import cli
 from turn_eval.cli import score as _cli_score
 from turn_eval.clips import plots
 
@@ -30,12 +30,6 @@ REFERENCE = (
     "d,S11,Walking,test,135,1.5\n"
 )
 PREDICTIONS = "clip_id,angle_deg\na,92.5\nb,170\nc,40\nd,100\n"
-
-
-def run(args: list, capsys) -> tuple[int, str, str]:
-    code = run_group(cli, "turn-eval", [str(a) for a in args])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 @pytest.fixture()

@@ -86,7 +86,6 @@ between two frames (``hip_rotation_deg``).
 
 from __future__ import annotations
 
-import re
 from collections.abc import Iterable, Iterator
 from dataclasses import asdict, dataclass, replace
 from functools import lru_cache
@@ -101,60 +100,28 @@ from turn_datasets import limits
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import typed_frame
 from turn_datasets.geometry import (
-    angular_speed_deg_s,
     direction_of,
     frame_yaw_deg,
     heading_change_deg,
-    quantise_deg,
     turning_angle,
     usable_frames,
 )
+from turn_datasets.h36m.clip_index import SequenceClips, build_index
 from turn_datasets.params import check_params, describe_params, param
-from turn_datasets.render.order import natural_key
 from turn_datasets.skeleton import Layout, MocapSequence
 
 __all__ = [
     "MinerParams",
-    "CLIP_INDEX_DTYPES",
     "SEQUENCE_CLIP_DTYPES",
     "CANDIDATE_DTYPES",
-    "TRAIN_SUBJECTS",
-    "TEST_SUBJECTS",
-    "split_of",
-    "clip_id_of",
     "find_turns",
     "mine_sequence",
     "measure_clip",
-    "SequenceClips",
     "mine_clips",
-    "build_index",
     "mine",
     "iter_clips",
 ]
 
-#: The clip index (DESIGN.md), column order and dtypes.
-CLIP_INDEX_DTYPES = MappingProxyType(
-    {
-        "clip_id": "str",
-        "subject": "str",
-        "action": "str",
-        "subaction": "str",
-        "split": "str",
-        "start_frame": "int64",
-        "end_frame": "int64",
-        "n_frames": "int64",
-        "fps": "float64",
-        "start_s": "float64",
-        "end_s": "float64",
-        "duration_s": "float64",
-        "angle_deg": "float64",
-        "direction": "str",
-        "bin_deg": "int64",
-        "speed_deg_s": "float64",
-        "hip_rotation_deg": "float64",
-        "source": "str",
-    }
-)
 #: The clips of one sequence, from :func:`mine_sequence`.
 SEQUENCE_CLIP_DTYPES = MappingProxyType(
     {
@@ -176,10 +143,6 @@ CANDIDATE_DTYPES = MappingProxyType(
         "hip_net_deg": "float64",
     }
 )
-
-#: Human3.6M's usual protocol: train on S1, S5, S6, S7, S8, test on S9 and S11.
-TRAIN_SUBJECTS = ("S1", "S5", "S6", "S7", "S8")
-TEST_SUBJECTS = ("S9", "S11")
 
 # Only the hips are needed: mining on a two-joint array keeps the work (and the float64
 # copy geometry makes) to 2 of Human3.6M's 32 joints.
@@ -299,26 +262,6 @@ class MinerParams:
 
     def as_dict(self) -> dict[str, float]:
         return {k: float(v) for k, v in asdict(self).items()}
-
-
-def split_of(subject: str) -> str:
-    """``train`` for S1, S5, S6, S7, S8; ``test`` for S9, S11; ``""`` for anything else."""
-    if subject in TRAIN_SUBJECTS:
-        return "train"
-    if subject in TEST_SUBJECTS:
-        return "test"
-    return ""
-
-
-def clip_id_of(subject: str, action: str, subaction: str, start_frame: int, end_frame: int) -> str:
-    """``{subject}_{action}_{start}-{end}`` (DESIGN.md), spaces in the action replaced by ``-``.
-
-    The action is written as on disk, trial included (``Walking 1`` -> ``Walking-1``), so
-    the two trials of an action never share an id.
-    """
-    name = f"{action} {subaction}" if subaction else action
-    name = re.sub(r"\s+", "-", name.strip())
-    return f"{subject}_{name}_{int(start_frame)}-{int(end_frame)}"
 
 
 def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -919,63 +862,6 @@ def measure_clip(
     )
 
 
-@dataclass
-class SequenceClips:
-    """The clips of one sequence with what the index needs to know about the sequence.
-
-    Arrays, not a DataFrame, so that mining a whole corpus builds one table at the end
-    (:func:`build_index`). ``start_frame``/``end_frame`` are 0-based, end exclusive.
-    """
-
-    subject: str
-    action: str
-    subaction: str
-    fps: float
-    source: str
-    start_frame: np.ndarray
-    end_frame: np.ndarray
-    angle_deg: np.ndarray
-    net_deg: np.ndarray
-    hip_rotation_deg: np.ndarray
-
-    def __len__(self) -> int:
-        return int(self.start_frame.shape[0])
-
-    @property
-    def clip_ids(self) -> list[str]:
-        return [
-            clip_id_of(self.subject, self.action, self.subaction, s, e)
-            for s, e in zip(self.start_frame.tolist(), self.end_frame.tolist(), strict=True)
-        ]
-
-    def replace_clips(
-        self,
-        start: np.ndarray,
-        end: np.ndarray,
-        angle: np.ndarray,
-        net: np.ndarray,
-        hip_rotation: np.ndarray,
-    ) -> SequenceClips:
-        """The same sequence with other clips, sorted by frames."""
-        order = np.lexsort((end, start))
-        return SequenceClips(
-            self.subject,
-            self.action,
-            self.subaction,
-            self.fps,
-            self.source,
-            np.asarray(start, dtype=np.int64)[order],
-            np.asarray(end, dtype=np.int64)[order],
-            np.asarray(angle, dtype=float)[order],
-            np.asarray(net, dtype=float)[order],
-            np.asarray(hip_rotation, dtype=float)[order],
-        )
-
-    def to_frame(self) -> pd.DataFrame:
-        """Its rows of the clip index."""
-        return build_index([self])
-
-
 def mine_clips(seq: MocapSequence, params: MinerParams | None = None) -> SequenceClips:
     """Mine one sequence as a reader returns it.
 
@@ -1003,75 +889,6 @@ def mine_clips(seq: MocapSequence, params: MinerParams | None = None) -> Sequenc
         net,
         np.abs(hip),
     )
-
-
-def build_index(parts: Iterable[SequenceClips]) -> pd.DataFrame:
-    """The clip index (DESIGN.md's columns, in order, typed) from mined sequences.
-
-    Rows are ordered by subject (S2 before S11), action, subaction, source and start frame,
-    so the index does not depend on the order in which the sources were read.
-
-    Raises
-    ------
-    TurnbenchError
-        Two clips with the same id (the same sequence read twice, for example from both a
-        CDF and an h5 copy), naming both sources.
-    """
-    seqs = sorted(
-        (p for p in parts if len(p)),
-        key=lambda p: (
-            natural_key(p.subject),
-            p.action,
-            natural_key(p.subaction),
-            p.source,
-        ),
-    )
-    if not seqs:
-        return typed_frame(pd.DataFrame({c: [] for c in CLIP_INDEX_DTYPES}), CLIP_INDEX_DTYPES)
-    counts = [len(p) for p in seqs]
-
-    def per_clip(values: list) -> np.ndarray:
-        return np.repeat(np.asarray(values, dtype=object), counts)
-
-    start = np.concatenate([p.start_frame for p in seqs])
-    end = np.concatenate([p.end_frame for p in seqs])
-    angle = np.concatenate([p.angle_deg for p in seqs])
-    net = np.concatenate([p.net_deg for p in seqs])
-    hip = np.concatenate([p.hip_rotation_deg for p in seqs])
-    fps = np.repeat(np.asarray([p.fps for p in seqs], dtype=float), counts)
-    duration = (end - start) / fps
-    frame = pd.DataFrame(
-        {
-            "clip_id": [c for p in seqs for c in p.clip_ids],
-            "subject": per_clip([p.subject for p in seqs]),
-            "action": per_clip([p.action for p in seqs]),
-            "subaction": per_clip([p.subaction for p in seqs]),
-            "split": per_clip([split_of(p.subject) for p in seqs]),
-            "start_frame": start,
-            "end_frame": end,
-            "n_frames": end - start,
-            "fps": fps,
-            "start_s": start / fps,
-            "end_s": end / fps,
-            "duration_s": duration,
-            "angle_deg": angle,
-            "direction": [direction_of(v) for v in net.tolist()],
-            "bin_deg": np.asarray(quantise_deg(angle)).astype(np.int64),
-            "speed_deg_s": angular_speed_deg_s(angle, duration),
-            "hip_rotation_deg": hip,
-            "source": per_clip([p.source for p in seqs]),
-        }
-    )
-    dup = frame["clip_id"].duplicated(keep=False)
-    if dup.any():
-        first = frame.loc[dup, "clip_id"].iloc[0]
-        sources = sorted(set(frame.loc[frame["clip_id"] == first, "source"]))
-        raise TurnbenchError(
-            f"clip id {first!r} occurs twice: the same subject and action were read from "
-            f"{' and '.join(sources)}",
-            hint="give each sequence once (one copy of the dataset)",
-        )
-    return typed_frame(frame, CLIP_INDEX_DTYPES)
 
 
 def iter_clips(

@@ -28,6 +28,7 @@ from turn_datasets.fileio import (
     write_files,
 )
 from turn_eval.cli import cli
+from turn_eval.cli.common import by_option
 from turn_eval.clips.submission import read_predictions, read_reference
 from turn_eval.clips.tables import build_scores, scores_csv, scores_frame, scores_markdown
 
@@ -48,12 +49,8 @@ PLOT_FILES = ("confusion_matrix.png", "predicted_by_bin.png", "abs_error.png", "
     help="CSV with clip_id, angle_deg and optionally duration_s and group columns "
     "(a Turn-H3.6M clip index or Turn-REMAP labels).",
 )
-@click.option(
-    "--by",
-    multiple=True,
-    metavar="COL",
-    help="Group by this reference column (repeatable). Default: every one of scenario, "
-    "location, cohort, subject, bin_deg, action, split the reference has.",
+@by_option(
+    "every one of scenario, location, cohort, subject, bin_deg, action, split the reference has."
 )
 @click.option(
     "--allow-missing",

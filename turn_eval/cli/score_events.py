@@ -27,6 +27,7 @@ from turn_datasets.fileio import (
     write_files,
 )
 from turn_eval.cli import cli
+from turn_eval.cli.common import by_option
 from turn_eval.events.plots import EVENT_PLOT_FILES, TIMELINE_DIR
 from turn_eval.events.scoring import DEFAULT_BY, score_events
 from turn_eval.events.tables import events_frame, events_markdown
@@ -36,10 +37,6 @@ EVENT_FILES = ("event_scores.json", "event_scores.md", "event_scores.csv", "even
 RATES_FILE = "turn_rates.csv"
 #: What a run may or may not write: an old one this run did not write is removed.
 OWNED = (RATES_FILE, *EVENT_PLOT_FILES, f"{TIMELINE_DIR}/*.png")
-
-
-def _split_by(values: tuple[str, ...]) -> list[str]:
-    return [part.strip() for value in values for part in value.split(",") if part.strip()]
 
 
 _path = click.Path(dir_okay=True, path_type=Path)
@@ -76,13 +73,7 @@ _path = click.Path(dir_okay=True, path_type=Path)
     show_default=True,
     help="A detection and a turn can match when their temporal IoU is at least this.",
 )
-@click.option(
-    "--by",
-    multiple=True,
-    metavar="COL[,COL...]",
-    help=f"Group by these reference columns. Default: those of {', '.join(DEFAULT_BY)} the "
-    "reference has.",
-)
+@by_option(f"those of {', '.join(DEFAULT_BY)} the reference has.")
 @bootstrap_options(
     "Cluster-bootstrap resamples of the (session, subject) units for the 95% intervals (0: none)."
 )
@@ -147,7 +138,7 @@ def score_events_cmd(
         iou=iou,
         context=context_path,
         sessions=sessions_path,
-        by=_split_by(by),
+        by=list(by),
         n_resamples=n_resamples,
         seed=seed,
         ignore_unknown=ignore_unknown,

@@ -6,7 +6,7 @@ Turn-H3.6M clip index and the Turn-REMAP labels both qualify as they are (DESIGN
 A submission is ``clip_id, angle_deg`` and, optionally, ``speed_deg_s``; extra columns are
 kept and ignored.
 
-Both are read by the harness's one reader of user tables (:mod:`turn_eval.scoring.table`),
+Both are read by the harness's one reader of user tables (:mod:`turn_datasets.usertable`),
 the same forgiving way: header names match ignoring case and surrounding spaces; a UTF-8
 byte-order mark is dropped; the delimiter is a comma, a semicolon or a tab, whichever the
 header uses; with a semicolon or tab delimiter a decimal comma (``12,5``) is read as a decimal
@@ -34,7 +34,7 @@ import pandas as pd
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import typed_frame
 from turn_datasets.geometry import quantise_deg
-from turn_eval.scoring.table import (
+from turn_datasets.usertable import (
     NUMERIC,
     Table,
     and_more,
@@ -172,6 +172,8 @@ class Joined:
         The files read.
     bin_width_deg
         The bin width ``bin_deg`` was computed with.
+    abs_angles, allow_missing
+        How the submission was read (:func:`read_predictions`' options of those names).
     """
 
     table: pd.DataFrame
@@ -181,6 +183,8 @@ class Joined:
     predictions_path: str
     reference_path: str
     bin_width_deg: float = 45.0
+    abs_angles: bool = False
+    allow_missing: bool = False
 
     @property
     def group_columns(self) -> tuple[str, ...]:
@@ -353,4 +357,6 @@ def read_predictions(
         predictions_path=table.path,
         reference_path=ref_path,
         bin_width_deg=float(ref.attrs.get("bin_width_deg", bin_width_deg)),
+        abs_angles=abs_angles,
+        allow_missing=allow_missing,
     )

@@ -1,6 +1,6 @@
 """Read and validate the files of ``score-events``: detections, reference, context, sessions.
 
-Every file is read by the harness's one reader of user tables (:mod:`turn_eval.scoring.table`:
+Every file is read by the harness's one reader of user tables (:mod:`turn_datasets.usertable`:
 header names matched ignoring case and spaces, comma, semicolon or tab delimiter, a UTF-8 BOM dropped, each
 row's own line number kept), so a detections file is as forgiving to write as a predictions
 file and every error names the file and its line (line 1 is the header).
@@ -29,6 +29,7 @@ import pandas as pd
 
 from turn_datasets.errors import TurnbenchError, require_columns
 from turn_datasets.strings import stripped_objects
+from turn_datasets.usertable import Table, numbers, read_table, require
 from turn_eval.events.contract import (
     CLIP_INDEX_SESSION,
     CONTEXT_COLUMNS,
@@ -40,7 +41,6 @@ from turn_eval.events.contract import (
     REFERENCE_REQUIRED,
     SESSIONS_COLUMNS,
 )
-from turn_eval.scoring.table import Table, numbers, read_table, require
 
 __all__ = [
     "read_detections",

@@ -68,7 +68,8 @@ from turn_eval.events.reading import (
     read_sessions,
 )
 from turn_eval.scoring.bootstrap import CONFIDENCE, unit_sums
-from turn_eval.scoring.groups import BLANK_GROUP
+from turn_eval.scoring.groups import BLANK_GROUP, average, check_groupings, split_by
+from turn_eval.scoring.signature import Signature
 
 __all__ = ["DEFAULT_BY", "UNKNOWN_GROUP", "MATCHING_RULE", "EventScores", "score_events"]
 
@@ -169,21 +170,10 @@ def _groupings(
         for c in reference.columns
         if c not in ("session", "start_s", "end_s", "angle_deg", "direction")
     ]
-    if not by:
+    if not split_by(by):
         cache = {} if cache is None else cache
         return [c for c in DEFAULT_BY if c in text_cols and _has_text(reference, c, cache)]
-    out: list[str] = []
-    for name in by:
-        col = name.strip().lower()
-        if col not in text_cols:
-            raise TurnbenchError(
-                f"--by {name!r}: the reference has no such group column; it has "
-                f"{', '.join(text_cols)}",
-                file=reference.attrs.get("path"),
-            )
-        if col not in out:
-            out.append(col)
-    return out
+    return check_groupings(by, text_cols, default=(), file=reference.attrs.get("path"))
 
 
 def _context_at(
@@ -569,18 +559,10 @@ def _detection_entry(sums: np.ndarray) -> dict[str, Any]:
 
 
 def _average(groups: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
-    """The paper's "Avg.": unweighted means over the groups (of the defined values)."""
-
-    def mean(values):
-        values = [v for v in values if v is not None]
-        return float(np.mean(values)) if values else None
-
-    out: dict[str, Any] = {c: mean([g[c] for g in groups.values()]) for c in ("tp", "fp", "fn")}
-    for m in ("precision", "recall", "f1"):
-        out[m] = mean([g[m] for g in groups.values()])
-    out["matched"] = {
-        m: mean([g["matched"].get(m) for g in groups.values()]) for m in ("n", *MATCHED_METRICS)
-    }
+    """The paper's "Avg.": unweighted means over the groups (of the defined values), of the
+    detection counts and rates and of the matched pairs' metrics."""
+    out = average(groups.values(), ("tp", "fp", "fn", "precision", "recall", "f1"))
+    out["matched"] = average((g["matched"] for g in groups.values()), ("n", *MATCHED_METRICS))
     return out
 
 
@@ -694,7 +676,7 @@ def score_events(
         ``overall.matched.{n,accuracy,mae_deg,wprec,mae_speed_deg_s,direction_agreement,
         median_abs_dstart_s,median_abs_dend_s}``, ``overall.ap`` (with scores),
         ``overall.turns_per_hour`` (with sessions), ``by.<column>.groups.<group>`` and
-        ``by.<column>.avg``, ``settings``.
+        ``by.<column>.avg``, ``settings``, ``signature`` (options, inputs' sha256).
     """
     if not (0.0 < iou <= 1.0):
         raise TurnbenchError(f"--iou must be in (0, 1], got {iou}")
@@ -755,6 +737,10 @@ def score_events(
         "settings": _settings(
             iou, bin_width_deg, n_resamples, seed, ap=curves is not None, context=ctx is not None
         ),
+        "signature": _signature(
+            (iou, groupings, bin_width_deg, n_resamples, seed, ignore_unknown),
+            (reference, detections, context, sessions),
+        ),
     }
     return EventScores(
         doc=doc,
@@ -764,6 +750,34 @@ def score_events(
         reference=ref,
         _parts=(events, det, ref, units, grouped),
     )
+
+
+def _signature(options: tuple, inputs: tuple) -> dict[str, Any]:
+    """The signature object of :func:`score_events`' run.
+
+    ``options`` are its ``(iou, groupings, bin_width_deg, n_resamples, seed, ignore_unknown)``
+    and ``inputs`` its ``(reference, detections, context, sessions)``, each a file or a frame
+    (whose ``attrs["path"]`` is its file); an input not given, or built in memory, is left out.
+    """
+    iou, groupings, bin_width_deg, n_resamples, seed, ignore_unknown = options
+    named = [
+        ("iou", iou),
+        ("by", groupings),
+        ("bin", bin_width_deg),
+        ("bootstrap", f"cluster-percentile-{n_resamples}"),
+        ("seed", seed),
+        ("ignore-unknown", ignore_unknown),
+    ]
+
+    def path_of(source: pd.DataFrame | str | os.PathLike[str] | None) -> str | None:
+        if source is None or isinstance(source, (str, os.PathLike)):
+            return None if source is None else os.fspath(source)
+        path = source.attrs.get("path")
+        return None if path is None else str(path)
+
+    roles = ("reference", "detections", "context", "sessions")
+    files = {role: path_of(source) for role, source in zip(roles, inputs, strict=True)}
+    return Signature.of("score-events", named, files).as_dict()
 
 
 def _events_table(

@@ -16,6 +16,7 @@ from turn_datasets.render.markdown import metric_table
 from turn_datasets.render.numbers import MISSING, fixed, is_missing, one_decimal
 from turn_eval.events.bootstrap import CI_METRICS
 from turn_eval.events.scoring import MATCHED_METRICS, UNKNOWN_GROUP
+from turn_eval.scoring.signature import signature_line
 
 __all__ = ["EVENT_LABELS", "EVENTS_CSV_COLUMNS", "events_markdown", "events_frame"]
 
@@ -179,6 +180,8 @@ def events_markdown(doc: Mapping[str, Any]) -> str:
         + f"; Avg. is the unweighted mean over groups; turnbench {settings['version']}."
     )
     out += ["", summary, *notes]
+    if "signature" in doc:
+        out += ["", f"signature: {signature_line(doc['signature'])}"]
     return "\n".join(out) + "\n"
 
 
