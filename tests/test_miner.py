@@ -19,12 +19,14 @@ from turn_datasets.h36m.miner import (
     _moving_mean,
     _zero_phase_lowpass,
     find_turns,
+    knee_gait,
     measure_clip,
     mine,
+    mine_heading,
     mine_sequence,
 )
 from turn_datasets.mocap import readers
-from turn_datasets.skeleton import H36M17, H36M17_FROM_32, H36M32, MocapSequence
+from turn_datasets.skeleton import H36M17, H36M17_FROM_32, H36M32, Layout, MocapSequence
 from turn_datasets.synthetic import mocap as sm
 
 FPS = 50.0
@@ -223,6 +225,45 @@ def test_short_dropouts_are_bridged_long_ones_cut() -> None:
     # With a longer max_gap_s the same hole is bridged and the turn is one clip again.
     d = mine_sequence(long.positions, layout=H36M32, fps_hz=FPS, max_gap_s=1.5)
     assert len(d) == 1 and d.start_frame[0] < hole[0] and d.end_frame[0] > hole[1]
+
+
+def test_knee_gait_by_hand() -> None:
+    # hips 0.3 apart along y (left at +y): the body faces +x. The left knee 0.2 ahead, the
+    # right 0.1 behind: 0.3 apart along the facing direction, one hip width; then the legs
+    # swapped; then standing (knees level); then no hips (NaN).
+    frontal = np.array([[0.0, 0.3], [0.0, 0.3], [0.0, 0.3], [np.nan, np.nan]])
+    left = np.array([[0.2, 0.15], [-0.1, 0.15], [0.0, 0.15], [0.0, 0.15]])
+    right = np.array([[-0.1, -0.15], [0.2, -0.15], [0.0, -0.15], [0.0, -0.15]])
+    g = knee_gait(frontal, left, right)
+    assert g[:3] == pytest.approx([1.0, -1.0, 0.0]) and np.isnan(g[3])
+
+
+def test_mine_heading_is_mine_sequence_on_the_hips_it_stands_for() -> None:
+    # The heading-series entry point (the detector's) on the hips' frontal vector finds the
+    # same clips, bit for bit, as the skeleton entry point on hips at +-half of it, with the
+    # same knees; dropouts (short and long) included.
+    segs = [sm.Segment.walk(3, 1.2), sm.Segment.walking_turn(-135, 1.5, 1.2)]
+    segs += [sm.Segment.walk(2, 1.2), sm.Segment.pivot_turn(120, 2.0), sm.Segment.walk(3, 1.2)]
+    seq = _seq(segs, dropouts=[sm.Dropout(4.0, 0.1), sm.Dropout(6.0, 1.0)])
+    p = seq.positions
+    idx = [H36M32.index(j) for j in ("left_hip", "right_hip", "left_knee", "right_knee")]
+    frontal = p[:, idx[0], :2] - p[:, idx[1], :2]
+    four = Layout("four", 4, {"left_hip": 0, "right_hip": 1, "left_knee": 2, "right_knee": 3})
+    arr = np.zeros((p.shape[0], 4, 3))
+    arr[:, 0, :2], arr[:, 1, :2] = frontal / 2, -frontal / 2
+    arr[:, 2:] = p[:, idx[2:]]
+    expected = mine_sequence(arr, layout=four, fps_hz=FPS)
+    gait = knee_gait(frontal, p[:, idx[2], :2], p[:, idx[3], :2])
+    got = mine_heading(frontal, fps_hz=FPS, gait=gait)
+    assert len(expected) >= 2
+    pd.testing.assert_frame_equal(got, expected, check_exact=True)
+    # the validity mask is a gap, as NaN is
+    masked = mine_heading(
+        np.nan_to_num(frontal), fps_hz=FPS, gait=gait, valid=np.isfinite(frontal).all(axis=1)
+    )
+    pd.testing.assert_frame_equal(masked, expected, check_exact=True)
+    with pytest.raises(TurnbenchError, match="shape"):
+        mine_heading(frontal[:, :1], fps_hz=FPS)
 
 
 def test_sequences_without_usable_hips_are_refused() -> None:

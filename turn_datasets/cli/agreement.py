@@ -33,7 +33,7 @@ from turn_datasets.fileio import (
     write_files,
 )
 from turn_datasets.remap.agreement import AgreementAudit, audit_agreement
-from turn_datasets.remap.agreement_report import write_confusion_png
+from turn_datasets.remap.agreement_report import agreement_markdown, write_confusion_png
 from turn_datasets.remap.eaf import expand_eaf_paths, read_annotations
 from turn_datasets.remap.review_eaf import write_review_eaf
 from turn_datasets.remap.schema import load_schema
@@ -154,7 +154,7 @@ def agreement(
         passed = kappa is not None and kappa >= min_kappa
         document["gate"] = {"min_kappa": min_kappa, "passed": passed}
 
-    markdown = audit.to_markdown()
+    markdown = agreement_markdown(audit)
     if passed is not None:
         markdown += f"\nGate: kappa >= {min_kappa:g} {'passed' if passed else 'FAILED'}.\n"
 

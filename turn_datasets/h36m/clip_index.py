@@ -358,8 +358,7 @@ def read_clip_index(
         (an empty cell is ``""``).
     optional
         Columns read (after ``columns``) and checked the same way when the file has them,
-        such as ``hip_rotation_deg`` (finite, not negative), which indexes mined before
-        issue 11 lack.
+        such as ``hip_rotation_deg`` (finite, not negative), which older indexes lack.
     h36m_actions
         ``action`` must be a Human3.6M action (any spelling of
         :func:`turn_datasets.mocap.h36m.parse_h36m_action`) and is returned canonical;

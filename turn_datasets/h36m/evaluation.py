@@ -2,7 +2,7 @@
 
 As mobgap keeps an ``evaluation.py`` beside each algorithm, this module scores
 :func:`turn_datasets.h36m.miner.mine_sequence` against the turns planted by
-:mod:`turn_datasets.synthetic.mocap`, on the two sets of issue 11:
+:mod:`turn_datasets.synthetic.mocap`, on two synthetic sets:
 
 easy
     turns of 45 to 160 °/s mean speed, 3 to 5° peak-to-peak pelvic sway, 10 mm joint noise;
@@ -47,7 +47,7 @@ class SyntheticSet(TypedDict):
     dropouts: bool
 
 
-#: Issue 11's synthetic sets: turn speed range (°/s), sway range (peak to peak, °), noise.
+#: The synthetic sets: turn speed range (°/s), sway range (peak to peak, °), noise.
 SETS: Mapping[str, SyntheticSet] = MappingProxyType(
     {
         "easy": {"speed": (45.0, 160.0), "sway": (3.0, 5.0), "noise_mm": 10.0, "dropouts": False},

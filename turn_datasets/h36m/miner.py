@@ -116,6 +116,8 @@ __all__ = [
     "CANDIDATE_DTYPES",
     "find_turns",
     "mine_sequence",
+    "mine_heading",
+    "knee_gait",
     "measure_clip",
     "mine_clips",
     "mine",
@@ -369,7 +371,7 @@ def _stride_frames(
 ) -> int:
     """The window of the heading rate for one piece, in frames: its stride, if it walks.
 
-    With knees in the layout the stride is read from their fore-aft swing (:func:`_knee_gait`,
+    With knees in the layout the stride is read from their fore-aft swing (:func:`knee_gait`,
     once per stride, larger than the hips' width when walking; Perry & Burnfield 2010): the
     lag of its highest autocorrelation between ``min_stride_s`` and ``max_stride_s`` over
     the frames that walk (a running r.m.s. swing of at least half a hip width over a
@@ -651,30 +653,26 @@ def _zero_phase_lowpass(x: np.ndarray, cutoff_hz: float, fps_hz: float) -> np.nd
     return np.ascontiguousarray(y[:, ::-1][:, pad : ext.shape[1] - pad].T)
 
 
-def _knee_gait(ground: np.ndarray) -> np.ndarray:
+def knee_gait(frontal: np.ndarray, left_knee: np.ndarray, right_knee: np.ndarray) -> np.ndarray:
     """Fore-aft separation of the knees per frame, in hip widths (NaN where unknown).
 
-    ``ground`` holds the left and right hip and knee on the ground plane, ``(frames, 4, 2)``.
-    Left knee minus right knee, along the direction the hips face (the hip vector turned
-    90° clockwise seen from above). In walking it swings back and forth once per stride by
-    more than a hip width; standing, it stays near zero.
+    ``frontal`` is the frontal vector on the ground plane (left minus right hip, or any
+    vector of the hips' width facing as the body does), ``(frames, 2)``; the knees are their
+    ground-plane positions, ``(frames, 2)`` each. Left knee minus right knee, along the
+    direction the body faces (the frontal vector turned 90° clockwise seen from above). In
+    walking it swings back and forth once per stride by more than a hip width; standing, it
+    stays near zero. The miner reads the stride period from it.
     """
-    hip = ground[:, 0] - ground[:, 1]
-    knee = ground[:, 2] - ground[:, 3]
+    hip = np.asarray(frontal, dtype=float)
+    knee = np.asarray(left_knee, dtype=float) - np.asarray(right_knee, dtype=float)
     with np.errstate(invalid="ignore", divide="ignore"):
         width2 = hip[:, 0] ** 2 + hip[:, 1] ** 2
         return (knee[:, 0] * hip[:, 1] - knee[:, 1] * hip[:, 0]) / width2
 
 
-def _prepared_pieces(
-    positions: np.ndarray, layout: Layout, fps_hz: float, params: MinerParams
-) -> Iterator[tuple[int, np.ndarray, np.ndarray | None]]:
-    """Steps 2 and 3 of the rule: ``(first frame, bridged and filtered hips, knee gait)``.
-
-    The knee gait (:func:`_knee_gait`) is None when the layout has no knees.
-    """
-    if not (np.isfinite(fps_hz) and fps_hz > 0):
-        raise TurnbenchError(f"fps must be positive, got {fps_hz}")
+def _hips_and_gait(positions: np.ndarray, layout: Layout) -> tuple[np.ndarray, np.ndarray | None]:
+    """The hips on the ground plane, ``(frames, 2, 3)`` with zero height, and the knee gait
+    (:func:`knee_gait`; None when the layout has no knees)."""
     p = np.asarray(positions)
     if p.ndim != 3 or p.shape[2] != 3 or p.shape[1] != layout.n_joints:
         raise TurnbenchError(
@@ -689,12 +687,26 @@ def _prepared_pieces(
     ground = p[:, [layout.index(j) for j in names], :2].astype(float, copy=False)
     hips = np.zeros((p.shape[0], 2, 3))
     hips[:, :, :2] = ground[:, :2]
+    if not has_knees:
+        return hips, None
+    return hips, knee_gait(ground[:, 0] - ground[:, 1], ground[:, 2], ground[:, 3])
+
+
+def _prepared_pieces(
+    hips: np.ndarray, gait: np.ndarray | None, fps_hz: float, params: MinerParams
+) -> Iterator[tuple[int, np.ndarray, np.ndarray | None]]:
+    """Steps 2 and 3 of the rule: ``(first frame, bridged and filtered hips, knee gait)``.
+
+    ``hips`` are the two hips on the ground plane, ``(frames, 2, 3)``; ``gait`` the knee gait
+    (:func:`knee_gait`) or None.
+    """
+    if not (np.isfinite(fps_hz) and fps_hz > 0):
+        raise TurnbenchError(f"fps must be positive, got {fps_hz}")
     usable = usable_frames(hips, _HIPS)
     if int(usable.sum()) < 2:
         raise TurnbenchError(
             "fewer than two frames with a usable hip vector (hips missing or coinciding)"
         )
-    gait = _knee_gait(ground) if has_knees else None
     for a, b in _pieces(usable, _frames(params.max_gap_s, fps_hz)):
         piece = _prepare_piece(hips[a:b], usable[a:b], fps_hz, params.position_cutoff_hz)
         yield a, piece, None if gait is None else gait[a:b]
@@ -743,7 +755,58 @@ def mine_sequence(
         two frames with a usable hip vector.
     """
     p = replace(params or MinerParams(), **overrides)
-    start, end, net, hip = _mine_arrays(positions, layout, fps_hz, p)
+    hips, gait = _hips_and_gait(positions, layout)
+    start, end, net, hip = _mine_hips(hips, gait, fps_hz, p)
+    return _sequence_frame(start, end, net, hip)
+
+
+def mine_heading(
+    frontal: np.ndarray,
+    *,
+    fps_hz: float,
+    valid: np.ndarray | None = None,
+    gait: np.ndarray | None = None,
+    params: MinerParams | None = None,
+    **overrides: float,
+) -> pd.DataFrame:
+    """The turning clips of a heading series: the whole rule, from step 2, on a frontal vector.
+
+    The entry point for a caller that makes its own heading (the detector combines the
+    frontal vectors of several joint pairs): the series is bridged, filtered and mined
+    exactly as the hips' frontal vector of :func:`mine_sequence` is.
+
+    Parameters
+    ----------
+    frontal
+        ``(n_frames, 2)``: the frontal vector on the ground plane per frame (left minus right,
+        at the hips' width; its direction is the heading); NaN where unknown.
+    fps_hz
+        Frame rate of the series.
+    valid
+        Frames whose vector is usable (default: every finite one); the others are gaps.
+    gait
+        The stride signal: the knees' fore-aft separation in hip widths per frame
+        (:func:`knee_gait`), or None (the stride is then read from the heading's own sway).
+    params, **overrides
+        As :func:`mine_sequence`.
+
+    Returns
+    -------
+    DataFrame
+        As :func:`mine_sequence`; ``hip_rotation_deg`` is the frontal vector's own net
+        rotation over each clip.
+    """
+    p = replace(params or MinerParams(), **overrides)
+    v = np.asarray(frontal, dtype=float)
+    if v.ndim != 2 or v.shape[1] != 2:
+        raise TurnbenchError(f"the frontal vector must have shape (frames, 2), got {v.shape}")
+    # The right hip at the origin: the left minus the right is the vector itself, bit for bit,
+    # through the bridging and filtering (both linear, so a zero column stays zero).
+    hips = np.zeros((v.shape[0], 2, 3))
+    hips[:, 0, :2] = v
+    if valid is not None:
+        hips[~np.asarray(valid, dtype=bool), 0, :] = np.nan
+    start, end, net, hip = _mine_hips(hips, gait, fps_hz, p)
     return _sequence_frame(start, end, net, hip)
 
 
@@ -763,11 +826,12 @@ def _sequence_frame(
     return typed_frame(frame, SEQUENCE_CLIP_DTYPES)
 
 
-def _mine_arrays(
-    positions: np.ndarray, layout: Layout, fps_hz: float, params: MinerParams
+def _mine_hips(
+    hips: np.ndarray, gait: np.ndarray | None, fps_hz: float, params: MinerParams
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`mine_sequence` on arrays: ``(start, end, net_deg, hip_net_deg)``, in time order."""
-    pieces = list(_prepared_pieces(positions, layout, fps_hz, params))
+    """The rule on the hips' ground positions (:func:`_prepared_pieces`): ``(start, end,
+    net_deg, hip_net_deg)``, in time order."""
+    pieces = list(_prepared_pieces(hips, gait, fps_hz, params))
     # One yaw call for all pieces: unwrapping across a cut only shifts the next piece by whole
     # turns, and only differences within a piece are used.
     all_yaw = frame_yaw_deg(np.concatenate([p for _, p, _ in pieces]), _HIPS)
@@ -843,7 +907,8 @@ def measure_clip(
             f"frames {start_frame}-{end_frame} are not a span of at least two frames within "
             f"the sequence's {n}"
         )
-    for a, piece, gait in _prepared_pieces(positions, layout, fps_hz, p):
+    hips, knees = _hips_and_gait(positions, layout)
+    for a, piece, gait in _prepared_pieces(hips, knees, fps_hz, p):
         if a <= start_frame and end_frame <= a + piece.shape[0]:
             yaw = frame_yaw_deg(piece, _HIPS)
             window = max(_frames(p.smooth_s, fps_hz), 1)
@@ -873,7 +938,8 @@ def mine_clips(seq: MocapSequence, params: MinerParams | None = None) -> Sequenc
     """
     params = params or MinerParams()
     try:
-        start, end, net, hip = _mine_arrays(seq.positions, seq.layout, seq.fps, params)
+        hips, gait = _hips_and_gait(seq.positions, seq.layout)
+        start, end, net, hip = _mine_hips(hips, gait, seq.fps, params)
     except TurnbenchError as exc:
         item = f"{seq.subject}/{seq.action}" + (f" {seq.subaction}" if seq.subaction else "")
         raise TurnbenchError(exc.message, file=seq.source or None, item=item) from None

@@ -1,4 +1,4 @@
-"""``turn-eval score``: score a predictions file against a reference (issue 5).
+"""``turn-eval score``: score a predictions file against a reference.
 
 Thin: parse the options, read and validate (:mod:`turn_eval.clips.submission`), score
 (:mod:`turn_eval.clips.tables`), print one format on stdout and, with ``--out-dir``, write all three
@@ -12,7 +12,6 @@ from pathlib import Path
 import click
 
 from turn_datasets.cli.common import (
-    BIN_WIDTH_DEG,
     CONTEXT_SETTINGS,
     bootstrap_options,
     bootstrap_progress,
@@ -20,6 +19,7 @@ from turn_datasets.cli.common import (
     emit,
     format_option,
     one_run,
+    params_options,
     warn,
     wrote,
 )
@@ -27,6 +27,7 @@ from turn_datasets.fileio import (
     to_json_text,
     write_files,
 )
+from turn_datasets.geometry import BinParams
 from turn_eval.cli import cli
 from turn_eval.cli.common import by_option
 from turn_eval.clips.submission import read_predictions, read_reference
@@ -66,13 +67,7 @@ PLOT_FILES = ("confusion_matrix.png", "predicted_by_bin.png", "abs_error.png", "
 @bootstrap_options(
     "Bootstrap resamples for the 95% intervals (0: none).", seed_help="Seed of the bootstrap."
 )
-@click.option(
-    "--bin-width-deg",
-    type=BIN_WIDTH_DEG,
-    default=45.0,
-    show_default=True,
-    help="Width of the angle bins (the paper's 45°).",
-)
+@params_options(BinParams)
 @format_option()
 @click.option(
     "--out-dir",

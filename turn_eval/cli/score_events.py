@@ -1,4 +1,4 @@
-"""``turn-eval score-events``: score detected turns in untrimmed sessions (issue 12).
+"""``turn-eval score-events``: score detected turns in untrimmed sessions.
 
 Thin: parse the options, call :func:`turn_eval.events.score_events`, print one format on
 stdout and, with ``--out-dir``, write every table together, atomically.
@@ -12,13 +12,13 @@ import click
 
 from turn_datasets.cli.common import (
     CONTEXT_SETTINGS,
-    FRACTION,
     bootstrap_options,
     bootstrap_progress,
     check_out_dir,
     emit,
     format_option,
     one_run,
+    params_options,
     warn,
     wrote,
 )
@@ -28,6 +28,7 @@ from turn_datasets.fileio import (
 )
 from turn_eval.cli import cli
 from turn_eval.cli.common import by_option
+from turn_eval.events.matching import MatchParams
 from turn_eval.events.plots import EVENT_PLOT_FILES, TIMELINE_DIR
 from turn_eval.events.scoring import DEFAULT_BY, score_events
 from turn_eval.events.tables import events_frame, events_markdown
@@ -66,13 +67,7 @@ _path = click.Path(dir_okay=True, path_type=Path)
     help="sessions.csv beside the labels: annotated duration per session and subject, for "
     "turns per hour.",
 )
-@click.option(
-    "--iou",
-    type=FRACTION,
-    default=0.5,
-    show_default=True,
-    help="A detection and a turn can match when their temporal IoU is at least this.",
-)
+@params_options(MatchParams)
 @by_option(f"those of {', '.join(DEFAULT_BY)} the reference has.")
 @bootstrap_options(
     "Cluster-bootstrap resamples of the (session, subject) units for the 95% intervals (0: none)."

@@ -54,6 +54,7 @@ from scipy.stats import binomtest
 
 from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.geometry import BIN_WIDTH_DEG
 from turn_eval.clips.metrics import (
     METRICS,
     ClipOutcomes,
@@ -274,7 +275,7 @@ def compare_predictions(
     pred_b_speed_deg_s=None,
     n_resamples: int = 1000,
     seed: int = 0,
-    bin_width_deg: float = 45.0,
+    bin_width_deg: float = BIN_WIDTH_DEG,
 ) -> Comparison:
     """Paired bootstrap of the differences B - A in every metric, and the exact McNemar test.
 

@@ -33,7 +33,7 @@ import pandas as pd
 
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import typed_frame
-from turn_datasets.geometry import quantise_deg
+from turn_datasets.geometry import BIN_WIDTH_DEG, quantise_deg
 from turn_datasets.usertable import (
     NUMERIC,
     Table,
@@ -55,7 +55,7 @@ __all__ = [
     "read_predictions",
 ]
 
-#: The default groupings, in this order, when the reference has them (issue 5). ``bin_deg``
+#: The default groupings, in this order, when the reference has them. ``bin_deg``
 #: is the reference angle's 45° bin, which every reference has.
 GROUP_COLUMNS = ("scenario", "location", "cohort", "subject", "bin_deg", "action", "split")
 #: The reference bin column: always recomputed from the reference angle.
@@ -92,7 +92,9 @@ def _clip_ids(table: Table) -> np.ndarray:
     return ids
 
 
-def read_reference(path: str | os.PathLike[str], *, bin_width_deg: float = 45.0) -> pd.DataFrame:
+def read_reference(
+    path: str | os.PathLike[str], *, bin_width_deg: float = BIN_WIDTH_DEG
+) -> pd.DataFrame:
     """Read a reference table: clip index, labels, or any CSV with ``clip_id, angle_deg``.
 
     Parameters
@@ -182,7 +184,7 @@ class Joined:
     has_durations: bool
     predictions_path: str
     reference_path: str
-    bin_width_deg: float = 45.0
+    bin_width_deg: float = BIN_WIDTH_DEG
     abs_angles: bool = False
     allow_missing: bool = False
 
@@ -256,7 +258,7 @@ def read_predictions(
     allow_missing: bool = False,
     abs_angles: bool = False,
     warn: Callable[[str], None] | None = None,
-    bin_width_deg: float = 45.0,
+    bin_width_deg: float = BIN_WIDTH_DEG,
 ) -> Joined:
     """Read and validate a submission and join it to the reference per clip.
 

@@ -1,6 +1,6 @@
 """``score_events``: detected turns in untrimmed sessions scored against time-stamped labels.
 
-What is reported (issue 12), on top of the matching of :mod:`turn_eval.events.matching`:
+What is reported, on top of the matching of :mod:`turn_eval.events.matching`:
 
 Detection
     TP, FP, FN, precision TP/(TP+FP), recall TP/(TP+FN) and F1 2TP/(2TP+FP+FN), overall and
@@ -42,6 +42,7 @@ import pandas as pd
 
 from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.geometry import BIN_WIDTH_DEG
 from turn_datasets.render.order import natural_key
 from turn_eval.clips.metrics import Partition, clip_outcomes, grouped_metrics
 from turn_eval.events.ap import AP_IOUS, average_precision
@@ -52,20 +53,20 @@ from turn_eval.events.bootstrap import (
     event_metrics,
 )
 from turn_eval.events.contract import CONTEXT_GROUPS
-from turn_eval.events.matching import categorize_events, overlapping_pairs
+from turn_eval.events.matching import IOU, MatchParams, categorize_events, overlapping_pairs
 from turn_eval.events.reading import (
     Units,
-    _checked_detections,
-    _checked_event_reference,
-    _read_detections,
-    _read_event_reference,
-    _units_of_pairs,
     check_context,
+    check_detections_pairs,
+    check_event_reference_pairs,
     check_sessions,
     drop_unknown,
     pair_codes,
     read_context,
+    read_detections_pairs,
+    read_event_reference_pairs,
     read_sessions,
+    units_of_pairs,
 )
 from turn_eval.scoring.bootstrap import CONFIDENCE, unit_sums
 from turn_eval.scoring.groups import BLANK_GROUP, average, check_groupings, split_by
@@ -73,8 +74,8 @@ from turn_eval.scoring.signature import Signature
 
 __all__ = ["DEFAULT_BY", "UNKNOWN_GROUP", "MATCHING_RULE", "EventScores", "score_events"]
 
-#: Groupings reported when ``by`` is not given, those the reference has (issue 12's default
-#: and a clip index's action).
+#: Groupings reported when ``by`` is not given, those the reference has (the clinical
+#: groupings, and a clip index's action).
 DEFAULT_BY = ("cohort", "scenario", "location", "subject", "action")
 #: The group of a false detection whose group is not known (no context at its midpoint).
 UNKNOWN_GROUP = "unknown"
@@ -634,18 +635,18 @@ def score_events(
     detections: Frame,
     reference: Frame,
     *,
-    iou: float = 0.5,
+    iou: float = IOU,
     context: Frame | None = None,
     sessions: Frame | None = None,
     by: Sequence[str] | None = None,
     n_resamples: int = 1000,
     seed: int = 0,
     ignore_unknown: bool = False,
-    bin_width_deg: float = 45.0,
+    bin_width_deg: float = BIN_WIDTH_DEG,
     warn: Callable[[str], None] | None = None,
     progress: Progress | None = None,
 ) -> EventScores:
-    """Score detected turns against reference turns (module docstring; issue 12).
+    """Score detected turns against reference turns (module docstring).
 
     Parameters
     ----------
@@ -678,18 +679,17 @@ def score_events(
         ``overall.turns_per_hour`` (with sessions), ``by.<column>.groups.<group>`` and
         ``by.<column>.avg``, ``settings``, ``signature`` (options, inputs' sha256).
     """
-    if not (0.0 < iou <= 1.0):
-        raise TurnbenchError(f"--iou must be in (0, 1], got {iou}")
+    MatchParams(iou=iou)  # checks the range
     if n_resamples < 0 or seed < 0:
         raise TurnbenchError("--bootstrap and --seed must be 0 or more")
     # The (session, subject) pairs of every row are factorised once, by the validation.
-    det, det_pairs = _load(detections, _read_detections, _checked_detections)
-    ref, ref_pairs = _load(reference, _read_event_reference, _checked_event_reference)
+    det, det_pairs = _load(detections, read_detections_pairs, check_detections_pairs)
+    ref, ref_pairs = _load(reference, read_event_reference_pairs, check_event_reference_pairs)
     ctx = _load(context, read_context, check_context)
     ses = _load(sessions, read_sessions, check_sessions)
     factorized: _Factorized = {}
     groupings = _groupings(ref, by, factorized)
-    units, ref_unit = _units_of_pairs(ref_pairs, ses)
+    units, ref_unit = units_of_pairs(ref_pairs, ses)
     det, det_unit, n_dropped = drop_unknown(
         det, units, ignore_unknown=ignore_unknown, warn=warn, pairs=det_pairs
     )
