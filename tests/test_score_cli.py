@@ -319,7 +319,7 @@ def test_json_without_durations_has_null_speed_everywhere(files, capsys):
     )
     assert code == 0, err
     scores = json.loads(out)
-    assert list(scores) == ["overall", "by", "n_missing", "settings"]
+    assert list(scores) == ["overall", "by", "n_missing", "settings", "signature"]
     entries = [scores["overall"]]
     for block in scores["by"].values():
         assert list(block) == ["groups", "avg"]

@@ -27,9 +27,9 @@ from typing import Any
 import pandas as pd
 
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.fileio import atomic_path, sha256_file, to_json_text
+from turn_datasets.fileio import atomic_path, manifest_path, sha256_file, to_json_text
 from turn_datasets.h36m.clip_index import SequenceClips, build_index
-from turn_datasets.h36m.manifest import build_manifest, manifest_path
+from turn_datasets.h36m.manifest import build_manifest
 from turn_datasets.h36m.miner import (
     FILTER_MAX_FRACTION_OF_FPS,
     MinerParams,

@@ -35,7 +35,6 @@ import pandas as pd
 
 from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.fileio import typed_frame
 from turn_datasets.render.labels import METRIC_LABELS
 from turn_datasets.render.markdown import markdown_cell, metric_table
 from turn_datasets.render.numbers import MISSING, fixed, format_metric
@@ -59,6 +58,7 @@ from turn_eval.scoring.bootstrap import (
 )
 from turn_eval.scoring.groups import BLANK_GROUP, average, check_groupings, group_label
 from turn_eval.scoring.signature import Signature, signature_line
+from turn_eval.scoring.writers import csv_row, grouped_frame
 
 __all__ = [
     "SCORES_CSV_COLUMNS",
@@ -333,15 +333,8 @@ def scores_markdown(scores: Mapping[str, Any]) -> str:
 
 
 def _csv_row(grouping: str, group: str, entry: Mapping[str, Any]) -> dict[str, Any]:
-    row: dict[str, Any] = {"grouping": grouping, "group": group, "n": entry["n"]}
-    ci = entry.get("ci95") or {}
-    for m in METRICS:
-        value = entry.get(m)
-        row[m] = np.nan if value is None else value
-        bounds = ci.get(m)
-        row[f"{m}_ci_low"] = np.nan if bounds is None else bounds[0]
-        row[f"{m}_ci_high"] = np.nan if bounds is None else bounds[1]
-    return row
+    values = {"n": entry["n"], **{m: entry.get(m) for m in METRICS}}
+    return csv_row(grouping, group, values, entry.get("ci95"), METRICS)
 
 
 def scores_csv(frame: pd.DataFrame) -> str:
@@ -357,9 +350,4 @@ def scores_frame(scores: Mapping[str, Any]) -> pd.DataFrame:
 
     Columns :data:`SCORES_CSV_COLUMNS`; fractions as in the JSON; empty where undefined.
     """
-    rows = [_csv_row("overall", "all", scores["overall"])]
-    for col, block in scores.get("by", {}).items():
-        for label, entry in block["groups"].items():
-            rows.append(_csv_row(col, label, entry))
-        rows.append(_csv_row(col, "avg", block["avg"]))
-    return typed_frame(pd.DataFrame(rows), SCORES_CSV_COLUMNS)
+    return grouped_frame(scores, _csv_row, SCORES_CSV_COLUMNS)
