@@ -364,10 +364,16 @@ def _read_plain(
 
 
 def read_table(
-    path: str | os.PathLike[str], *, what: str, numeric_columns: Sequence[str] = NUMERIC
+    path: str | os.PathLike[str],
+    *,
+    what: str,
+    numeric_columns: Sequence[str] = NUMERIC,
+    allow_empty: bool = False,
 ) -> Table:
     """Read a CSV as :class:`Table`; ``numeric_columns`` are parsed as numbers by the C
-    parser when every cell of them is a finite number (else :func:`numbers` parses them)."""
+    parser when every cell of them is a finite number (else :func:`numbers` parses them).
+    A header without rows is refused unless ``allow_empty`` (a table that may hold nothing,
+    as a clip index of a corpus without turns)."""
     name = os.fspath(path)
     text = _one_newline(_read_text(name, what=what), name, what=what)
     if not text or text.isspace():  # blank (strip would copy the whole text to say so)
@@ -386,7 +392,7 @@ def read_table(
         else _read_plain(text, name, delimiter, numeric_columns)
     )
     table.ascii = text.isascii()
-    if table.lines.size == 0:
+    if table.lines.size == 0 and not allow_empty:
         raise TurnbenchError(
             f"empty {what} file: a header on line {table.header_line} and no rows", file=name
         )

@@ -21,12 +21,13 @@ from types import MappingProxyType
 import numpy as np
 import pandas as pd
 
-from turn_datasets.errors import TurnbenchError, require_columns
+from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import typed_frame
 from turn_datasets.geometry import angular_speed_deg_s, direction_of, quantise_deg
 from turn_datasets.limits import MAX_ANGLE_DEG
 from turn_datasets.mocap.h36m import parse_h36m_action
 from turn_datasets.render.order import natural_key
+from turn_datasets.usertable import read_table, require
 
 __all__ = [
     "CLIP_INDEX_DTYPES",
@@ -217,22 +218,25 @@ def build_index(parts: Iterable[SequenceClips]) -> pd.DataFrame:
 
 
 def _read(p: Path, columns: Sequence[str]) -> pd.DataFrame:
+    """The index as text, through the one reader of user tables (:mod:`turn_datasets.usertable`:
+    UTF-8 with or without a byte-order mark, header names ignoring case and spaces); each
+    row's CSV line in ``attrs["lines"]``."""
     if not p.is_file():
         raise TurnbenchError("no such file", file=p)
-    try:
-        frame = pd.read_csv(p, dtype=str, keep_default_na=False, encoding="utf-8")
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-        raise TurnbenchError(f"cannot read the clip index: {exc}", file=p) from None
-    require_columns(frame.columns, columns, what="the clip index", file=p)
+    table = read_table(p, what="clip index", numeric_columns=(), allow_empty=True)
+    require(table, columns, what="the clip index")
+    frame = pd.DataFrame({c: table.columns[c] for c in table.header if c}, dtype=object)
+    frame.attrs["lines"] = table.lines
     return frame
 
 
 def _check_rows(frame: pd.DataFrame, p: Path, *, h36m_actions: bool) -> pd.DataFrame:
     """clip_id unique and not empty, canonical actions, whole frames in order, fps > 0."""
     has = set(frame.columns)
+    lines = frame.attrs["lines"]
     seen: dict[str, int] = {}
     for i, rec in enumerate(frame.to_dict("records")):
-        line = i + 2
+        line = int(lines[i])
         if "clip_id" in has:
             clip_id = rec["clip_id"].strip()
             if not clip_id:
@@ -293,7 +297,9 @@ def _check_angles(frame: pd.DataFrame, p: Path) -> pd.DataFrame:
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
             raise TurnbenchError(
-                f"{col} {frame[col].iloc[i]!r} is not a finite number", file=p, row=i + 2
+                f"{col} {frame[col].iloc[i]!r} is not a finite number",
+                file=p,
+                row=int(frame.attrs["lines"][i]),
             )
         frame[col] = values.astype(float)
     checks = []
@@ -331,7 +337,8 @@ def _check_angles(frame: pd.DataFrame, p: Path) -> pd.DataFrame:
     for bad, message, col in checks:
         if bad.any():
             i = int(np.flatnonzero(bad.to_numpy())[0])
-            raise TurnbenchError(message.format(f"{frame[col].iloc[i]:g}"), file=p, row=i + 2)
+            row = int(frame.attrs["lines"][i])
+            raise TurnbenchError(message.format(f"{frame[col].iloc[i]:g}"), file=p, row=row)
     return frame
 
 
@@ -372,8 +379,12 @@ def read_clip_index(
     """
     p = Path(path)
     frame = _read(p, columns)
+    lines = frame.attrs["lines"]
     frame = frame.loc[:, list(columns) + [c for c in optional if c in frame.columns]]
+    frame.attrs["lines"] = lines
     frame = _check_rows(frame, p, h36m_actions=h36m_actions)
+    frame.attrs["lines"] = lines
     frame = _check_angles(frame, p)
-    frame["row"] = np.arange(2, len(frame) + 2, dtype=np.int64)
+    frame["row"] = np.asarray(lines, dtype=np.int64)
+    frame.attrs.pop("lines", None)
     return frame.reset_index(drop=True)
