@@ -13,7 +13,7 @@ from scipy import signal
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.geometry import turning_angle
 from turn_datasets.h36m.clip_index import CLIP_INDEX_DTYPES, clip_id_of, split_of
-from turn_datasets.h36m.evaluation import match_turns
+from turn_datasets.h36m.evaluation import KnownTurns, match_turns, score_sequences
 from turn_datasets.h36m.miner import (
     MinerParams,
     _moving_mean,
@@ -338,64 +338,24 @@ def test_fast_filters_equal_scipys() -> None:
 # --- measured on a synthetic corpus -----------------------------------------------------
 
 
-def corpus_scores(seeds, *, min_planted_deg: float = 60.0) -> dict:
-    """Mine a synthetic corpus and score it against the planted turns (see the test)."""
-    rows = []
-    false_clips = 0
-    for seed in seeds:
-        rng = np.random.default_rng(seed)
-        segs = sm.random_segments(rng)
-        seq = sm.generate_sequence(
-            seed=seed,
-            segments=segs,
-            sway_deg=float(rng.uniform(3.0, 6.0)),
-            noise_mm=10.0,
-            dropouts=sm.random_dropouts(rng, segs),
-        )
-        mined = mine_sequence(seq.positions, layout=H36M32, fps_hz=seq.fps)
-        pairs = dict(match_turns(seq.planted, mined))
-        matched = set(pairs.values())
-        prev_end = -1_000_000
-        for i, p in enumerate(seq.planted.itertuples(index=False)):
-            row = {
-                "kind": p.kind,
-                "left": p.angle_deg > 0,
-                "fast": abs(p.heading_deg) / p.duration_s > 100.0,
-                "back_to_back": p.start_frame - prev_end == int(0.5 * seq.fps),
-                "planted_deg": abs(p.angle_deg),
-                "found": i in pairs,
-            }
-            prev_end = p.end_frame
-            if i in pairs:
-                m = mined.iloc[pairs[i]]
-                # (issue 11: the truth of angle_deg is the planted heading change)
-                row["angle_error_deg"] = m.angle_deg - abs(p.heading_deg)
-                row["start_error_s"] = (m.start_frame - p.start_frame) / seq.fps
-                row["end_error_s"] = (m.end_frame - p.end_frame) / seq.fps
-            rows.append(row)
-        # A mined clip matched to no planted turn is false, unless it overlaps a planted
-        # turn below the scored range (those may or may not be mined, either is right).
-        for j in set(range(len(mined))) - matched:
-            m = mined.iloc[j]
-            small = seq.planted[
-                (seq.planted.angle_deg.abs() < min_planted_deg)
-                & (seq.planted.end_frame > m.start_frame)
-                & (seq.planted.start_frame < m.end_frame)
-            ]
-            false_clips += small.empty
-    table = pd.DataFrame(rows)
-    scored = table[table.planted_deg >= min_planted_deg]
-    hits = scored[scored.found]
-    boundary = np.abs(np.concatenate([hits.start_error_s, hits.end_error_s]))
-    return {
-        "table": scored,
-        "n_planted": len(scored),
-        "recall": len(hits) / len(scored),
-        "precision": len(hits) / (len(hits) + false_clips),
-        "false_clips": false_clips,
-        "median_abs_angle_error_deg": float(np.median(np.abs(hits.angle_error_deg))),
-        "median_abs_boundary_error_s": float(np.median(boundary)),
-    }
+def corpus_scores(seeds) -> dict:
+    """Mine a synthetic corpus and score it against the planted turns (the library's
+    :func:`turn_datasets.h36m.evaluation.score_sequences`; see the tests)."""
+
+    def cases():
+        for seed in seeds:
+            rng = np.random.default_rng(seed)
+            segs = sm.random_segments(rng)
+            seq = sm.generate_sequence(
+                seed=seed,
+                segments=segs,
+                sway_deg=float(rng.uniform(3.0, 6.0)),
+                noise_mm=10.0,
+                dropouts=sm.random_dropouts(rng, segs),
+            )
+            yield KnownTurns(seed, seq.positions, H36M32, seq.fps, seq.planted)
+
+    return score_sequences(cases())
 
 
 @pytest.fixture(scope="module")
@@ -428,8 +388,8 @@ def test_no_clip_where_nothing_was_planted(corpus) -> None:
 
 
 def test_median_angle_and_boundary_errors(corpus) -> None:
-    assert corpus["median_abs_angle_error_deg"] <= 3.0
-    assert corpus["median_abs_boundary_error_s"] <= 0.2
+    assert corpus["median_angle_error_deg"] <= 3.0
+    assert corpus["median_boundary_error_s"] <= 0.2
 
 
 # --- the clip index -----------------------------------------------------------------------
