@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from scipy import signal
+from scipy.ndimage import uniform_filter1d
 
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.geometry import turning_angle
@@ -333,6 +334,11 @@ def test_fast_filters_equal_scipys() -> None:
     for window in (1, 2, 15, 31):
         want = [y[max(i - window // 2, 0) : i - window // 2 + window].mean() for i in range(600)]
         np.testing.assert_allclose(_moving_mean(y, window), want, atol=1e-9)
+        # inside the series (full windows) it is scipy's uniform filter
+        inner = slice(window // 2, 600 - window // 2)
+        np.testing.assert_allclose(
+            _moving_mean(y, window)[inner], uniform_filter1d(y, window)[inner], atol=1e-9
+        )
 
 
 # --- measured on a synthetic corpus -----------------------------------------------------

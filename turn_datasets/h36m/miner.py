@@ -320,7 +320,12 @@ def find_turns(
 
 
 def _moving_mean(x: np.ndarray, window: int) -> np.ndarray:
-    """Centred moving mean over ``window`` frames (shrinking at the ends), by cumulative sums."""
+    """Centred moving mean over ``window`` frames (shrinking at the ends), by cumulative sums.
+
+    ``scipy.ndimage.uniform_filter1d`` gives the same mean inside the series (tested) but has
+    no shrinking window at the ends; its ``mode`` pads instead, which would move the stride
+    estimate and the heading at a piece's ends.
+    """
     n = x.shape[0]
     if window <= 1 or n == 0:
         return x.copy()
@@ -637,9 +642,10 @@ def _zero_phase_lowpass(x: np.ndarray, cutoff_hz: float, fps_hz: float) -> np.nd
     """``scipy.signal.filtfilt(b, a, x, axis=0)`` of a 2nd-order Butterworth, per column.
 
     The same forward-backward filtering with odd extension and steady-state initial
-    conditions as filtfilt (its default pad of 3 x 3 samples), with the coefficients and
-    initial conditions computed once instead of per call: the miner filters hundreds of
-    pieces.
+    conditions as filtfilt (its default pad of 3 x 3 samples; tested equal), with the
+    coefficients and initial conditions computed once instead of per call: the miner filters
+    hundreds of pieces, and on a 200-frame piece scipy's ``butter`` and ``filtfilt`` take 27
+    times as long as this (2.3 times on 3000 frames; measured on the shared 2-core machine).
     """
     b, a, zi = _butter(cutoff_hz, fps_hz)
     pad = min(3 * max(len(a), len(b)), x.shape[0] - 1)
