@@ -391,3 +391,14 @@ def test_read_labels_is_the_one_user_table_reader(tmp_path: Path) -> None:
     assert df["subject"].tolist() == ["P1", "P2", "P3"]
     assert df["cohort"].tolist() == ["PD", "HC", "PD"]
     assert df["angle_deg"].tolist() == [90.0, 180.0, 90.0]
+
+
+def test_participants_are_read_by_the_one_user_table_reader(tmp_path: Path) -> None:
+    # A semicolon export (a spreadsheet in a European locale), as every user table is read.
+    path = _csv(
+        tmp_path,
+        "subject;cohort;pair;sex;age;years_since_diagnosis\nP1;pd;a;F;60;3\nP2;HC;a;M;58;\n",
+    )
+    df = read_participants(path)
+    assert df["subject"].tolist() == ["P1", "P2"] and df["cohort"].tolist() == ["PD", "HC"]
+    assert df["age"].tolist() == [60.0, 58.0]
