@@ -223,7 +223,7 @@ def _read(p: Path, columns: Sequence[str]) -> pd.DataFrame:
     row's CSV line in ``attrs["lines"]``."""
     if not p.is_file():
         raise TurnbenchError("no such file", file=p)
-    table = read_table(p, what="clip index", numeric_columns=(), allow_empty=True)
+    table = read_table(p, what="clip index", numeric_columns=(), allow_no_rows=True)
     require(table, columns, what="the clip index")
     frame = pd.DataFrame({c: table.columns[c] for c in table.header if c}, dtype=object)
     frame.attrs["lines"] = table.lines

@@ -32,6 +32,7 @@ from turn_datasets.h36m.clip_index import SequenceClips, build_index
 from turn_datasets.h36m.manifest import build_manifest
 from turn_datasets.h36m.miner import (
     FILTER_MAX_FRACTION_OF_FPS,
+    FILTER_MIN_FRACTION_OF_FPS,
     MinerParams,
     mine_clips,
     position_filter_applies,
@@ -198,6 +199,20 @@ def _refuse_bad(
     )
 
 
+def _unfiltered_note(cutoff_hz: float, fps: float, names: Sequence[str]) -> str:
+    """What the manifest and the warning say of sequences whose rate the cut-off does not fit
+    (:func:`turn_datasets.h36m.miner.position_filter_applies`)."""
+    side = (
+        f"at or above {FILTER_MAX_FRACTION_OF_FPS:g} x {fps:g} Hz"
+        if cutoff_hz >= FILTER_MAX_FRACTION_OF_FPS * fps
+        else f"below {FILTER_MIN_FRACTION_OF_FPS:g} x {fps:g} Hz"
+    )
+    return (
+        f"--position-cutoff-hz {cutoff_hz:g} is {side}: the hip positions of {len(names)} "
+        f"sequence(s) at that rate were not filtered (first: {names[0]})"
+    )
+
+
 def mine_corpus(
     sources: Sources,
     params: MinerParams,
@@ -283,9 +298,7 @@ def mine_corpus(
         for e in r.bad_sequences
     ]
     notes = [
-        f"--position-cutoff-hz {params.position_cutoff_hz:g} is at or above "
-        f"{FILTER_MAX_FRACTION_OF_FPS:g} x {fps:g} Hz: the hip positions of "
-        f"{len(names)} sequence(s) at that rate were not filtered (first: {names[0]})"
+        _unfiltered_note(params.position_cutoff_hz, fps, names)
         for fps, names in sorted(unfiltered.items())
     ] + odd_rates
     manifest = build_manifest(

@@ -79,7 +79,7 @@ def read_participants(path: str | PathLike[str]) -> pd.DataFrame:
     file = str(path)
     # The one reader of user tables (turn_datasets.usertable): UTF-8 with or without a BOM,
     # header names ignoring case and spaces, comma, semicolon or tab, blank lines skipped.
-    table = read_table(path, what="participants table", numeric_columns=(), allow_empty=True)
+    table = read_table(path, what="participants table", numeric_columns=(), allow_no_rows=True)
     require(table, list(PARTICIPANT_COLUMNS), what="the participants table")
     rows: list[dict[str, Any]] = []
     seen: dict[str, int] = {}

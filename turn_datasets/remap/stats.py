@@ -46,7 +46,7 @@ def read_labels(path: str | PathLike[str]) -> pd.DataFrame:
     file = str(path)
     # The one reader of user tables (turn_datasets.usertable): UTF-8 with or without a BOM,
     # header names ignoring case and spaces, each row's own line number.
-    table = read_table(path, what="labels", numeric_columns=(), allow_empty=True)
+    table = read_table(path, what="labels", numeric_columns=(), allow_no_rows=True)
     df = pd.DataFrame({c: table.columns[c] for c in table.header if c}, dtype=object)
     lines = table.lines
     missing = [c for c in _STATS_NEEDS if c not in df.columns]
