@@ -738,9 +738,7 @@ def score_events(
     tp, outcomes, agree, dstart, dend = _matched_block(events, det, ref, bin_width_deg)
     components = _event_components(events, tp, outcomes)
     unit = events["unit"].to_numpy(dtype=np.int64)
-
-    partitions = [Partition.whole(events.shape[0])]
-    partitions += grouped
+    partitions = [Partition.whole(events.shape[0]), *grouped]
     sums = {
         p.name: unit_sums(unit, p.codes, components, len(units), len(p.labels)) for p in partitions
     }
