@@ -16,7 +16,7 @@ measured
     reader's checks and float64 conversion, one sequence at a time),
     :func:`turn_datasets.h36m.miner.mine_clips` (the rule of
     :func:`turn_datasets.h36m.miner.mine_sequence`) and the clip index
-    (:func:`turn_datasets.h36m.miner.build_index`).
+    (:func:`turn_datasets.h36m.clip_index.build_index`).
 
 The target is a ratio of at most 1.5 (issue 3).
 
@@ -31,7 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
-from turn_datasets.h36m.miner import MinerParams, build_index, iter_clips
+from turn_datasets.h36m.clip_index import build_index
+from turn_datasets.h36m.miner import MinerParams, iter_clips
 from turn_datasets.mocap.h36m import H36M_ACTIONS
 from turn_datasets.mocap.readers import SourceFile, read_source
 from turn_datasets.synthetic import mocap as sm

@@ -25,6 +25,7 @@ from pathlib import Path
 import pandas as pd
 
 from turn_datasets.h36m.miner import MinerParams, mine_sequence
+from turn_datasets.remap.labels import MIN_LABELLED_TURN_DEG
 from turn_datasets.render.markdown import markdown_table
 from turn_datasets.skeleton import H36M17
 from turn_datasets.synthetic.untrimmed import (
@@ -39,7 +40,7 @@ from turn_eval.detect.rule import DETECT_MINER_DEFAULTS, split_overlaps
 from turn_eval.events import score_events
 
 FPS_HZ = 30.0
-MIN_TURN_DEG = 67.5
+MIN_TURN_DEG = MIN_LABELLED_TURN_DEG
 
 
 def raw_miner(files: list[Path]) -> pd.DataFrame:

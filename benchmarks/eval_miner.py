@@ -1,6 +1,7 @@
 """Accuracy of the miner on issue 11's synthetic sets, in the three Human3.6M layouts.
 
-The sets, the matching and the scores are :mod:`turn_datasets.h36m.evaluation`'s. Targets
+The sets are :mod:`turn_datasets.synthetic.miner_sets`', the matching and the scores
+:mod:`turn_datasets.h36m.evaluation`'s. Targets
 (issue 11): easy, recall and precision 1.00, median angle error <= 1°, p90 <= 3°, median
 boundary error <= 0.15 s; hard, recall and precision >= 0.98, median <= 2.5°, p90 <= 6°,
 boundary <= 0.2 s.
@@ -13,7 +14,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from turn_datasets.h36m.evaluation import LAYOUTS, SETS, score
+from turn_datasets.synthetic.miner_sets import LAYOUTS, SETS, score
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -5,7 +5,12 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import click
 import pytest
+
+from turn_datasets.cli import cli as turn_datasets_cli
+from turn_datasets.cli.common import run_group
+from turn_eval.cli import cli as turn_eval_cli
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -59,3 +64,26 @@ def sports2d_video(shared_data: Path) -> Path:
     if not path.is_file():
         pytest.fail(f"real test video not found at {path}")
     return path
+
+
+# --- running a command in-process -----------------------------------------------------------
+# The tests run the console scripts' click groups as the scripts do (run_group maps errors to
+# exit codes), with pytest's capsys capturing stdout and stderr. Test modules import these:
+# ``from conftest import run_turn_eval as run``.
+
+
+def run_cli(group: click.Group, prog: str, args: list, capsys) -> tuple[int, str, str]:
+    """Run ``prog args`` (every argument as text): its exit code, stdout and stderr."""
+    code = run_group(group, prog, [str(a) for a in args])
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+def run_turn_eval(args: list, capsys) -> tuple[int, str, str]:
+    """``turn-eval args``, as :func:`run_cli`."""
+    return run_cli(turn_eval_cli, "turn-eval", args, capsys)
+
+
+def run_turn_datasets(args: list, capsys) -> tuple[int, str, str]:
+    """``turn-datasets args``, as :func:`run_cli`."""
+    return run_cli(turn_datasets_cli, "turn-datasets", args, capsys)

@@ -572,9 +572,10 @@ def test_markdown_tables_survive_pipes_in_names():
     import re
 
     from turn_datasets.remap.agreement import audit_agreement
+    from turn_datasets.remap.agreement_report import agreement_markdown
 
     odd = HAND.replace({"annotator": {"ann": "ann|x"}, "session": {"s1": "s|1"}})
-    md = audit_agreement(odd, n_bootstrap=0).to_markdown()
+    md = agreement_markdown(audit_agreement(odd, n_bootstrap=0))
     assert "ann\\|x" in md and "s\\|1" in md
     # Every row of a table has as many cell separators (unescaped "|") as its header.
     for block in md.split("\n\n"):

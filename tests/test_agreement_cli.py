@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import run_turn_datasets
 
 from turn_datasets.cli import cli
 from turn_datasets.cli.agreement import OUT_FILES
@@ -23,9 +24,8 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 def run(args, capsys) -> tuple[int, str, str]:
-    code = run_group(cli, "turn-datasets", ["remap", "agreement", *(str(a) for a in args)])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
+    """``turn-datasets remap agreement args``."""
+    return run_turn_datasets(["remap", "agreement", *args], capsys)
 
 
 @pytest.fixture(scope="module")

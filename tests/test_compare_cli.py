@@ -9,10 +9,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import run_turn_eval as run
 
 from turn_datasets import __version__
-from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
-from turn_eval.cli import cli
+from turn_datasets.cli.common import EXIT_BAD_INPUT
 from turn_eval.clips import metrics
 
 IDS = [f"clip{i}" for i in range(10)]
@@ -32,12 +32,6 @@ B = [50, 95, 85, 130, 175, 180, 90, 45, 230, 100]
 #   p = 2 * P(X <= 1), X ~ Bin(5, 1/2) = 2 * (1 + 5) / 32 = 0.375.
 # Speed (equation 4, every reference duration 2 s, no predicted speeds): speed errors are the
 #   angle errors / 2, so A's speed MAE is 7.75 °/s, B's 3.25 °/s.
-
-
-def run(args: list, capsys) -> tuple[int, str, str]:
-    code = run_group(cli, "turn-eval", [str(a) for a in args])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 def write_csv(path: Path, header: str, rows: list[tuple]) -> Path:
@@ -124,7 +118,7 @@ def test_json_keys_and_values_by_hand(files, capsys):
     assert doc["mcnemar"] == {"b": 1, "c": 4, "n_discordant": 5, "p_value": pytest.approx(0.375)}
     assert doc["settings"]["bootstrap"] == 500 and doc["settings"]["seed"] == 3
     assert doc["settings"]["version"] == __version__
-    assert "seed:3" in doc["signature"].split("|")
+    assert "seed:3" in doc["signature"]["options"].split("|")
 
 
 def test_identical_submissions(files, capsys):

@@ -12,21 +12,15 @@ import h5py
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import run_turn_eval as run
 from test_detect import WALK_TURN_WALK, stream
 
-from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
+from turn_datasets.cli.common import EXIT_BAD_INPUT
 from turn_datasets.fileio import sha256_file
-from turn_eval.cli import cli
 from turn_eval.detect.streams import stream_files, stream_names
 from turn_eval.events.contract import DETECTION_DTYPES
 
 BASE = ["--layout", "h36m17", "--up-axis", "-y", "--fps", "30", "--min-turn-deg", "67.5"]
-
-
-def run(args: list, capsys) -> tuple[int, str, str]:
-    code = run_group(cli, "turn-eval", [str(a) for a in args])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 def camera_axes(p_zup: np.ndarray) -> np.ndarray:

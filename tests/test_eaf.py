@@ -14,10 +14,10 @@ from turn_datasets.errors import TurnbenchError
 from turn_datasets.remap.eaf import (
     ANNOTATION_COLUMNS,
     expand_eaf_paths,
-    inspect_eaf,
     load_eaf,
     read_annotations,
 )
+from turn_datasets.remap.inspect import inspect_eaf
 from turn_datasets.remap.schema import load_schema
 
 # ---------------------------------------------------------------------------------------

@@ -12,11 +12,12 @@ import imageio_ffmpeg
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import run_cli
 from scipy.spatial.transform import Rotation
 from test_predict import minus_y_up_copy, turning_skeleton
 
 from turn_datasets.cli import cli as datasets_cli
-from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
+from turn_datasets.cli.common import EXIT_BAD_INPUT
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.geometry import frame_yaw_deg
 from turn_datasets.skeleton import H36M17, H36M17_FROM_32, to_z_up
@@ -39,9 +40,7 @@ from turn_eval.estimate.video import open_video
 
 
 def run(group, args, capsys):
-    code = run_group(group, "turn-eval", [str(a) for a in args])
-    out, err = capsys.readouterr()
-    return code, out, err
+    return run_cli(group, "turn-eval", args, capsys)
 
 
 # --- joints --------------------------------------------------------------------------------

@@ -6,7 +6,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from turn_eval.events._order import in_lexsort_order, lexsort, stable_argsort, unit_time_guess
+from turn_eval.events.order import in_lexsort_order, lexsort, stable_argsort, unit_time_guess
 
 _TIMES = st.sampled_from([0.0, 0.1, 0.1 + 1e-12, 1.0, 2.5, 1e6, 1e6 + 1e-9, np.nan])
 

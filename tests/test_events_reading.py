@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from turn_datasets.errors import TurnbenchError
 from turn_eval.events.reading import (
-    _Pairs,
+    Pairs,
     check_context,
     check_detections,
     check_event_reference,
@@ -118,7 +118,7 @@ def test_units_and_their_lookup_from_the_factorised_pairs(rows, extra, queries):
     detections = pd.DataFrame(queries, columns=["session", "subject"])
     expected = [names.index(q) if q in names else -1 for q in queries]
     assert units.codes(detections).tolist() == expected
-    pairs = _Pairs.of(detections)
+    pairs = Pairs.of(detections)
     assert units.lookup(pairs.sessions, pairs.subjects)[pairs.code].tolist() == expected
 
 
@@ -132,7 +132,7 @@ def test_an_empty_subject_of_the_reference_names_its_line(tmp_path):
 
 def test_pairs_number_a_missing_name_as_a_name():
     frame = pd.DataFrame({"session": ["s1", np.nan, "s1", np.nan], "subject": ["P1"] * 4})
-    pairs = _Pairs.of(frame)
+    pairs = Pairs.of(frame)
     assert pairs.code.tolist() == [0, 1, 0, 1]
     assert pairs.sessions[0] == "s1" and pd.isna(pairs.sessions[1])
     assert pairs.subjects.tolist() == ["P1", "P1"]

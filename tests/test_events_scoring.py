@@ -3,6 +3,8 @@ hand, grouping of false detections, validation errors."""
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -303,6 +305,20 @@ def test_ignore_unknown_drops_and_counts():
     assert doc["counts"]["dropped_unknown"] == 1
     assert doc["overall"]["fp"] == 0
     assert "dropped 1 detection" in said[0] and "line 4" in said[0]
+
+
+def test_vectorised_percentiles_are_numpys_nanpercentile_bit_for_bit():
+    from turn_eval.events.scoring import _percentiles
+
+    rng = np.random.default_rng(5)
+    values = rng.normal(size=(997, 40))
+    values[rng.uniform(size=values.shape) < 0.1] = np.nan
+    values[:, 3] = np.nan  # a group undefined on every resample
+    qs = (2.5, 50.0, 97.5)
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # the all-NaN column
+        want = np.nanpercentile(values, qs, axis=0)
+    assert np.array_equal(_percentiles(values, qs), want, equal_nan=True)
 
 
 def test_vectorised_percentiles_equal_the_harness_interval():

@@ -10,9 +10,9 @@ import imageio_ffmpeg
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import run_turn_datasets as run
 
-from turn_datasets.cli import cli
-from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
+from turn_datasets.cli.common import EXIT_BAD_INPUT
 from turn_datasets.h36m import export
 
 FPS = 50
@@ -79,12 +79,6 @@ def _index(path: Path, rows: list[tuple]) -> Path:
         )
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
-
-
-def run(args: list, capsys) -> tuple[int, str, str]:
-    code = run_group(cli, "turn-datasets", [str(a) for a in args])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 WALK = ("S1_Walking_63-100", "S1", "Walking", "1", 63, 100, 50)
@@ -354,3 +348,27 @@ def test_an_unreadable_video_is_named_before_any_cut(tmp_path: Path, capsys) -> 
     assert len(lines) == 1
     assert lines[0].startswith(f"turn-datasets: error: {broken}: ffmpeg cannot read this video")
     assert not out.exists()
+
+
+def test_read_clip_index_takes_a_bom_and_names_true_lines(tmp_path: Path) -> None:
+    # A spreadsheet's "CSV UTF-8" starts with a byte-order mark; the index is read as every
+    # user table is (turn_datasets.usertable), so the BOM is not part of the first column's
+    # name, and a blank line does not shift the line numbers of the rows after it.
+    path = _index(tmp_path / "i.csv", [WALK, PHOTO])
+    plain = export.read_export_index(path)
+    text = path.read_text(encoding="utf-8")
+    header, first, second = text.splitlines()
+    path.write_text("\ufeff" + "\n".join([header, first, "", second]) + "\n", encoding="utf-8")
+    df = export.read_export_index(path)
+    assert df["clip_id"].tolist() == plain["clip_id"].tolist()
+    assert df["row"].tolist() == [2, 4]
+    bad = second.replace(",0,25,", ",30,25,")
+    path.write_text("\ufeff" + "\n".join([header, first, "", bad]) + "\n", encoding="utf-8")
+    with pytest.raises(export.TurnbenchError, match="0 <= start_frame < end_frame") as err:
+        export.read_export_index(path)
+    assert str(err.value).startswith(f"{path}:4: ")
+
+
+def test_an_index_without_clips_is_read_as_empty(tmp_path: Path) -> None:
+    df = export.read_export_index(_index(tmp_path / "i.csv", []))
+    assert len(df) == 0 and list(df.columns) == [*export.INDEX_COLUMNS, "row"]

@@ -13,9 +13,10 @@ import click
 import matplotlib.axes
 import numpy as np
 import pytest
+from conftest import run_cli as _run
 
 from turn_datasets.cli import cli as datasets_cli
-from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
+from turn_datasets.cli.common import EXIT_BAD_INPUT
 from turn_eval.cli import cli as eval_cli
 
 REFERENCE = (
@@ -25,12 +26,6 @@ REFERENCE = (
     "c,45,0.5,kitchen\n"
 )
 PREDICTIONS = "clip_id,angle_deg\na,92.5\nb,170\nc,40\n"
-
-
-def _run(group, prog, args, capsys):
-    code = run_group(group, prog, [str(a) for a in args])
-    cap = capsys.readouterr()
-    return code, cap.out, cap.err
 
 
 @pytest.fixture()

@@ -13,20 +13,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 from _eaf_builder import Tier, write_eaf
+from conftest import run_turn_datasets as _run
 
-from turn_datasets.cli import cli
 from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.mocap import readers
 from turn_datasets.remap.eaf import expand_eaf_paths
 from turn_datasets.synthetic import mocap as sm
 from turn_datasets.synthetic.h36m_files import write_h36m_cdf, write_videopose_npz
-
-
-def _run(args, capsys):
-    code = run_group(cli, "turn-datasets", [str(a) for a in args])
-    cap = capsys.readouterr()
-    return code, cap.out, cap.err
 
 
 def _positions(seed: int) -> np.ndarray:

@@ -9,18 +9,12 @@ from pathlib import Path
 
 import pympi.Elan
 from _eaf_builder import Tier, add_cve_refs, write_eaf
+from conftest import run_turn_datasets as _run
 
-from turn_datasets.cli import cli
-from turn_datasets.cli.common import run_group
-from turn_datasets.remap.eaf import inspect_eaf, read_annotations
+from turn_datasets.remap.eaf import read_annotations
+from turn_datasets.remap.inspect import inspect_eaf
 
 TEMPLATE = Path(__file__).resolve().parents[1] / "annotations" / "turn-remap.etf"
-
-
-def _run(args, capsys):
-    code = run_group(cli, "turn-datasets", [str(a) for a in args])
-    cap = capsys.readouterr()
-    return code, cap.out, cap.err
 
 
 def _without_schema_location(path: Path) -> Path:

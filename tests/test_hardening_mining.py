@@ -8,16 +8,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import run_turn_datasets as _run
 
-from turn_datasets.cli import cli
-from turn_datasets.cli.common import run_group
 from turn_datasets.synthetic import mocap as sm
-
-
-def _run(args, capsys):
-    code = run_group(cli, "turn-datasets", [str(a) for a in args])
-    cap = capsys.readouterr()
-    return code, cap.out, cap.err
 
 
 def _array(tmp_path: Path) -> Path:

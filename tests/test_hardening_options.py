@@ -12,9 +12,10 @@ from pathlib import Path
 import click
 import numpy as np
 import pytest
+from conftest import run_cli as _run
 
 from turn_datasets.cli import cli as datasets_cli
-from turn_datasets.cli.common import EXIT_BAD_INPUT, Number, run_group
+from turn_datasets.cli.common import EXIT_BAD_INPUT, Number
 from turn_eval.cli import cli as eval_cli
 
 REFERENCE = "clip_id,angle_deg,duration_s\na,90,1.0\nb,180,2.0\nc,45,0.5\nd,135,1.5\n"
@@ -71,12 +72,6 @@ def score_files(tmp_path: Path) -> tuple[Path, Path]:
     pred = tmp_path / "pred.csv"
     pred.write_text(PREDICTIONS)
     return pred, ref
-
-
-def _run(group, prog, args, capsys):
-    code = run_group(group, prog, [str(a) for a in args])
-    cap = capsys.readouterr()
-    return code, cap.out, cap.err
 
 
 @pytest.mark.parametrize("value", ["nan", "inf", "0", "-45", "361"])

@@ -18,21 +18,16 @@ from pathlib import Path
 
 import pytest
 from _eaf_builder import Tier, write_eaf
+from conftest import run_cli as _run
 
 from turn_datasets.cli import cli as datasets_cli
-from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
+from turn_datasets.cli.common import EXIT_BAD_INPUT
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import atomic_path, staged_dir
 from turn_eval.cli import cli as eval_cli
 
 REFERENCE = "clip_id,angle_deg,duration_s\na,90,1.0\nb,180,2.0\nc,45,0.5\nd,135,1.5\n"
 PREDICTIONS = "clip_id,angle_deg\na,92.5\nb,170\nc,40\nd,100\n"
-
-
-def _run(group, prog, args, capsys):
-    code = run_group(group, prog, [str(a) for a in args])
-    cap = capsys.readouterr()
-    return code, cap.out, cap.err
 
 
 def _hidden(folder: Path) -> list[Path]:

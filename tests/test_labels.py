@@ -371,3 +371,34 @@ def test_read_labels_errors(tmp_path: Path) -> None:
     path = _csv(tmp_path, "clip_id,subject\n", "l3.csv")
     with pytest.raises(TurnbenchError, match="lack column"):
         read_labels(path)
+
+
+def test_read_labels_is_the_one_user_table_reader(tmp_path: Path) -> None:
+    # A semicolon-delimited spreadsheet export with a BOM, a blank line and padded cells is
+    # read as a submission is; the bad cohort's line is the file's own (5, not 4).
+    text = (
+        "\ufeffclip_id;Subject;cohort;angle_deg;scenario;location\n"
+        "a;P1;PD;90;scripted;kitchen\n"
+        "b;P2; hc ;180;scripted;hall\n"
+        "\n"
+        "c;P3;XX;90;scripted;hall\n"
+    )
+    path = _csv(tmp_path, text, "l.csv")
+    with pytest.raises(TurnbenchError, match=rf"{path}:5: cohort 'XX'"):
+        read_labels(path)
+    path = _csv(tmp_path, text.replace("XX", "PD"), "l2.csv")
+    df = read_labels(path)
+    assert df["subject"].tolist() == ["P1", "P2", "P3"]
+    assert df["cohort"].tolist() == ["PD", "HC", "PD"]
+    assert df["angle_deg"].tolist() == [90.0, 180.0, 90.0]
+
+
+def test_participants_are_read_by_the_one_user_table_reader(tmp_path: Path) -> None:
+    # A semicolon export (a spreadsheet in a European locale), as every user table is read.
+    path = _csv(
+        tmp_path,
+        "subject;cohort;pair;sex;age;years_since_diagnosis\nP1;pd;a;F;60;3\nP2;HC;a;M;58;\n",
+    )
+    df = read_participants(path)
+    assert df["subject"].tolist() == ["P1", "P2"] and df["cohort"].tolist() == ["PD", "HC"]
+    assert df["age"].tolist() == [60.0, 58.0]

@@ -12,9 +12,9 @@ from pathlib import Path
 import pandas as pd
 import pytest
 from _eaf_builder import Tier, write_eaf
+from conftest import run_turn_datasets
 
-from turn_datasets.cli import cli
-from turn_datasets.cli.common import EXIT_BAD_INPUT, EXIT_OK, run_group
+from turn_datasets.cli.common import EXIT_BAD_INPUT, EXIT_OK
 from turn_datasets.remap.eaf import ANNOTATION_COLUMNS
 from turn_datasets.remap.labels import LABEL_COLUMNS
 
@@ -22,9 +22,7 @@ HEADER = "subject,cohort,pair,sex,age,years_since_diagnosis\n"
 
 
 def run(capsys, *args) -> tuple[int, str, str]:
-    code = run_group(cli, "turn-datasets", [str(a) for a in args])
-    out, err = capsys.readouterr()
-    return code, out, err
+    return run_turn_datasets(list(args), capsys)
 
 
 def _eaf_dir(tmp_path: Path, *, disagree: bool) -> Path:

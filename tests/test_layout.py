@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -81,3 +82,110 @@ def test_no_function_is_longer_than_the_house_rule(package: str) -> None:
                 if lines > MAX_FUNCTION_LINES:
                     long.append(f"{path.relative_to(REPO)}:{node.lineno} {node.name} ({lines})")
     assert long == []
+
+
+def _module_name(path: Path) -> str:
+    parts = list(path.relative_to(REPO).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _package_imports() -> dict[str, list[tuple[str, list[str]]]]:
+    """Each module of both packages and what it imports from either package."""
+    return {
+        _module_name(path): [
+            (module, names) for module, names in _imports(path) if module.split(".")[0] in PACKAGES
+        ]
+        for package in PACKAGES
+        for path in _modules(package)
+    }
+
+
+def test_no_module_imports_a_private_name_of_another() -> None:
+    # a name with a leading underscore (or a module named so) is its module's own business
+    found = []
+    for module, imports in _package_imports().items():
+        for imported, names in imports:
+            taken = [imported, *(f"{imported}.{n}" for n in names)]
+            found += [f"{module}: {t}" for t in taken if imported != module and _private(t)]
+    assert found == []
+
+
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Every strongly connected set of more than one module (Tarjan), each sorted."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    out: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                out.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def _import_graph() -> dict[str, set[str]]:
+    """Module -> the package modules it imports (``from a.b import c`` is ``a.b.c`` when
+    ``c`` is a module, else ``a.b``); a package's ``__init__`` re-exporting its modules is
+    not an edge back from them."""
+    imports = _package_imports()
+    graph: dict[str, set[str]] = {}
+    for module, found in imports.items():
+        edges = set()
+        for imported, names in found:
+            for name in names or [""]:
+                target = f"{imported}.{name}" if f"{imported}.{name}" in imports else imported
+                if target in imports and target != module and not module.startswith(target + "."):
+                    edges.add(target)
+        graph[module] = edges
+    return graph
+
+
+def test_no_import_circle() -> None:
+    assert _cycles(_import_graph()) == []
+
+
+def test_the_circle_check_sees_a_circle() -> None:
+    graph = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}, "e": {"e"}}
+    assert _cycles(graph) == [["a", "b", "c"]]
+
+
+_ISSUE = re.compile(r"\bissues? *#?\d", re.IGNORECASE)
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_package_code_cites_no_issue_numbers(package: str) -> None:
+    # code says what it does and why; the history of how it got there is in the commits
+    found = [
+        f"{path.relative_to(REPO)}:{i}"
+        for path in _modules(package)
+        for i, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1)
+        if _ISSUE.search(line)
+    ]
+    assert found == []
+
+
+def test_the_issue_check_sees_a_citation() -> None:
+    assert _ISSUE.search("the notes of issue 13") and _ISSUE.search("(Issue #5)")
+    assert not _ISSUE.search("no issue here") and not _ISSUE.search("tissue 3")

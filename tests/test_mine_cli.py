@@ -14,20 +14,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import run_turn_datasets as run
 
-from turn_datasets.cli import cli
-from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
-from turn_datasets.h36m.miner import CLIP_INDEX_DTYPES, MinerParams
+from turn_datasets.cli.common import EXIT_BAD_INPUT
+from turn_datasets.h36m.clip_index import CLIP_INDEX_DTYPES
+from turn_datasets.h36m.miner import MinerParams
 from turn_datasets.synthetic import mocap as sm
 from turn_datasets.synthetic.h36m_files import write_h36m_cdf, write_h36m_h5, write_videopose_npz
 
 REPO = Path(__file__).resolve().parents[1]
-
-
-def run(args, capsys) -> tuple[int, str, str]:
-    code = run_group(cli, "turn-datasets", [str(a) for a in args])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 def _sequence(seed: int, turns: list[float], noise_mm: float = 10.0) -> sm.SyntheticSequence:

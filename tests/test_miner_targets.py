@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import pytest
 
-from turn_datasets.h36m.evaluation import LAYOUTS, score
+from turn_datasets.synthetic.miner_sets import LAYOUTS, score
 
 SEEDS = range(100, 125)  # not the seeds the rule was tuned on (0-39)
 

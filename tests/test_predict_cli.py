@@ -10,21 +10,15 @@ import h5py
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import run_turn_eval as run
 from test_predict import minus_y_up_copy, turning_skeleton, y_up_copy
 
-from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
+from turn_datasets.cli.common import EXIT_BAD_INPUT
 from turn_datasets.skeleton import H36M32
-from turn_eval.cli import cli
 from turn_eval.clips import metrics
 from turn_eval.clips import submission as predictions
 
 CONVERT = {"z": lambda p: p, "y": y_up_copy, "-y": minus_y_up_copy}
-
-
-def run(args: list[str], capsys) -> tuple[int, str, str]:
-    code = run_group(cli, "turn-eval", [str(a) for a in args])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 def write_skeletons(path: Path, clips: dict[str, np.ndarray]) -> Path:

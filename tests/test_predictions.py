@@ -15,13 +15,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.usertable import _has_blank_line, _plain_lines, _read_plain
 from turn_eval.clips.submission import (
     GROUP_COLUMNS,
     JOINED_COLUMNS,
     read_predictions,
     read_reference,
 )
-from turn_eval.scoring.table import _has_blank_line, _plain_lines, _read_plain
 
 REFERENCE = (
     "clip_id,subject,action,split,angle_deg,duration_s\n"

@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import run_turn_eval as run
 
 from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
-from turn_eval.cli import cli
 from turn_eval.cli import score as _cli_score
 from turn_eval.clips import plots
 
@@ -30,12 +30,6 @@ REFERENCE = (
     "d,S11,Walking,test,135,1.5\n"
 )
 PREDICTIONS = "clip_id,angle_deg\na,92.5\nb,170\nc,40\nd,100\n"
-
-
-def run(args: list, capsys) -> tuple[int, str, str]:
-    code = run_group(cli, "turn-eval", [str(a) for a in args])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 @pytest.fixture()
@@ -326,7 +320,7 @@ def test_json_without_durations_has_null_speed_everywhere(files, capsys):
     )
     assert code == 0, err
     scores = json.loads(out)
-    assert list(scores) == ["overall", "by", "n_missing", "settings"]
+    assert list(scores) == ["overall", "by", "n_missing", "settings", "signature"]
     entries = [scores["overall"]]
     for block in scores["by"].values():
         assert list(block) == ["groups", "avg"]

@@ -80,7 +80,7 @@ def test_markdown_rows_in_the_papers_order(table4a):
 
 def test_json_document_shape(table4a):
     scores = build_scores(table4a, n_resamples=50, seed=3)
-    assert list(scores) == ["overall", "by", "n_missing", "settings"]
+    assert list(scores) == ["overall", "by", "n_missing", "settings", "signature"]
     overall = scores["overall"]
     for key in ("n", *METRICS, "ci95", "per_bin", "kappa"):
         assert key in overall

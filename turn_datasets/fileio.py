@@ -39,6 +39,7 @@ from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
 
 __all__ = [
+    "manifest_path",
     "atomic_path",
     "staged_dir",
     "check_output_path",
@@ -362,6 +363,13 @@ def _nan_to_none(obj: Any) -> Any:
 def to_json_text(obj: Any) -> str:
     """JSON text as every command writes it: NaN becomes null, two-space indent, newline."""
     return json.dumps(_nan_to_none(obj), indent=2, default=_json_default, allow_nan=False) + "\n"
+
+
+def manifest_path(output: str | os.PathLike[str]) -> Path:
+    """Where an output's manifest goes: ``turn-h36m.csv`` -> ``turn-h36m.manifest.json``,
+    ``poses.npz`` -> ``poses.manifest.json``, beside it."""
+    p = Path(output)
+    return p.with_name(f"{p.stem}.manifest.json")
 
 
 def write_json(path: str | os.PathLike[str], obj: Any) -> Path:

@@ -43,10 +43,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from turn_datasets import limits
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.params import param
 from turn_datasets.skeleton import JOINT_PAIRS, Layout
 
 __all__ = [
+    "BinParams",
+    "BIN_WIDTH_DEG",
     "METHODS",
     "TurningAngle",
     "frontal_vectors",
@@ -328,7 +332,24 @@ def direction_of(net_deg: float) -> str:
     return "none"
 
 
-def quantise_deg(angle_deg, bin_width_deg: float = 45.0):
+@dataclass(frozen=True)
+class BinParams:
+    """How angles are binned for the accuracy, WPrec and kappa (DESIGN.md's bins)."""
+
+    bin_width_deg: float = param(
+        45.0,
+        "Width of the angle bins (the paper's 45°).",
+        min=0.0,
+        min_open=True,
+        max=limits.MAX_BIN_WIDTH_DEG,
+    )
+
+
+#: The paper's bin width: the default of every function that bins (:class:`BinParams`).
+BIN_WIDTH_DEG: float = BinParams().bin_width_deg
+
+
+def quantise_deg(angle_deg, bin_width_deg: float = BIN_WIDTH_DEG):
     """Nearest multiple of the bin width: ``45 * floor(angle / 45 + 0.5)`` (DESIGN.md).
 
     Halves round up (22.5 -> 45), as the floor formula does; works on scalars and arrays.

@@ -45,7 +45,7 @@ from turn_datasets import __version__
 from turn_datasets import cli as datasets_cli
 from turn_datasets.cli.common import run_group
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.fileio import write_csv, write_text
+from turn_datasets.fileio import manifest_path, write_csv, write_text
 from turn_datasets.render.markdown import markdown_table
 from turn_datasets.render.numbers import MISSING, elan_time, fixed, format_metric
 from turn_datasets.synthetic.degrade import degrade_skeleton
@@ -353,7 +353,7 @@ def _h36m_step(out: Path, h36m, paths: dict[str, Path]) -> tuple[Path, str, str]
     _datasets(["h36m", "mine", str(out / "corpus" / "h36m"), "--out", str(index_path)])
     table3 = _datasets(["h36m", "stats", str(index_path)], show=True)
     paths["Turn-H3.6M clip index"] = index_path
-    paths["Turn-H3.6M manifest"] = index_path.with_suffix(".manifest.json")
+    paths["Turn-H3.6M manifest"] = manifest_path(index_path)
     paths["Table 3 (clips per bin)"] = write_text(h36m_dir / "table3.md", table3)
     index = pd.read_csv(index_path, dtype={"subaction": str}, keep_default_na=False)
     matched, miner_md = _miner_check(h36m.planted, index)

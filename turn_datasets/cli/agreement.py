@@ -33,7 +33,7 @@ from turn_datasets.fileio import (
     write_files,
 )
 from turn_datasets.remap.agreement import AgreementAudit, audit_agreement
-from turn_datasets.remap.agreement_report import write_confusion_png
+from turn_datasets.remap.agreement_report import agreement_markdown, write_confusion_png
 from turn_datasets.remap.eaf import expand_eaf_paths, read_annotations
 from turn_datasets.remap.gate import GATE_ON, check_gate
 from turn_datasets.remap.review_eaf import write_review_eaf
@@ -170,7 +170,7 @@ def agreement(
     if gate is not None:
         document["gate"] = gate.to_dict()
 
-    markdown = audit.to_markdown()
+    markdown = agreement_markdown(audit)
     if gate is not None:
         markdown += f"\n{gate.line()}\n"
         info(gate.line())

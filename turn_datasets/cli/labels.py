@@ -26,12 +26,8 @@ from turn_datasets.cli.common import (
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, staged_dir, to_json_text, write_csv
 from turn_datasets.remap.context import context_table, sessions_table
-from turn_datasets.remap.eaf import (
-    expand_eaf_paths,
-    inspect_eaf,
-    inspect_markdown,
-    read_annotations_and_context,
-)
+from turn_datasets.remap.eaf import expand_eaf_paths, read_annotations_and_context
+from turn_datasets.remap.inspect import inspect_eaf, inspect_markdown
 from turn_datasets.remap.labels import RESOLVE_CHOICES, make_labels
 from turn_datasets.remap.participants import read_participants
 from turn_datasets.remap.schema import Schema, load_schema

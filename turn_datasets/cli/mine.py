@@ -29,7 +29,7 @@ from turn_datasets.cli.common import (
     warn,
 )
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.fileio import check_not_input, to_json_text
+from turn_datasets.fileio import check_not_input, manifest_path, to_json_text
 from turn_datasets.h36m.clip_index import read_clip_index
 from turn_datasets.h36m.corpus import (
     find_sources,
@@ -37,7 +37,6 @@ from turn_datasets.h36m.corpus import (
     passed_over_lines,
     write_corpus,
 )
-from turn_datasets.h36m.manifest import manifest_path
 from turn_datasets.h36m.miner import MinerParams
 from turn_datasets.h36m.overrides import read_overrides
 from turn_datasets.h36m.stats import (

@@ -3,7 +3,7 @@
 Every source file is read one sequence at a time (:func:`turn_datasets.mocap.readers.read_source`),
 each sequence mined (:func:`turn_datasets.h36m.miner.mine_clips`) and curated
 (:func:`turn_datasets.h36m.overrides.apply_overrides`); the clips of all make one index
-(:func:`turn_datasets.h36m.miner.build_index`) and the record of how it was made its manifest
+(:func:`turn_datasets.h36m.clip_index.build_index`) and the record of how it was made its manifest
 (:mod:`turn_datasets.h36m.manifest`).
 
 The corpus policy for bad input: a file that cannot be read, or one unusable sequence in a
@@ -29,14 +29,13 @@ from typing import Any
 import pandas as pd
 
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.fileio import atomic_path, sha256_file, to_json_text
-from turn_datasets.h36m.manifest import build_manifest, manifest_path
+from turn_datasets.fileio import atomic_path, manifest_path, sha256_file, to_json_text
+from turn_datasets.h36m.clip_index import SequenceClips, build_index
+from turn_datasets.h36m.manifest import build_manifest
 from turn_datasets.h36m.miner import (
     FILTER_MAX_FRACTION_OF_FPS,
     FILTER_MIN_FRACTION_OF_FPS,
     MinerParams,
-    SequenceClips,
-    build_index,
     mine_clips,
     position_filter_applies,
 )

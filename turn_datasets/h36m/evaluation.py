@@ -1,23 +1,15 @@
-"""How well the miner finds planted turns: matching mined clips to a synthetic truth.
+"""How well the miner finds known turns: matching mined clips to planted ones, and scores.
 
 As mobgap keeps an ``evaluation.py`` beside each algorithm, this module scores
-:func:`turn_datasets.h36m.miner.mine_sequence` against the turns planted by
-:mod:`turn_datasets.synthetic.mocap`, on the two sets of issue 11:
+:func:`turn_datasets.h36m.miner.mine_sequence` against sequences whose turns are known (the
+synthetic sets of :mod:`turn_datasets.synthetic.miner_sets`, or any other truth of the same
+columns).
 
-easy
-    turns of 45 to 160 °/s mean speed, 3 to 5° peak-to-peak pelvic sway, 10 mm joint noise;
-hard
-    slow turns of 25 to 60 °/s, 6 to 8° sway, 20 mm noise, NaN dropouts (short ones anywhere,
-    a long one in a straight stretch);
-
-each minable in the three Human3.6M layouts (the 32 joints in millimetres, the 17-joint
-subset in millimetres, and the 17 joints in metres as VideoPose3D stores them).
-
-Each planted turn of 60° or more is matched one-to-one with a mined clip of the same
-direction (scipy's Hungarian algorithm on the frames they share, :func:`match_turns`). The
-truth of a clip's ``angle_deg`` is the planted heading change (the generator's
-``heading_deg``); of its ``hip_rotation_deg``, the planted hip rotation (``angle_deg``). A
-mined clip that matches no planted turn and overlaps none below 60° is a false clip.
+Each known turn of 60° or more is matched one-to-one with a mined clip of the same direction
+(scipy's Hungarian algorithm on the frames they share, :func:`match_turns`). The truth of a
+clip's ``angle_deg`` is the planted heading change (``heading_deg``); of its
+``hip_rotation_deg``, the planted hip rotation (``angle_deg``). A mined clip that matches no
+planted turn and overlaps none below 60° is a false clip.
 A planted turn longer than :data:`turn_datasets.limits.MAX_TURN_DURATION_S` is turning that
 the rule reports as a circling episode, not a turn (one turn lasts at most 10 s): it is
 scored as neither, and a clip overlapping it is not false.
@@ -25,9 +17,8 @@ scored as neither, and a clip overlapping it is not false.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
-from types import MappingProxyType
-from typing import TypedDict
+from collections.abc import Iterable
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -35,56 +26,28 @@ from scipy.optimize import linear_sum_assignment
 
 from turn_datasets import limits
 from turn_datasets.h36m.miner import MinerParams, mine_sequence
-from turn_datasets.skeleton import H36M17, H36M17_FROM_32, H36M32, Layout
-from turn_datasets.synthetic import mocap as sm
+from turn_datasets.skeleton import Layout
 
-__all__ = ["SETS", "LAYOUTS", "MIN_PLANTED_DEG", "synthetic", "in_layout", "match_turns", "score"]
+__all__ = ["MIN_PLANTED_DEG", "FAST_DEG_S", "KnownTurns", "match_turns", "score_sequences"]
 
-
-class SyntheticSet(TypedDict):
-    """A synthetic set: turn speed range (°/s), sway range (peak to peak, °), joint noise
-    (mm), and whether capture dropouts are planted."""
-
-    speed: tuple[float, float]
-    sway: tuple[float, float]
-    noise_mm: float
-    dropouts: bool
-
-
-#: Issue 11's synthetic sets: turn speed range (°/s), sway range (peak to peak, °), noise.
-SETS: Mapping[str, SyntheticSet] = MappingProxyType(
-    {
-        "easy": {"speed": (45.0, 160.0), "sway": (3.0, 5.0), "noise_mm": 10.0, "dropouts": False},
-        "hard": {"speed": (25.0, 60.0), "sway": (6.0, 8.0), "noise_mm": 20.0, "dropouts": True},
-    }
-)
-#: The three ways Human3.6M's poses are stored.
-LAYOUTS = ("h36m32-mm", "h36m17-mm", "h36m17-m")
 #: Planted turns below this are not scored (a clip on them is neither right nor false).
 MIN_PLANTED_DEG = 60.0
+#: A planted turn faster than this on average (°/s) counts as fast in the table.
+FAST_DEG_S = 100.0
+#: Turns this many seconds apart are back to back in the table.
+_BACK_TO_BACK_S = 0.5
 
 
-def synthetic(set_name: str, seed: int) -> sm.SyntheticSequence:
-    """One sequence of a set (eight planted turns), drawn from ``seed``."""
-    cfg = SETS[set_name]
-    rng = np.random.default_rng(seed)
-    segs = sm.random_segments(rng, turn_speed_range_deg_s=cfg["speed"])
-    drops = sm.random_dropouts(rng, segs) if cfg["dropouts"] else []
-    return sm.generate_sequence(
-        seed=seed,
-        segments=segs,
-        sway_deg=float(rng.uniform(*cfg["sway"])),
-        noise_mm=cfg["noise_mm"],
-        dropouts=drops,
-    )
+class KnownTurns(NamedTuple):
+    """A sequence and its known turns: ``planted`` has ``kind, start_frame, end_frame,
+    duration_s, heading_deg`` (the signed heading change) and ``angle_deg`` (the signed hip
+    rotation)."""
 
-
-def in_layout(seq: sm.SyntheticSequence, layout: str) -> tuple[np.ndarray, Layout]:
-    """The sequence's positions in one of :data:`LAYOUTS`."""
-    if layout == "h36m32-mm":
-        return seq.positions, H36M32
-    j17 = seq.positions[:, list(H36M17_FROM_32)]
-    return (j17, H36M17) if layout == "h36m17-mm" else (j17 / 1000.0, H36M17)
+    seed: int
+    positions: np.ndarray
+    layout: Layout
+    fps: float
+    planted: pd.DataFrame
 
 
 def match_turns(planted: pd.DataFrame, mined: pd.DataFrame) -> list[tuple[int, int]]:
@@ -112,10 +75,45 @@ def _circling(planted: pd.DataFrame) -> pd.Series:
     return planted.duration_s > limits.MAX_TURN_DURATION_S
 
 
-def score(
-    set_name: str, layout: str, seeds: Iterable[int], params: MinerParams | None = None
-) -> dict:
-    """Recall, precision, angle and boundary errors of the miner on one set and layout.
+def _rows(case: KnownTurns, mined: pd.DataFrame) -> tuple[list[dict], int]:
+    """One row per planted turn (found or not, its errors), and the false clips."""
+    planted, fps = case.planted, case.fps
+    pairs = dict(match_turns(planted, mined))
+    rows = []
+    prev_end = -1_000_000
+    for i, p in enumerate(planted.itertuples(index=False)):
+        row = {
+            "seed": case.seed,
+            "kind": p.kind,
+            "left": p.heading_deg > 0,
+            "fast": abs(p.heading_deg) / p.duration_s > FAST_DEG_S,
+            "back_to_back": p.start_frame - prev_end == int(_BACK_TO_BACK_S * fps),
+            "planted_deg": abs(p.heading_deg),
+            "circling": bool(p.duration_s > limits.MAX_TURN_DURATION_S),
+            "found": i in pairs,
+        }
+        prev_end = p.end_frame
+        if i in pairs:
+            m = mined.iloc[pairs[i]]
+            row["angle_error_deg"] = m.angle_deg - abs(p.heading_deg)
+            row["hip_error_deg"] = m.hip_rotation_deg - abs(p.heading_deg)
+            row["start_error_s"] = (m.start_frame - p.start_frame) / fps
+            row["end_error_s"] = (m.end_frame - p.end_frame) / fps
+        rows.append(row)
+    false_clips = 0
+    for j in set(range(len(mined))) - set(pairs.values()):
+        m = mined.iloc[j]
+        small = planted[
+            ((planted.heading_deg.abs() < MIN_PLANTED_DEG) | _circling(planted))
+            & (planted.end_frame > m.start_frame)
+            & (planted.start_frame < m.end_frame)
+        ]
+        false_clips += small.empty
+    return rows, false_clips
+
+
+def score_sequences(cases: Iterable[KnownTurns], params: MinerParams | None = None) -> dict:
+    """Recall, precision, angle and boundary errors of the miner on sequences of known turns.
 
     Returns
     -------
@@ -125,41 +123,21 @@ def score(
         median absolute error of ``hip_rotation_deg`` against the same heading truth (what
         the old angle would score), the median absolute boundary error (seconds, starts and
         ends pooled) and the mean signed start and end errors; plus ``table``, one row per
-        scored planted turn.
+        scored planted turn (with its ``kind``, ``left``, ``fast`` and ``back_to_back``).
     """
-    rows, false_clips = [], 0
-    for seed in seeds:
-        seq = synthetic(set_name, seed)
-        positions, lay = in_layout(seq, layout)
-        mined = mine_sequence(positions, layout=lay, fps_hz=seq.fps, params=params)
-        pairs = dict(match_turns(seq.planted, mined))
-        for i, p in enumerate(seq.planted.itertuples(index=False)):
-            row = {"seed": seed, "kind": p.kind, "planted_deg": abs(p.heading_deg)}
-            row["circling"] = bool(p.duration_s > limits.MAX_TURN_DURATION_S)
-            row["found"] = i in pairs
-            if i in pairs:
-                m = mined.iloc[pairs[i]]
-                row["angle_error_deg"] = m.angle_deg - abs(p.heading_deg)
-                row["hip_error_deg"] = m.hip_rotation_deg - abs(p.heading_deg)
-                row["start_error_s"] = (m.start_frame - p.start_frame) / seq.fps
-                row["end_error_s"] = (m.end_frame - p.end_frame) / seq.fps
-            rows.append(row)
-        for j in set(range(len(mined))) - set(pairs.values()):
-            m = mined.iloc[j]
-            small = seq.planted[
-                ((seq.planted.heading_deg.abs() < MIN_PLANTED_DEG) | _circling(seq.planted))
-                & (seq.planted.end_frame > m.start_frame)
-                & (seq.planted.start_frame < m.end_frame)
-            ]
-            false_clips += small.empty
+    rows: list[dict] = []
+    false_clips = 0
+    for case in cases:
+        mined = mine_sequence(case.positions, layout=case.layout, fps_hz=case.fps, params=params)
+        found, false = _rows(case, mined)
+        rows += found
+        false_clips += false
     table = pd.DataFrame(rows)
     scored = table[(table.planted_deg >= MIN_PLANTED_DEG) & ~table.circling]
     hits = scored[scored.found]
     err = np.abs(hits.angle_error_deg.to_numpy())
     boundary = np.abs(np.concatenate([hits.start_error_s, hits.end_error_s]))
     return {
-        "set": set_name,
-        "layout": layout,
         "n_planted": int(len(scored)),
         "recall": round(len(hits) / len(scored), 4),
         "precision": round(len(hits) / max(len(hits) + false_clips, 1), 4),

@@ -13,9 +13,7 @@ inputs."""
 from __future__ import annotations
 
 import datetime as _dt
-import os
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 from typing import Any
 
 import pandas as pd
@@ -25,17 +23,7 @@ from turn_datasets.h36m.miner import MinerParams
 from turn_datasets.h36m.overrides import Overrides
 from turn_datasets.render.order import natural_key
 
-__all__ = [
-    "manifest_path",
-    "build_manifest",
-]
-
-
-def manifest_path(index_path: str | os.PathLike[str]) -> Path:
-    """``turn-h36m.csv`` -> ``turn-h36m.manifest.json`` (beside the index)."""
-    p = Path(index_path)
-    stem = p.name[: -len(p.suffix)] if p.suffix else p.name
-    return p.with_name(f"{stem}.manifest.json")
+__all__ = ["build_manifest"]
 
 
 def _counts(series: pd.Series, key=None) -> dict[str, int]:

@@ -36,7 +36,8 @@ import numpy as np
 
 from turn_datasets.errors import TurnbenchError, require_columns
 from turn_datasets.fileio import sha256_file
-from turn_datasets.h36m.miner import MinerParams, SequenceClips, clip_id_of, measure_clip
+from turn_datasets.h36m.clip_index import SequenceClips, clip_id_of
+from turn_datasets.h36m.miner import MinerParams, measure_clip
 from turn_datasets.skeleton import MocapSequence
 
 __all__ = [

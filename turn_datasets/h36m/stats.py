@@ -2,7 +2,7 @@
 
 Minimum, maximum and mean angle in degrees and mean duration in seconds, printed with one and
 two decimals, rounded as every table of turnbench (:mod:`turn_datasets.render.numbers`).
-When the index has ``hip_rotation_deg`` (mined since issue 11), Table 3 is also given over
+When the index has ``hip_rotation_deg`` (older indexes lack it), Table 3 is also given over
 that column, binned by it (the paper's own quantity: the hip's net rotation between the
 boundaries), with the distribution of ``hip_rotation_deg - angle_deg``: what the step's
 pelvic rotation adds to the heading change.

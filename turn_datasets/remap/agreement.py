@@ -337,12 +337,6 @@ class AgreementAudit:
         table.insert(0, f"{a} (rows) / {b} (columns)", labels)
         return table
 
-    def to_markdown(self) -> str:
-        """The report as Markdown (percentages with one decimal, as the paper prints them)."""
-        from turn_datasets.remap.agreement_report import agreement_markdown
-
-        return agreement_markdown(self)
-
 
 def _nan(value: float | None) -> float:
     return np.nan if value is None else float(value)

@@ -2,8 +2,10 @@
 
 In the paper (Cheng et al., Section 3.2) clinicians labelled each turn of the Turn-REMAP
 videos in ELAN with its start, end and angle. :func:`read_annotations` turns such files into
-one table with a row per annotation of every rater; :func:`inspect_eaf` lists what any ELAN
-file holds, so a clinician can see why a file yields no turns.
+one table with a row per annotation of every rater. The tier-level functions (loading a
+document, its tiers in order, their attributes, annotations and resolved times, the schema's
+role of each tier) are public for :mod:`turn_datasets.remap.inspect`, which lists what any
+ELAN file holds.
 
 EAF files are XML written by other people's tools. Before pympi-ling sees a file, it is
 parsed with ``defusedxml`` and refused if it declares a DOCTYPE or an entity (billion laughs,
@@ -34,16 +36,24 @@ from defusedxml.common import DTDForbidden, EntitiesForbidden, ExternalReference
 from turn_datasets.errors import TurnbenchError, Where
 from turn_datasets.fileio import typed_frame, walk_files
 from turn_datasets.remap.schema import Schema, Vocabulary, load_schema
-from turn_datasets.render.markdown import markdown_table
-from turn_datasets.render.numbers import MISSING, fixed
 
 __all__ = [
     "ANNOTATION_COLUMNS",
     "KNOWN_VERSIONS",
+    "Document",
+    "Timed",
+    "TierRole",
+    "annotation_times_ms",
+    "attr",
+    "classify_tiers",
     "expand_eaf_paths",
-    "inspect_eaf",
-    "inspect_markdown",
+    "linguistic_type",
+    "load_document",
     "load_eaf",
+    "parse_value",
+    "tier_annotations",
+    "tier_attrs",
+    "tiers_in_order",
     "read_annotations",
     "read_annotations_and_context",
     "FileContext",
@@ -73,7 +83,7 @@ KNOWN_VERSIONS = ("2.7", "2.8", "3.0")
 
 
 @dataclass
-class _Document:
+class Document:
     """A loaded file: pympi's object plus what pympi drops (CVE_REF links, the version), and
     the values whose text disagrees with their linked vocabulary entry (read as the entry)."""
 
@@ -156,7 +166,7 @@ def _safe_root(path: Path) -> Element:
     return root
 
 
-def _load(path: str | PathLike[str]) -> _Document:
+def load_document(path: str | PathLike[str]) -> Document:
     p = Path(path)
     root = _safe_root(p)
     cve_refs: dict[str, str] = {}
@@ -173,7 +183,7 @@ def _load(path: str | PathLike[str]) -> _Document:
             f"pympi-ling could not read this ELAN file ({type(exc).__name__}: {exc})",
             file=str(p),
         ) from None
-    return _Document(path=p, eaf=eaf, cve_refs=cve_refs, version=version)
+    return Document(path=p, eaf=eaf, cve_refs=cve_refs, version=version)
 
 
 def load_eaf(path: str | PathLike[str]) -> pympi.Elan.Eaf:
@@ -196,7 +206,7 @@ def load_eaf(path: str | PathLike[str]) -> pympi.Elan.Eaf:
         Naming the file: it declares a DOCTYPE or entities (refused before pympi sees it),
         is not well-formed XML, is not an ELAN document, or pympi-ling cannot read it.
     """
-    return _load(path).eaf
+    return load_document(path).eaf
 
 
 def expand_eaf_paths(
@@ -242,20 +252,20 @@ def expand_eaf_paths(
 # Tiers, times and vocabularies as stored by pympi
 
 
-def _tier_attrs(eaf: pympi.Elan.Eaf, tier_id: str) -> dict[str, Any]:
+def tier_attrs(eaf: pympi.Elan.Eaf, tier_id: str) -> dict[str, Any]:
     return eaf.tiers[tier_id][2]
 
 
-def _tiers_in_order(eaf: pympi.Elan.Eaf) -> list[str]:
+def tiers_in_order(eaf: pympi.Elan.Eaf) -> list[str]:
     return [t for t, _ in sorted(eaf.tiers.items(), key=lambda kv: kv[1][3])]
 
 
-def _attr(attrs: dict[str, Any], key: str) -> str:
+def attr(attrs: dict[str, Any], key: str) -> str:
     value = attrs.get(key)
     return "" if value is None else str(value).strip()
 
 
-def _annotation_times_ms(eaf: pympi.Elan.Eaf) -> dict[str, tuple[int | None, int | None]]:
+def annotation_times_ms(eaf: pympi.Elan.Eaf) -> dict[str, tuple[int | None, int | None]]:
     """Start and end (ms, ``None`` when unaligned) of every annotation, symbolic ones included.
 
     A reference annotation takes the times of the aligned annotation it hangs from, followed
@@ -289,7 +299,7 @@ class _Ann:
     value: str
 
 
-def _tier_annotations(
+def tier_annotations(
     eaf: pympi.Elan.Eaf, tier_id: str, times: dict[str, tuple[int | None, int | None]]
 ) -> list[_Ann]:
     aligned, refs, _attrs, _ord = eaf.tiers[tier_id]
@@ -313,13 +323,13 @@ def _tier_annotations(
     return sorted(anns, key=key)
 
 
-def _linguistic_type(eaf: pympi.Elan.Eaf, tier_id: str) -> dict[str, Any]:
-    lt = _attr(_tier_attrs(eaf, tier_id), "LINGUISTIC_TYPE_REF")
+def linguistic_type(eaf: pympi.Elan.Eaf, tier_id: str) -> dict[str, Any]:
+    lt = attr(tier_attrs(eaf, tier_id), "LINGUISTIC_TYPE_REF")
     return eaf.linguistic_types.get(lt, {}) or {}
 
 
 def _tier_cv(eaf: pympi.Elan.Eaf, tier_id: str) -> str:
-    return _attr(_linguistic_type(eaf, tier_id), "CONTROLLED_VOCABULARY_REF")
+    return attr(linguistic_type(eaf, tier_id), "CONTROLLED_VOCABULARY_REF")
 
 
 def _cve_texts(eaf: pympi.Elan.Eaf, cv_id: str, cve_id: str) -> list[str]:
@@ -338,32 +348,32 @@ def _cve_texts(eaf: pympi.Elan.Eaf, cv_id: str, cve_id: str) -> list[str]:
 
 
 @dataclass(frozen=True)
-class _TierRole:
+class TierRole:
     tier: str
     role: str  # "turn", "location", "scenario"
     annotator: str
     participant: str
 
 
-def _classify(eaf: pympi.Elan.Eaf, schema: Schema) -> list[_TierRole]:
-    roles: list[_TierRole] = []
-    for tier_id in _tiers_in_order(eaf):
-        attrs = _tier_attrs(eaf, tier_id)
+def classify_tiers(eaf: pympi.Elan.Eaf, schema: Schema) -> list[TierRole]:
+    roles: list[TierRole] = []
+    for tier_id in tiers_in_order(eaf):
+        attrs = tier_attrs(eaf, tier_id)
         # A stray space before "Turn" in a tier name must not hide the tier.
         m = schema.turn_tier_regex.search(tier_id.strip())
         if m:
             groups = m.groupdict()
-            annotator = (groups.get("annotator") or "").strip() or _attr(
+            annotator = (groups.get("annotator") or "").strip() or attr(
                 attrs, schema.annotator_attribute
             )
             participant = (
                 (groups.get("participant") or "").strip()
-                or _attr(attrs, schema.participant_attribute)
+                or attr(attrs, schema.participant_attribute)
                 or schema.default_participant
             )
             if schema.is_consensus(annotator):
                 annotator = schema.consensus_annotator
-            roles.append(_TierRole(tier_id, "turn", annotator, participant))
+            roles.append(TierRole(tier_id, "turn", annotator, participant))
             continue
         for role, regex in (
             ("location", schema.location_tier_regex),
@@ -371,10 +381,10 @@ def _classify(eaf: pympi.Elan.Eaf, schema: Schema) -> list[_TierRole]:
         ):
             m = regex.search(tier_id.strip())
             if m:
-                participant = (m.groupdict().get("participant") or "").strip() or _attr(
+                participant = (m.groupdict().get("participant") or "").strip() or attr(
                     attrs, schema.participant_attribute
                 )
-                roles.append(_TierRole(tier_id, role, "", participant))
+                roles.append(TierRole(tier_id, role, "", participant))
                 break
     return roles
 
@@ -388,7 +398,7 @@ def _fmt_s(ms: int | None) -> str:
 
 
 @dataclass(frozen=True)
-class _Timed:
+class Timed:
     """An annotation whose start and end are known and in order."""
 
     aid: str
@@ -398,15 +408,15 @@ class _Timed:
 
 
 def _checked_intervals(
-    doc: _Document,
+    doc: Document,
     tier: str,
     anns: list[_Ann],
     *,
     allow_overlap: bool,
-) -> list[_Timed]:
+) -> list[Timed]:
     """Aligned, positive-length annotations of one tier, in time order (errors otherwise)."""
     file = str(doc.path)
-    out: list[_Timed] = []
+    out: list[Timed] = []
     for a in anns:
         if a.start_ms is None or a.end_ms is None:
             known = a.start_ms if a.start_ms is not None else a.end_ms
@@ -434,11 +444,11 @@ def _checked_intervals(
                 tier=tier,
                 time_s=a.start_ms / 1000,
             )
-        out.append(_Timed(a.aid, a.start_ms, a.end_ms, a.value))
+        out.append(Timed(a.aid, a.start_ms, a.end_ms, a.value))
     return out
 
 
-def _parse_value(doc: _Document, tier: str, a: _Timed, vocab: Vocabulary) -> str | float:
+def parse_value(doc: Document, tier: str, a: Timed, vocab: Vocabulary) -> str | float:
     """The canonical value of annotation ``a`` (CVE_REF first, then its text), or an error."""
     candidates: list[str] = []
     ref = doc.cve_refs.get(a.aid)
@@ -516,7 +526,7 @@ class FileContext:
 
 
 def _file_contexts(
-    doc: _Document, schema: Schema, roles: list[_TierRole], times
+    doc: Document, schema: Schema, roles: list[TierRole], times
 ) -> dict[str, list[_Context]]:
     """The context tiers' annotations of a file, by role, in time order."""
     eaf = doc.eaf
@@ -526,23 +536,23 @@ def _file_contexts(
             continue
         vocab = schema.vocabulary(r.role)
         anns = _checked_intervals(
-            doc, r.tier, _tier_annotations(eaf, r.tier, times), allow_overlap=True
+            doc, r.tier, tier_annotations(eaf, r.tier, times), allow_overlap=True
         )
         for a in anns:
             if not a.value.strip() and a.aid not in doc.cve_refs:
                 continue  # an empty context annotation says nothing
-            value = str(_parse_value(doc, r.tier, a, vocab))
+            value = str(parse_value(doc, r.tier, a, vocab))
             contexts[r.role].append(_Context(r.participant, a.start_ms, a.end_ms, value))
     for pool in contexts.values():
         pool.sort(key=lambda c: (c.start_ms, c.end_ms))
     return contexts
 
 
-def _file_rows(doc: _Document, schema: Schema) -> tuple[list[dict[str, Any]], FileContext]:
+def _file_rows(doc: Document, schema: Schema) -> tuple[list[dict[str, Any]], FileContext]:
     eaf = doc.eaf
     file = str(doc.path)
-    roles = _classify(eaf, schema)
-    times = _annotation_times_ms(eaf)
+    roles = classify_tiers(eaf, schema)
+    times = annotation_times_ms(eaf)
     contexts = _file_contexts(doc, schema, roles, times)
 
     rows: list[dict[str, Any]] = []
@@ -550,7 +560,7 @@ def _file_rows(doc: _Document, schema: Schema) -> tuple[list[dict[str, Any]], Fi
     for r in roles:
         if r.role != "turn":
             continue
-        tier_anns = _tier_annotations(eaf, r.tier, times)
+        tier_anns = tier_annotations(eaf, r.tier, times)
         if not tier_anns:
             # An empty turn tier holds no turn to attribute: the template's "Turn" tier, left
             # without rater and participant beside the tiers a clinician did fill, must not
@@ -585,7 +595,7 @@ def _file_rows(doc: _Document, schema: Schema) -> tuple[list[dict[str, Any]], Fi
         seen[key] = r.tier
         anns = _checked_intervals(doc, r.tier, tier_anns, allow_overlap=False)
         for a in anns:
-            angle = _parse_value(doc, r.tier, a, schema.turn_angle)
+            angle = parse_value(doc, r.tier, a, schema.turn_angle)
             rows.append(
                 {
                     "session": doc.path.stem,
@@ -672,7 +682,7 @@ def read_annotations_and_context(
                 hint="one .eaf per session: the file stem is the session id",
             )
         sessions[path.stem] = path
-        doc = _load(path)
+        doc = load_document(path)
         file_rows, context = _file_rows(doc, schema)
         rows.extend(file_rows)
         contexts.append(context)
@@ -693,295 +703,3 @@ def read_annotations(
     """Every turn annotation of every rater in ELAN files, one row each (the first part of
     :func:`read_annotations_and_context`, whose documentation says it all)."""
     return read_annotations_and_context(paths_or_dirs, schema=schema, iterate=iterate, warn=warn)[0]
-
-
-# ---------------------------------------------------------------------------------------
-# Inspect
-
-
-def _url_name(url: str) -> str:
-    """The last part of a URL or path (``file:/home/ann/cv/rooms.ecv`` -> ``rooms.ecv``)."""
-    return url.replace("\\", "/").rstrip("/").rsplit("/", 1)[-1]
-
-
-def _vocabularies(eaf: pympi.Elan.Eaf, *, keep_media_paths: bool) -> list[dict[str, Any]]:
-    out: list[dict[str, Any]] = []
-    for cv_id, (descriptions, entries, ext_ref) in eaf.controlled_vocabularies.items():
-        description = next((str(d[1]).strip() for d in descriptions if d[1]), "")
-        item: dict[str, Any] = {"id": cv_id, "description": description}
-        if ext_ref:
-            ref = eaf.external_refs.get(ext_ref)
-            url = None if ref is None else str(ref[1])
-            if url is not None and not keep_media_paths:
-                # An external vocabulary is often a local file whose path names a person
-                # (file:/home/<name>/...): its file name is enough to find it.
-                url = _url_name(url)
-            item.update(external=True, url=url, entries=[])
-        else:
-            texts = []
-            for values, _ext in entries.values():
-                text = next((str(v[0]).strip() for v in values if v[0] is not None), "")
-                texts.append(text)
-            item.update(external=False, url=None, entries=texts)
-        out.append(item)
-    return out
-
-
-def _header(eaf: pympi.Elan.Eaf) -> dict[str, Any]:
-    """Header fields that may identify people or places: only with ``keep_media_paths``."""
-    return {
-        "author": eaf.adocument.get("AUTHOR", ""),
-        "date": eaf.adocument.get("DATE", ""),
-        "media": [
-            {k: v for k, v in m.items() if k in ("MEDIA_URL", "RELATIVE_MEDIA_URL", "MIME_TYPE")}
-            for m in eaf.media_descriptors
-        ],
-        "linked_files": [
-            {k: v for k, v in m.items() if k in ("LINK_URL", "RELATIVE_LINK_URL", "MIME_TYPE")}
-            for m in eaf.linked_file_descriptors
-        ],
-    }
-
-
-def inspect_eaf(
-    path: str | PathLike[str], *, schema: Schema | None = None, keep_media_paths: bool = False
-) -> dict[str, Any]:
-    """What an ELAN file holds, and what the schema takes from it.
-
-    Never fails on a readable file: tiers, time slots and vocabularies are listed as they
-    are, however unusual (symbolic children of time-aligned children, unaligned slots,
-    external vocabularies, unknown format versions).
-
-    Parameters
-    ----------
-    path
-        The ELAN file.
-    schema
-        The convention used to name turn and context tiers (default schema if ``None``).
-    keep_media_paths
-        Also report the header (author, date, media and linked file paths) and the full
-        location of external vocabularies. Off by default: outputs carry subject ids, never
-        paths that may name people or places.
-
-    Returns
-    -------
-    dict
-        ``file, session, format, tiers`` (each ``tier, type, constraint, time_alignable,
-        parent, annotator, participant, vocabulary, annotations, unaligned, start_s, end_s,
-        role``), ``vocabularies`` (``id, description, external, url, entries``; the
-        ``url`` of an external vocabulary is only its file name without ``keep_media_paths``),
-        ``turn_tiers``, ``context_tiers`` (``location``, ``scenario``), ``notes``, and
-        ``header`` with ``keep_media_paths``.
-    """
-    schema = schema if schema is not None else load_schema()
-    doc = _load(path)
-    eaf = doc.eaf
-    roles = {r.tier: r for r in _classify(eaf, schema)}
-    times = _annotation_times_ms(eaf)
-    notes: list[str] = []
-    if doc.version not in KNOWN_VERSIONS:
-        notes.append(
-            f"EAF format {doc.version or '(none)'} is not one pympi-ling knows "
-            f"({', '.join(KNOWN_VERSIONS)}); read anyway"
-        )
-
-    tiers: list[dict[str, Any]] = []
-    for tier_id in _tiers_in_order(eaf):
-        attrs = _tier_attrs(eaf, tier_id)
-        lt = _linguistic_type(eaf, tier_id)
-        anns = _tier_annotations(eaf, tier_id, times)
-        starts = [a.start_ms for a in anns if a.start_ms is not None]
-        ends = [a.end_ms for a in anns if a.end_ms is not None]
-        unaligned = sum(1 for a in anns if a.start_ms is None or a.end_ms is None)
-        role = roles.get(tier_id)
-        if unaligned:
-            notes.append(
-                f"tier {tier_id!r}: {unaligned} of {len(anns)} annotations have an unaligned "
-                "time slot (ELAN interpolates them)"
-            )
-        alignable = _attr(lt, "TIME_ALIGNABLE")
-        tiers.append(
-            {
-                "tier": tier_id,
-                "type": _attr(attrs, "LINGUISTIC_TYPE_REF"),
-                "constraint": _attr(lt, "CONSTRAINTS") or None,
-                "time_alignable": None if not alignable else alignable.lower() == "true",
-                "parent": _attr(attrs, "PARENT_REF") or None,
-                "annotator": _attr(attrs, "ANNOTATOR") or None,
-                "participant": _attr(attrs, "PARTICIPANT") or None,
-                "vocabulary": _attr(lt, "CONTROLLED_VOCABULARY_REF") or None,
-                "annotations": len(anns),
-                "unaligned": unaligned,
-                "start_s": min(starts) / 1000 if starts else None,
-                "end_s": max(ends) / 1000 if ends else None,
-                "role": None if role is None else role.role,
-            }
-        )
-
-    n_disagree = _count_cve_disagreements(doc, roles, times, schema)
-    if n_disagree:
-        notes.append(
-            f"{n_disagree} value(s) whose text disagrees with the vocabulary entry it links "
-            "to (CVE_REF); labels and agreement read them as the entry and warn"
-        )
-    turn_tiers = [
-        {"tier": r.tier, "annotator": r.annotator or None, "participant": r.participant or None}
-        for r in roles.values()
-        if r.role == "turn"
-    ]
-    for t in turn_tiers:
-        if not t["annotator"]:
-            notes.append(f"turn tier {t['tier']!r} names no rater ({schema.annotator_attribute})")
-        if not t["participant"]:
-            notes.append(
-                f"turn tier {t['tier']!r} names no participant ({schema.participant_attribute})"
-            )
-    if not turn_tiers:
-        notes.append(
-            f"no turn tiers: no TIER_ID matches {schema.turn_tier_regex.pattern!r} "
-            f"(schema {schema.source}); this file yields no turns"
-        )
-    context = {
-        kind: [
-            {"tier": r.tier, "participant": r.participant or None}
-            for r in roles.values()
-            if r.role == kind
-        ]
-        for kind in ("location", "scenario")
-    }
-    result: dict[str, Any] = {
-        "file": str(doc.path),
-        "session": doc.path.stem,
-        "format": doc.version or None,
-        "tiers": tiers,
-        "vocabularies": _vocabularies(eaf, keep_media_paths=keep_media_paths),
-        "turn_tiers": turn_tiers,
-        "context_tiers": context,
-        "cve_text_disagreements": n_disagree,
-        "notes": notes,
-    }
-    if keep_media_paths:
-        result["header"] = _header(eaf)
-    return result
-
-
-def _count_cve_disagreements(
-    doc: _Document,
-    roles: dict[str, _TierRole],
-    times: dict[str, tuple[int | None, int | None]],
-    schema: Schema,
-) -> int:
-    """How many values of the schema's tiers :func:`read_annotations` would read as their
-    vocabulary entry although their text says otherwise (inspect never fails on a value)."""
-    for tier_id, role in roles.items():
-        vocab = schema.turn_angle if role.role == "turn" else schema.vocabulary(role.role)
-        for a in _tier_annotations(doc.eaf, tier_id, times):
-            if a.aid not in doc.cve_refs or a.start_ms is None:
-                continue
-            try:
-                _parse_value(doc, tier_id, _Timed(a.aid, a.start_ms, a.end_ms or 0, a.value), vocab)
-            except TurnbenchError:
-                pass  # a value outside the vocabulary: labels refuses it, inspect lists tiers
-    return len(doc.cve_disagreements)
-
-
-def _cell(value: Any) -> Any:
-    if value is None or value == "":
-        return MISSING
-    if isinstance(value, float):
-        return fixed(value, 3)
-    return value
-
-
-def _md_table(header: list[str], rows: list[list[Any]]) -> list[str]:
-    return markdown_table(header, [[_cell(v) for v in row] for row in rows])
-
-
-def inspect_markdown(results: Iterable[dict[str, Any]]) -> str:
-    """Markdown of :func:`inspect_eaf` results, one section per file."""
-    out: list[str] = []
-    for r in results:
-        out += [f"## {Path(r['file']).name}", ""]
-        out += [
-            f"Session `{r['session']}`, EAF format {r['format'] or 'unknown'}, "
-            f"{len(r['tiers'])} tier(s).",
-            "",
-        ]
-        out += _md_table(
-            [
-                "tier",
-                "type",
-                "parent",
-                "annotator",
-                "participant",
-                "vocabulary",
-                "annotations",
-                "from (s)",
-                "to (s)",
-                "role",
-            ],
-            [
-                [
-                    t["tier"],
-                    t["type"] + (f" ({t['constraint']})" if t["constraint"] else ""),
-                    t["parent"],
-                    t["annotator"],
-                    t["participant"],
-                    t["vocabulary"],
-                    str(t["annotations"]),
-                    t["start_s"],
-                    t["end_s"],
-                    t["role"],
-                ]
-                for t in r["tiers"]
-            ],
-        )
-        out.append("")
-        if r["vocabularies"]:
-            out += _md_table(
-                ["vocabulary", "entries"],
-                [
-                    [
-                        v["id"],
-                        f"external: {v['url'] or '(no URL)'}"
-                        if v["external"]
-                        else ", ".join(v["entries"]) or "(empty)",
-                    ]
-                    for v in r["vocabularies"]
-                ],
-            )
-        else:
-            out.append("No controlled vocabularies.")
-        out.append("")
-        if r["turn_tiers"]:
-            out.append(
-                "Turn tiers: "
-                + "; ".join(
-                    f"`{t['tier']}` (rater {t['annotator'] or '?'}, "
-                    f"participant {t['participant'] or '?'})"
-                    for t in r["turn_tiers"]
-                )
-            )
-        else:
-            out.append("Turn tiers: **none**.")
-        context = [
-            f"{kind}: "
-            + ", ".join(
-                f"`{c['tier']}`"
-                + (f" (participant {c['participant']})" if c["participant"] else "")
-                for c in tiers
-            )
-            for kind, tiers in r["context_tiers"].items()
-            if tiers
-        ]
-        out.append("Context tiers: " + ("; ".join(context) if context else "none") + ".")
-        if "header" in r:
-            h = r["header"]
-            media = ", ".join(m.get("MEDIA_URL", "") for m in h["media"]) or "none"
-            out.append(
-                f"Header: author {h['author'] or '–'}, date {h['date'] or '–'}, media {media}."
-            )
-        if r["notes"]:
-            out += ["", "Notes:"] + [f"- {n}" for n in r["notes"]]
-        out.append("")
-    return "\n".join(out).rstrip("\n") + "\n"

@@ -33,6 +33,7 @@ from turn_datasets.remap.matching import match_annotations
 from turn_datasets.remap.schema import load_schema, normalise_value
 
 __all__ = [
+    "MIN_LABELLED_TURN_DEG",
     "LABEL_COLUMNS",
     "RESOLVE_CHOICES",
     "UNRESOLVED_COLUMNS",
@@ -73,6 +74,10 @@ UNRESOLVED_COLUMNS = {
 }
 
 RESOLVE_CHOICES = ("consensus", "first-rater")
+#: The smallest turn Turn-REMAP labels: its smallest label is the 90° bin, and a turn under
+#: 67.5° (half a 45° bin below it) rounds to 45°. A detector run on REMAP-like sessions
+#: takes it as its ``min_turn_deg``.
+MIN_LABELLED_TURN_DEG = 67.5
 
 
 def clip_id_for(*, session: str, subject: str, start_s: float, end_s: float) -> str:

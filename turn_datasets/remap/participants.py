@@ -8,15 +8,15 @@ problem.
 
 from __future__ import annotations
 
-import csv
 import math
 from os import PathLike
 from typing import Any
 
 import pandas as pd
 
-from turn_datasets.errors import TurnbenchError, require_columns
+from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import typed_frame
+from turn_datasets.usertable import read_table, require
 
 __all__ = [
     "PARTICIPANT_COLUMNS",
@@ -77,88 +77,65 @@ def read_participants(path: str | PathLike[str]) -> pd.DataFrame:
         years since diagnosis, a diagnosis longer ago than the subject's age.
     """
     file = str(path)
-    try:
-        fh = open(path, encoding="utf-8-sig", newline="")
-    except FileNotFoundError:
-        raise TurnbenchError("participants table not found", file=file) from None
-    except OSError as exc:
-        raise TurnbenchError(f"cannot read the participants table: {exc}", file=file) from None
+    # The one reader of user tables (turn_datasets.usertable): UTF-8 with or without a BOM,
+    # header names ignoring case and spaces, comma, semicolon or tab, blank lines skipped.
+    table = read_table(path, what="participants table", numeric_columns=(), allow_no_rows=True)
+    require(table, list(PARTICIPANT_COLUMNS), what="the participants table")
     rows: list[dict[str, Any]] = []
-    with fh:
-        reader = csv.reader(fh)
-        try:
-            header = [h.strip().lower() for h in next(reader)]
-        except StopIteration:
-            raise TurnbenchError("participants table is empty", file=file, row=1) from None
-        except (csv.Error, UnicodeDecodeError) as exc:
-            raise TurnbenchError(f"not a readable CSV: {exc}", file=file, row=1) from None
-        require_columns(header, PARTICIPANT_COLUMNS, what="the participants table", file=file)
-        col = {c: header.index(c) for c in PARTICIPANT_COLUMNS}
-        seen: dict[str, int] = {}
-        try:
-            for cells in reader:
-                line = reader.line_num
-                if not any(c.strip() for c in cells):
-                    continue
-                if len(cells) < len(header):
-                    cells = cells + [""] * (len(header) - len(cells))
+    seen: dict[str, int] = {}
+    for i, line in enumerate(table.lines.tolist()):
 
-                def cell(name: str, cells: list[str] = cells) -> str:
-                    return cells[col[name]].strip()
+        def cell(name: str, i: int = i) -> str:
+            return str(table.columns[name][i])
 
-                subject = cell("subject")
-                if not subject:
-                    raise TurnbenchError("empty subject", file=file, row=line)
-                if subject in seen:
-                    raise TurnbenchError(
-                        f"subject {subject!r} is listed twice (first on line {seen[subject]})",
-                        file=file,
-                        row=line,
-                    )
-                seen[subject] = line
-                cohort = cell("cohort").upper()
-                if cohort not in COHORTS:
-                    raise TurnbenchError(
-                        f"cohort {cell('cohort')!r} of {subject!r} is not PD or HC",
-                        file=file,
-                        row=line,
-                    )
-                age = _number(cell("age"), column="age", file=file, row=line, lo=0, hi=130)
-                years = _number(
-                    cell("years_since_diagnosis"),
-                    column="years_since_diagnosis",
-                    file=file,
-                    row=line,
-                    lo=0,
-                    hi=130,
-                )
-                if cohort == "HC" and years > 0:
-                    raise TurnbenchError(
-                        f"healthy control {subject!r} has years_since_diagnosis {years:g}; "
-                        "leave it empty",
-                        file=file,
-                        row=line,
-                    )
-                if years > age:  # False when either is NaN
-                    raise TurnbenchError(
-                        f"{subject!r} was diagnosed {years:g} years ago but is {age:g}",
-                        file=file,
-                        row=line,
-                    )
-                rows.append(
-                    {
-                        "subject": subject,
-                        "cohort": cohort,
-                        "pair": cell("pair"),
-                        "sex": cell("sex"),
-                        "age": age,
-                        "years_since_diagnosis": years,
-                    }
-                )
-        except (csv.Error, UnicodeDecodeError) as exc:
+        subject = cell("subject")
+        if not subject:
+            raise TurnbenchError("empty subject", file=file, row=line)
+        if subject in seen:
             raise TurnbenchError(
-                f"not a readable CSV: {exc}", file=file, row=reader.line_num
-            ) from None
+                f"subject {subject!r} is listed twice (first on line {seen[subject]})",
+                file=file,
+                row=line,
+            )
+        seen[subject] = line
+        cohort = cell("cohort").upper()
+        if cohort not in COHORTS:
+            raise TurnbenchError(
+                f"cohort {cell('cohort')!r} of {subject!r} is not PD or HC",
+                file=file,
+                row=line,
+            )
+        age = _number(cell("age"), column="age", file=file, row=line, lo=0, hi=130)
+        years = _number(
+            cell("years_since_diagnosis"),
+            column="years_since_diagnosis",
+            file=file,
+            row=line,
+            lo=0,
+            hi=130,
+        )
+        if cohort == "HC" and years > 0:
+            raise TurnbenchError(
+                f"healthy control {subject!r} has years_since_diagnosis {years:g}; leave it empty",
+                file=file,
+                row=line,
+            )
+        if years > age:  # False when either is NaN
+            raise TurnbenchError(
+                f"{subject!r} was diagnosed {years:g} years ago but is {age:g}",
+                file=file,
+                row=line,
+            )
+        rows.append(
+            {
+                "subject": subject,
+                "cohort": cohort,
+                "pair": cell("pair"),
+                "sex": cell("sex"),
+                "age": age,
+                "years_since_diagnosis": years,
+            }
+        )
     if not rows:
         raise TurnbenchError("participants table lists no subject", file=file)
     out = typed_frame(pd.DataFrame(rows, columns=list(PARTICIPANT_COLUMNS)), PARTICIPANT_COLUMNS)

@@ -21,6 +21,7 @@ from turn_datasets.remap.participants import COHORTS
 from turn_datasets.remap.schema import load_schema
 from turn_datasets.render.markdown import markdown_table
 from turn_datasets.render.numbers import MISSING, fixed
+from turn_datasets.usertable import read_table
 
 __all__ = [
     "read_labels",
@@ -43,12 +44,11 @@ def read_labels(path: str | PathLike[str]) -> pd.DataFrame:
     Only the columns the tables need are required; the others are kept as text.
     """
     file = str(path)
-    try:
-        df = pd.read_csv(path, dtype=str, keep_default_na=False, encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise TurnbenchError("labels file not found", file=file) from None
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-        raise TurnbenchError(f"not a readable CSV: {exc}", file=file) from None
+    # The one reader of user tables (turn_datasets.usertable): UTF-8 with or without a BOM,
+    # header names ignoring case and spaces, each row's own line number.
+    table = read_table(path, what="labels", numeric_columns=(), allow_no_rows=True)
+    df = pd.DataFrame({c: table.columns[c] for c in table.header if c}, dtype=object)
+    lines = table.lines
     missing = [c for c in _STATS_NEEDS if c not in df.columns]
     if missing:
         raise TurnbenchError(f"labels lack column(s) {', '.join(missing)}", file=file, row=1)
@@ -57,7 +57,7 @@ def read_labels(path: str | PathLike[str]) -> pd.DataFrame:
     if bad.any():
         i = int(np.flatnonzero(bad.to_numpy())[0])
         raise TurnbenchError(
-            f"angle_deg {df['angle_deg'].iloc[i]!r} is not a number", file=file, row=i + 2
+            f"angle_deg {df['angle_deg'].iloc[i]!r} is not a number", file=file, row=int(lines[i])
         )
     absurd = angle.abs() > MAX_ANGLE_DEG
     if absurd.any():
@@ -66,7 +66,7 @@ def read_labels(path: str | PathLike[str]) -> pd.DataFrame:
             f"angle_deg {angle.iloc[i]:g} is beyond the plausible {MAX_ANGLE_DEG:g} "
             "(see the README)",
             file=file,
-            row=i + 2,
+            row=int(lines[i]),
         )
     df["angle_deg"] = angle.astype("float64")
     cohort = df["cohort"].str.strip().str.upper()
@@ -74,7 +74,7 @@ def read_labels(path: str | PathLike[str]) -> pd.DataFrame:
     if bad.any():
         i = int(np.flatnonzero(bad.to_numpy())[0])
         raise TurnbenchError(
-            f"cohort {df['cohort'].iloc[i]!r} is not PD or HC", file=file, row=i + 2
+            f"cohort {df['cohort'].iloc[i]!r} is not PD or HC", file=file, row=int(lines[i])
         )
     df["cohort"] = cohort
     df.attrs["source"] = file

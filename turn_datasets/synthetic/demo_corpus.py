@@ -12,7 +12,7 @@ Turn-H3.6M-like motion capture (:func:`write_h36m_corpus`)
     are planted with heading changes from 48° to 233°, drawn per 45° bin with the shares of
     :data:`H36M_BIN_MIX` (most turns small, as in the paper's Table 3), more of them in the
     walking actions than in the standing ones. ``planted.csv``'s ``angle_deg`` is the
-    heading change (what the clip index's ``angle_deg`` measures, issue 11); its
+    heading change (what the clip index's ``angle_deg`` measures); its
     ``hip_rotation_deg``, the hips' own rotation over the planted frames, differs from it by
     the pelvic sway at the turn's ends, a few degrees. The files are written in all three layouts
     Human3.6M is distributed in: S1 as the original release's CDF (with S1's own spellings
@@ -293,7 +293,7 @@ def write_h36m_corpus(
                             "file": str(path.relative_to(root)),
                             "start_frame": p["start_frame"],
                             "end_frame": p["end_frame"],
-                            # the clip index's angle_deg is the heading change (issue 11),
+                            # the clip index's angle_deg is the heading change,
                             # its hip_rotation_deg the hips' own rotation over the frames
                             "angle_deg": p["heading_deg"].abs().round(3),
                             "direction": [direction_of(a) for a in p["heading_deg"]],

@@ -453,7 +453,7 @@ def _rater_spans(
         wrote[names[1]] = (b[0], b[1], angle_b)
     if kind in ("disagree", "shifted") and consensus:
         # a shifted pair is two overlapping turns of one person, which the labels refuse
-        # without an adjudicated one (issue 10)
+        # without an adjudicated one
         wrote[consensus] = (start_ms, end_ms, angle)
     return wrote
 

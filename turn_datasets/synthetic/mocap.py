@@ -24,7 +24,7 @@ left-minus-right hip vector.
 
 The planted truth is computed by this module from its own noise-free pelvis yaw, never by
 the miner: each turn's ``heading_deg`` is the heading change asked for, what the clip
-index's ``angle_deg`` measures (DESIGN.md, issue 11); its ``angle_deg`` is the signed rotation
+index's ``angle_deg`` measures (DESIGN.md); its ``angle_deg`` is the signed rotation
 of the noise-free hip vector from the turn's first frame to its last (``end_frame - 1``),
 what the index's ``hip_rotation_deg`` measures. The two differ by the pelvic sway at the
 two ends and the postural wander, a few degrees at most.

@@ -173,8 +173,8 @@ DECOY_KINDS: Mapping[str, float] = MappingProxyType(
     }
 )
 #: Degradation per scenario (home videos get more depth error and occlusion), calibrated
-#: so that the miner's rule run raw on these streams scores about what issue 13 measured on
-#: its hidden sessions (precision 0.41, recall 0.90, F1 0.57, matched accuracy 81%, MAE
+#: so that the miner's rule run raw on these streams scores about what it scored on the
+#: project's hidden sessions (precision 0.41, recall 0.90, F1 0.57, matched accuracy 81%, MAE
 #: 29°): here 0.41-0.43, 0.79-0.82, 0.54-0.56, 78-82% and 24-27° on three seeds
 #: (``benchmarks/eval_detect.py``). The demo corpus's depth errors (20-110 mm) were
 #: harsher than the hidden sessions (raw accuracy 67%).

@@ -1,7 +1,7 @@
-"""Options shared by turn-eval's commands that read skeleton streams (``predict``, ``detect``).
+"""Options shared by turn-eval's commands: ``--by`` of the scorers, and whose files the
+skeletons are for the commands that read skeleton streams (``predict``, ``detect``).
 
-The generic options every console script shares live in :mod:`turn_datasets.cli.common`; this
-module adds the one block that is turn_eval's own: whose files the skeletons are.
+The generic options every console script shares live in :mod:`turn_datasets.cli.common`.
 """
 
 from __future__ import annotations
@@ -15,6 +15,19 @@ from turn_datasets.cli.common import layout_option, up_axis_option
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.skeleton import AUTO, Layout, get_layout
 from turn_eval.estimate.formats import FORMAT_CHOICES
+
+
+def by_option(default_help: str):
+    """``--by COL[,COL...]``, repeatable: the groupings of a scorer, passed on as given (the
+    library splits the commas and checks the names: :func:`turn_eval.scoring.groups.split_by`).
+    ``default_help`` says what is reported without it."""
+    return click.option(
+        "--by",
+        multiple=True,
+        metavar="COL[,COL...]",
+        help="Group by these reference columns (repeatable, or comma-separated). "
+        f"Default: {default_help}",
+    )
 
 
 @dataclass(frozen=True)

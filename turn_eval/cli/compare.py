@@ -23,10 +23,10 @@ from turn_datasets.render.labels import METRIC_LABELS
 from turn_datasets.render.markdown import markdown_table
 from turn_datasets.render.numbers import format_p, one_decimal
 from turn_datasets.render.numbers import signed as with_sign
+from turn_datasets.usertable import list_ids
 from turn_eval.cli import cli
 from turn_eval.clips.significance import Comparison, compare_predictions
 from turn_eval.clips.submission import Joined, read_predictions, read_reference
-from turn_eval.scoring.table import list_ids
 
 
 def _same_clips(a: Joined, b: Joined) -> list[str]:
@@ -60,7 +60,9 @@ def _p_clause(p: float) -> str:
     return text if text.startswith("<") else f"= {text}"
 
 
-def _markdown(result: Comparison, *, a: str, b: str, reference: str, n_missing: int) -> str:
+def _markdown(
+    result: Comparison, *, a: str, b: str, reference: str, n_missing: int, signature: str
+) -> str:
     lines = [
         f"A: {a}  ",
         f"B: {b}  ",
@@ -87,7 +89,7 @@ def _markdown(result: Comparison, *, a: str, b: str, reference: str, n_missing: 
         f"McNemar exact test on bin correctness: b = {m.b} (A right, B wrong), "
         f"c = {m.c} (A wrong, B right), p {_p_clause(m.p_value)}",
         "",
-        f"signature: {result.signature}",
+        f"signature: {signature}",
     ]
     return "\n".join(lines) + "\n"
 
@@ -97,6 +99,7 @@ def _markdown(result: Comparison, *, a: str, b: str, reference: str, n_missing: 
 @click.argument("pred_b", metavar="B.csv", type=FILE)
 @file_option(
     "--reference",
+    "-r",
     required=True,
     help="Reference CSV (clip index or labels): clip_id, angle_deg, ...",
 )
@@ -169,6 +172,7 @@ def compare_command(
         seed=seed,
         bin_width_deg=joined_a.bin_width_deg,
     )
+    signature = result.signature_of(reference=reference, a=pred_a, b=pred_b)
     if fmt == "json":
         doc = {
             "a": str(pred_a),
@@ -176,6 +180,7 @@ def compare_command(
             "reference": str(reference),
             "n_missing": joined_a.n_missing,
             **result.as_dict(),
+            "signature": signature.as_dict(),
         }
         text = to_json_text(doc)
     else:
@@ -185,6 +190,7 @@ def compare_command(
             b=str(pred_b),
             reference=str(reference),
             n_missing=joined_a.n_missing,
+            signature=signature.line(),
         )
     if out is not None:
         # The file first: if it cannot be written, stdout stays empty and the exit is 2.

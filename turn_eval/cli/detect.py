@@ -20,8 +20,7 @@ from turn_datasets.cli.common import (
     wrote,
 )
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.fileio import atomic_path, check_not_input, to_json_text
-from turn_datasets.h36m.manifest import manifest_path
+from turn_datasets.fileio import atomic_path, check_not_input, manifest_path, to_json_text
 from turn_datasets.h36m.miner import MinerParams, check_position_cutoff
 from turn_eval.cli import cli
 from turn_eval.cli.common import SkeletonSource, skeleton_source_options

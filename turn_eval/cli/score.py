@@ -1,4 +1,4 @@
-"""``turn-eval score``: score a predictions file against a reference (issue 5).
+"""``turn-eval score``: score a predictions file against a reference.
 
 Thin: parse the options, read and validate (:mod:`turn_eval.clips.submission`), score
 (:mod:`turn_eval.clips.tables`), print one format on stdout and, with ``--out-dir``, write all three
@@ -12,7 +12,6 @@ from pathlib import Path
 import click
 
 from turn_datasets.cli.common import (
-    BIN_WIDTH_DEG,
     CONTEXT_SETTINGS,
     bootstrap_options,
     bootstrap_progress,
@@ -20,6 +19,7 @@ from turn_datasets.cli.common import (
     emit,
     format_option,
     one_run,
+    params_options,
     warn,
     wrote,
 )
@@ -27,7 +27,9 @@ from turn_datasets.fileio import (
     to_json_text,
     write_files,
 )
+from turn_datasets.geometry import BinParams
 from turn_eval.cli import cli
+from turn_eval.cli.common import by_option
 from turn_eval.clips.submission import read_predictions, read_reference
 from turn_eval.clips.tables import build_scores, scores_csv, scores_frame, scores_markdown
 
@@ -50,12 +52,8 @@ SCORE_RECORD = "scores.manifest.json"
     help="CSV with clip_id, angle_deg and optionally duration_s and group columns "
     "(a Turn-H3.6M clip index or Turn-REMAP labels).",
 )
-@click.option(
-    "--by",
-    multiple=True,
-    metavar="COL",
-    help="Group by this reference column (repeatable). Default: every one of scenario, "
-    "location, cohort, subject, bin_deg, action, split the reference has.",
+@by_option(
+    "every one of scenario, location, cohort, subject, bin_deg, action, split the reference has."
 )
 @click.option(
     "--allow-missing",
@@ -71,13 +69,7 @@ SCORE_RECORD = "scores.manifest.json"
 @bootstrap_options(
     "Bootstrap resamples for the 95% intervals (0: none).", seed_help="Seed of the bootstrap."
 )
-@click.option(
-    "--bin-width-deg",
-    type=BIN_WIDTH_DEG,
-    default=45.0,
-    show_default=True,
-    help="Width of the angle bins (the paper's 45°).",
-)
+@params_options(BinParams)
 @format_option()
 @click.option(
     "--out-dir",

@@ -1,4 +1,4 @@
-"""``turn-eval score-events``: score detected turns in untrimmed sessions (issue 12).
+"""``turn-eval score-events``: score detected turns in untrimmed sessions.
 
 Thin: parse the options, call :func:`turn_eval.events.score_events`, print one format on
 stdout and, with ``--out-dir``, write every table together, atomically.
@@ -12,13 +12,13 @@ import click
 
 from turn_datasets.cli.common import (
     CONTEXT_SETTINGS,
-    FRACTION,
     bootstrap_options,
     bootstrap_progress,
     check_out_dir,
     emit,
     format_option,
     one_run,
+    params_options,
     warn,
     wrote,
 )
@@ -27,6 +27,8 @@ from turn_datasets.fileio import (
     write_files,
 )
 from turn_eval.cli import cli
+from turn_eval.cli.common import by_option
+from turn_eval.events.matching import MatchParams
 from turn_eval.events.plots import EVENT_PLOT_FILES, TIMELINE_DIR
 from turn_eval.events.scoring import DEFAULT_BY, score_events
 from turn_eval.events.tables import events_frame, events_markdown
@@ -37,10 +39,6 @@ RATES_FILE = "turn_rates.csv"
 #: The run record of ``--out-dir``: what a run wrote, so the next removes only those of them
 #: it does not write again (figures without ``--plots``, turn rates without ``--sessions``).
 EVENT_RECORD = "event_scores.manifest.json"
-
-
-def _split_by(values: tuple[str, ...]) -> list[str]:
-    return [part.strip() for value in values for part in value.split(",") if part.strip()]
 
 
 _path = click.Path(dir_okay=True, path_type=Path)
@@ -70,20 +68,8 @@ _path = click.Path(dir_okay=True, path_type=Path)
     help="sessions.csv beside the labels: annotated duration per session and subject, for "
     "turns per hour.",
 )
-@click.option(
-    "--iou",
-    type=FRACTION,
-    default=0.5,
-    show_default=True,
-    help="A detection and a turn can match when their temporal IoU is at least this.",
-)
-@click.option(
-    "--by",
-    multiple=True,
-    metavar="COL[,COL...]",
-    help=f"Group by these reference columns. Default: those of {', '.join(DEFAULT_BY)} the "
-    "reference has.",
-)
+@params_options(MatchParams)
+@by_option(f"those of {', '.join(DEFAULT_BY)} the reference has.")
 @bootstrap_options(
     "Cluster-bootstrap resamples of the (session, subject) units for the 95% intervals (0: none)."
 )
@@ -154,7 +140,7 @@ def score_events_cmd(
         iou=iou,
         context=context_path,
         sessions=sessions_path,
-        by=_split_by(by),
+        by=list(by),
         n_resamples=n_resamples,
         seed=seed,
         ignore_unknown=ignore_unknown,

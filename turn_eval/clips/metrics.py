@@ -55,7 +55,7 @@ from scipy import sparse
 from sklearn.metrics import precision_recall_fscore_support, precision_score
 
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.geometry import angular_speed_deg_s, quantise_deg
+from turn_datasets.geometry import BIN_WIDTH_DEG, angular_speed_deg_s, quantise_deg
 from turn_eval.scoring.bootstrap import (
     CHUNK_CELLS,
     CONFIDENCE,
@@ -144,7 +144,7 @@ def clip_outcomes(
     *,
     ref_duration_s=None,
     pred_speed_deg_s=None,
-    bin_width_deg: float = 45.0,
+    bin_width_deg: float = BIN_WIDTH_DEG,
 ) -> ClipOutcomes:
     """Per-clip outcomes of a submission against the reference.
 
@@ -224,7 +224,7 @@ def compute_metrics(
     *,
     ref_duration_s=None,
     pred_speed_deg_s=None,
-    bin_width_deg: float = 45.0,
+    bin_width_deg: float = BIN_WIDTH_DEG,
 ) -> dict[str, float | int | None]:
     """The paper's metrics of one set of predictions (see the module docstring).
 
@@ -245,7 +245,9 @@ def compute_metrics(
     )
 
 
-def bin_report(outcomes: ClipOutcomes, *, bin_width_deg: float = 45.0) -> dict[str, object]:
+def bin_report(
+    outcomes: ClipOutcomes, *, bin_width_deg: float = BIN_WIDTH_DEG
+) -> dict[str, object]:
     """Per-bin precision and recall, and the weighted kappa between predicted and reference bins.
 
     Returns
@@ -274,7 +276,9 @@ def bin_report(outcomes: ClipOutcomes, *, bin_width_deg: float = 45.0) -> dict[s
     return {"per_bin": per_bin, "kappa": quadratic_kappa(outcomes, bin_width_deg=bin_width_deg)}
 
 
-def quadratic_kappa(outcomes: ClipOutcomes, *, bin_width_deg: float = 45.0) -> float | None:
+def quadratic_kappa(
+    outcomes: ClipOutcomes, *, bin_width_deg: float = BIN_WIDTH_DEG
+) -> float | None:
     """Cohen's kappa between reference and predicted bins with quadratic weights in bin steps.
 
     scikit-learn's ``cohen_kappa_score(weights="quadratic")`` is ``1 - sum(w O) / sum(w E)``

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from turn_datasets.geometry import quantise_deg
+from turn_datasets.geometry import BIN_WIDTH_DEG, quantise_deg
 from turn_datasets.render.numbers import fixed
 from turn_eval.scoring.figures import save_figure
 from turn_eval.scoring.groups import group_label
@@ -207,7 +207,7 @@ def write_plots(
     ref_deg,
     out_dir: str | os.PathLike[str],
     *,
-    bin_width_deg: float = 45.0,
+    bin_width_deg: float = BIN_WIDTH_DEG,
 ) -> list[Path]:
     """Write the four figures of the module docstring into ``out_dir``.
 

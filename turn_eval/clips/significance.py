@@ -45,6 +45,7 @@ Metrics (paper Section 5; :mod:`turn_eval.clips.metrics`, the same code as ``tur
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -53,6 +54,7 @@ from scipy.stats import binomtest
 
 from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.geometry import BIN_WIDTH_DEG
 from turn_eval.clips.metrics import (
     METRICS,
     ClipOutcomes,
@@ -61,6 +63,7 @@ from turn_eval.clips.metrics import (
     pooled_resampler,
 )
 from turn_eval.scoring.bootstrap import CONFIDENCE, percentile_interval, resample_indices
+from turn_eval.scoring.signature import Signature
 
 __all__ = [
     "METRICS",
@@ -126,13 +129,26 @@ class Comparison:
     version: str = field(default=__version__)
 
     @property
-    def signature(self) -> str:
-        """One line that pins down the test: clips, bins, resamples, seed, tests, version."""
+    def options(self) -> tuple[tuple[str, str], ...]:
+        """What pins down the test: clips, bins, resamples, seed and the tests."""
         return (
-            f"turnbench-compare|n:{self.n}|bin:{self.bin_width_deg:g}deg"
-            f"|bootstrap:paired-percentile-{self.n_resamples}|seed:{self.seed}"
-            f"|p:shift-two-sided|mcnemar:exact|version:{self.version}"
+            ("n", f"{self.n}"),
+            ("bin", f"{self.bin_width_deg:g}deg"),
+            ("bootstrap", f"paired-percentile-{self.n_resamples}"),
+            ("seed", f"{self.seed}"),
+            ("p", "shift-two-sided"),
+            ("mcnemar", "exact"),
         )
+
+    @property
+    def signature(self) -> str:
+        """One line that pins down the test (:attr:`options`) and the version."""
+        return Signature("compare", self.options, (), self.version).line()
+
+    def signature_of(self, **inputs: str | os.PathLike[str]) -> Signature:
+        """The signature with the sha256 of the files compared (``reference=``, ``a=``,
+        ``b=``), as ``turn-eval compare`` prints it."""
+        return Signature.of("compare", self.options, inputs)
 
     def as_dict(self) -> dict[str, object]:
         return {
@@ -259,7 +275,7 @@ def compare_predictions(
     pred_b_speed_deg_s=None,
     n_resamples: int = 1000,
     seed: int = 0,
-    bin_width_deg: float = 45.0,
+    bin_width_deg: float = BIN_WIDTH_DEG,
 ) -> Comparison:
     """Paired bootstrap of the differences B - A in every metric, and the exact McNemar test.
 

@@ -6,7 +6,7 @@ Turn-H3.6M clip index and the Turn-REMAP labels both qualify as they are (DESIGN
 A submission is ``clip_id, angle_deg`` and, optionally, ``speed_deg_s``; extra columns are
 kept and ignored.
 
-Both are read by the harness's one reader of user tables (:mod:`turn_eval.scoring.table`),
+Both are read by the harness's one reader of user tables (:mod:`turn_datasets.usertable`),
 the same forgiving way: header names match ignoring case and surrounding spaces; a UTF-8
 byte-order mark is dropped; the delimiter is a comma, a semicolon or a tab, whichever the
 header uses; with a semicolon or tab delimiter a decimal comma (``12,5``) is read as a decimal
@@ -33,8 +33,8 @@ import pandas as pd
 
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import typed_frame
-from turn_datasets.geometry import quantise_deg
-from turn_eval.scoring.table import (
+from turn_datasets.geometry import BIN_WIDTH_DEG, quantise_deg
+from turn_datasets.usertable import (
     NUMERIC,
     Problems,
     Table,
@@ -57,7 +57,7 @@ __all__ = [
     "read_predictions",
 ]
 
-#: The default groupings, in this order, when the reference has them (issue 5). ``bin_deg``
+#: The default groupings, in this order, when the reference has them. ``bin_deg``
 #: is the reference angle's 45° bin, which every reference has.
 GROUP_COLUMNS = ("scenario", "location", "cohort", "subject", "bin_deg", "action", "split")
 #: The reference bin column: always recomputed from the reference angle.
@@ -115,7 +115,9 @@ def _clip_ids(table: Table, problems: Problems | None = None) -> np.ndarray:
     return ids
 
 
-def read_reference(path: str | os.PathLike[str], *, bin_width_deg: float = 45.0) -> pd.DataFrame:
+def read_reference(
+    path: str | os.PathLike[str], *, bin_width_deg: float = BIN_WIDTH_DEG
+) -> pd.DataFrame:
     """Read a reference table: clip index, labels, or any CSV with ``clip_id, angle_deg``.
 
     Parameters
@@ -195,6 +197,8 @@ class Joined:
         The files read.
     bin_width_deg
         The bin width ``bin_deg`` was computed with.
+    abs_angles, allow_missing
+        How the submission was read (:func:`read_predictions`' options of those names).
     """
 
     table: pd.DataFrame
@@ -203,7 +207,9 @@ class Joined:
     has_durations: bool
     predictions_path: str
     reference_path: str
-    bin_width_deg: float = 45.0
+    bin_width_deg: float = BIN_WIDTH_DEG
+    abs_angles: bool = False
+    allow_missing: bool = False
 
     @property
     def group_columns(self) -> tuple[str, ...]:
@@ -339,7 +345,7 @@ def read_predictions(
     allow_missing: bool = False,
     abs_angles: bool = False,
     warn: Callable[[str], None] | None = None,
-    bin_width_deg: float = 45.0,
+    bin_width_deg: float = BIN_WIDTH_DEG,
 ) -> Joined:
     """Read and validate a submission and join it to the reference per clip.
 
@@ -427,4 +433,6 @@ def read_predictions(
         predictions_path=table.path,
         reference_path=ref_path,
         bin_width_deg=float(ref.attrs.get("bin_width_deg", bin_width_deg)),
+        abs_angles=abs_angles,
+        allow_missing=allow_missing,
     )

@@ -35,7 +35,6 @@ import pandas as pd
 
 from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.fileio import typed_frame
 from turn_datasets.render.labels import METRIC_LABELS
 from turn_datasets.render.markdown import markdown_cell, metric_table
 from turn_datasets.render.numbers import MISSING, fixed, format_metric
@@ -57,7 +56,9 @@ from turn_eval.scoring.bootstrap import (
     percentile_interval,
     resample_indices,
 )
-from turn_eval.scoring.groups import BLANK_GROUP, group_label
+from turn_eval.scoring.groups import BLANK_GROUP, average, check_groupings, group_label
+from turn_eval.scoring.signature import Signature, signature_line
+from turn_eval.scoring.writers import csv_row, grouped_frame
 
 __all__ = [
     "SCORES_CSV_COLUMNS",
@@ -124,32 +125,6 @@ def _intervals(
     return out
 
 
-def _average(groups: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
-    """The paper's "Avg.": the unweighted mean over groups, of ``n`` and of each metric."""
-    out: dict[str, Any] = {"n": float(np.mean([g["n"] for g in groups.values()]))}
-    for m in METRICS:
-        values = [g[m] for g in groups.values() if g.get(m) is not None]
-        out[m] = float(np.mean(values)) if values else None
-    return out
-
-
-def _check_groupings(joined: Joined, by: Sequence[str] | None) -> list[str]:
-    if not by:
-        return list(joined.default_groupings)
-    out: list[str] = []
-    for name in by:
-        col = name.strip().lower()
-        if col not in joined.group_columns:
-            raise TurnbenchError(
-                f"--by {name!r}: the reference has no such group column; it has "
-                f"{', '.join(joined.group_columns)}",
-                file=joined.reference_path,
-            )
-        if col not in out:
-            out.append(col)
-    return out
-
-
 def build_scores(
     joined: Joined,
     *,
@@ -178,13 +153,19 @@ def build_scores(
     Returns
     -------
     dict
-        ``overall``, ``by``, ``n_missing``, ``settings``, ready for JSON.
+        ``overall``, ``by``, ``n_missing``, ``settings``, ``signature``
+        (:mod:`turn_eval.scoring.signature`), ready for JSON.
     """
     if n_resamples < 0:
         raise TurnbenchError(f"--bootstrap must be 0 or more, got {n_resamples}")
     if seed < 0:
         raise TurnbenchError(f"--seed must be 0 or more, got {seed}")
-    groupings = _check_groupings(joined, by)
+    groupings = check_groupings(
+        by,
+        joined.group_columns,
+        default=joined.default_groupings,
+        file=joined.reference_path,
+    )
     outcomes = outcomes_of(joined)
     partitions = [Partition.whole(outcomes.n)]
     partitions += [_partition(joined, col) for col in groupings]
@@ -217,7 +198,7 @@ def build_scores(
     by_doc: dict[str, Any] = {}
     for part, p in enumerate(partitions[1:], start=1):
         groups = {label: entry(part, g) for g, label in enumerate(p.labels)}
-        avg = _average(groups)
+        avg = average(groups.values(), ("n", *METRICS))
         if n_resamples > 0:
             avg["ci95"] = _intervals(distributions[part], None)
         by_doc[p.name] = {"groups": groups, "avg": avg}
@@ -235,7 +216,24 @@ def build_scores(
             "kappa_weights": KAPPA_WEIGHTS,
             "version": __version__,
         },
+        "signature": _signature(joined, groupings, n_resamples=n_resamples, seed=seed).as_dict(),
     }
+
+
+def _signature(joined: Joined, groupings: Sequence[str], *, n_resamples: int, seed: int):
+    """What reproduces the scores: the options that change a number and both files' sha256."""
+    return Signature.of(
+        "score",
+        [
+            ("by", groupings),
+            ("bin", joined.bin_width_deg),
+            ("bootstrap", f"percentile-{n_resamples}"),
+            ("seed", seed),
+            ("abs", joined.abs_angles),
+            ("allow-missing", joined.allow_missing),
+        ],
+        {"reference": joined.reference_path, "predictions": joined.predictions_path},
+    )
 
 
 def _present(entries: Iterable[Mapping[str, Any]]) -> list[str]:
@@ -329,19 +327,14 @@ def scores_markdown(scores: Mapping[str, Any]) -> str:
             "are not scored."
         )
     out += [""] + notes
+    if "signature" in scores:
+        out += ["", f"signature: {signature_line(scores['signature'])}"]
     return "\n".join(out) + "\n"
 
 
 def _csv_row(grouping: str, group: str, entry: Mapping[str, Any]) -> dict[str, Any]:
-    row: dict[str, Any] = {"grouping": grouping, "group": group, "n": entry["n"]}
-    ci = entry.get("ci95") or {}
-    for m in METRICS:
-        value = entry.get(m)
-        row[m] = np.nan if value is None else value
-        bounds = ci.get(m)
-        row[f"{m}_ci_low"] = np.nan if bounds is None else bounds[0]
-        row[f"{m}_ci_high"] = np.nan if bounds is None else bounds[1]
-    return row
+    values = {"n": entry["n"], **{m: entry.get(m) for m in METRICS}}
+    return csv_row(grouping, group, values, entry.get("ci95"), METRICS)
 
 
 def scores_csv(frame: pd.DataFrame) -> str:
@@ -357,9 +350,4 @@ def scores_frame(scores: Mapping[str, Any]) -> pd.DataFrame:
 
     Columns :data:`SCORES_CSV_COLUMNS`; fractions as in the JSON; empty where undefined.
     """
-    rows = [_csv_row("overall", "all", scores["overall"])]
-    for col, block in scores.get("by", {}).items():
-        for label, entry in block["groups"].items():
-            rows.append(_csv_row(col, label, entry))
-        rows.append(_csv_row(col, "avg", block["avg"]))
-    return typed_frame(pd.DataFrame(rows), SCORES_CSV_COLUMNS)
+    return grouped_frame(scores, _csv_row, SCORES_CSV_COLUMNS)

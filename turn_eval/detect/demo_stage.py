@@ -21,6 +21,7 @@ from typing import Any
 import pandas as pd
 
 from turn_datasets.fileio import write_csv
+from turn_datasets.remap.labels import MIN_LABELLED_TURN_DEG
 from turn_datasets.synthetic.untrimmed import write_streams_for_labels
 from turn_eval.report import Report
 
@@ -35,8 +36,8 @@ __all__ = [
 
 #: The stage's folder inside the demo's output folder.
 UNTRIMMED_DIR = "untrimmed"
-#: Turn-REMAP's smallest label is the 90° bin: a turn under 67.5° rounds to 45°.
-MIN_TURN_DEG = 67.5
+#: The detector's smallest turn: Turn-REMAP's smallest labelled one.
+MIN_TURN_DEG = MIN_LABELLED_TURN_DEG
 FPS_HZ = 30.0
 
 

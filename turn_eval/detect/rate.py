@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.h36m.manifest import manifest_path
+from turn_datasets.fileio import manifest_path
 
 __all__ = ["RATE_TOLERANCE", "StreamRate", "format_rate", "manifest_rate", "stream_rate"]
 

@@ -21,7 +21,7 @@ detector. It is not a second algorithm; what an estimator's stream needs on top
    counter-rotation in gait also cancels part of the pelvis's sway. The knees swing with
    every step and are left out by default (with them F1 fell to 0.92); they still give the
    miner its stride period.
-4. **The miner's rule** on that vector (:func:`turn_datasets.h36m.miner.mine_sequence`),
+4. **The miner's rule** on that vector (:func:`turn_datasets.h36m.miner.mine_heading`),
    with its gap bridging (``max_gap_s``: longer gaps cut the stream, so a turn is never
    followed through an absence) and its ``min_turn_deg`` (the paper's 45°; 67.5° for
    Turn-REMAP, whose smallest label is the 90° bin): small direction changes, sway,
@@ -41,16 +41,13 @@ import pandas as pd
 
 from turn_datasets.fileio import typed_frame
 from turn_datasets.geometry import angular_speed_deg_s, frontal_vectors, parse_joints, usable_frames
-from turn_datasets.h36m.miner import MinerParams, mine_sequence_report
+from turn_datasets.h36m.miner import MinerParams, knee_gait, mine_heading
 from turn_datasets.params import check_params, describe_params, param
 from turn_datasets.skeleton import JOINT_PAIRS, Layout
 from turn_eval.detect.preprocess import SIZE_JOINTS, identity_pieces, repair_swaps
 from turn_eval.detect.protocol import TURN_DTYPES, empty_turns
 
 __all__ = ["DetectParams", "MinerRule", "DETECT_MINER_DEFAULTS", "split_overlaps"]
-
-# The miner works on the combined frontal vector (as hips) and the knees.
-_PAIR = Layout("frontal", 4, {"left_hip": 0, "right_hip": 1, "left_knee": 2, "right_knee": 3})
 
 #: The miner's parameters as the detector uses them (the rest are the miner's defaults).
 #: Estimator dropouts are longer than motion capture's, so gaps up to half a second are
@@ -61,7 +58,7 @@ _PAIR = Layout("frontal", 4, {"left_hip": 0, "right_hip": 1, "left_knee": 2, "ri
 #: below 15 °/s, and the heading before and after a turn in place is averaged over a second
 #: (the miner's 0.6 s holds less of the wobble's slow error). On the synthetic untrimmed
 #: sessions (three seeds) these took F1 from 0.95 to 0.97-0.98 and matched accuracy from
-#: 93-94% to 95-97%; the notes of issue 13 give the sweep.
+#: 93-94% to 95-97% (``benchmarks/eval_detect.py``).
 DETECT_MINER_DEFAULTS = MinerParams(
     max_gap_s=0.5, onset_deg=12.0, stop_speed_deg_s=15.0, no_sway_window_s=1.0
 )
@@ -245,13 +242,11 @@ class MinerRule:
         else:
             hip = frontal_vectors(fixed, layout, "hip")
             width = float(np.nanmedian(np.hypot(hip[:, 0], hip[:, 1])))
-        half = 0.5 * width * total / np.hypot(total[:, 0], total[:, 1])[:, None]
-        arr = np.full((fixed.shape[0], 4, 3), np.nan)
-        arr[seen, 0, :2] = half[seen]
-        arr[seen, 1, :2] = -half[seen]
-        arr[seen, :2, 2] = 0.0
-        arr[:, 2:] = fixed[:, [layout.index("left_knee"), layout.index("right_knee")]]
-        clips, rejected = mine_sequence_report(arr, layout=_PAIR, fps_hz=fps_hz, params=prm.miner)
+        frontal = np.full((fixed.shape[0], 2), np.nan)
+        frontal[seen] = (width * total / np.hypot(total[:, 0], total[:, 1])[:, None])[seen]
+        knees = fixed[:, [layout.index("left_knee"), layout.index("right_knee")], :2]
+        gait = knee_gait(frontal, knees[:, 0].astype(float), knees[:, 1].astype(float))
+        clips, rejected = mine_heading(frontal, fps_hz=fps_hz, gait=gait, params=prm.miner)
         self.rejected_.extend(rejected["reason"].tolist())
         seen_sum = np.concatenate(([0], np.cumsum(seen)))
         s = clips["start_frame"].to_numpy()

@@ -29,6 +29,7 @@ from types import ModuleType
 import numpy as np
 
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.params import param
 
 __all__ = ["BUNDLED_MODELS", "MEDIAPIPE_VERSION", "PoseParams", "BlazePose", "load_mediapipe"]
 
@@ -50,8 +51,15 @@ class PoseParams:
 
     #: 1 (the "full" model) is the only complexity whose model is in the wheel.
     model_complexity: int = 1
-    min_detection_confidence: float = 0.5
-    min_tracking_confidence: float = 0.5
+    min_detection_confidence: float = param(
+        0.5, "Confidence of a person detection to start tracking (MediaPipe's).", min=0.0, max=1.0
+    )
+    min_tracking_confidence: float = param(
+        0.5,
+        "Confidence of the landmarks to keep tracking instead of detecting again (MediaPipe's).",
+        min=0.0,
+        max=1.0,
+    )
     #: MediaPipe's one-euro filter over frames; the turning angle wants it (less jitter).
     smooth_landmarks: bool = True
 

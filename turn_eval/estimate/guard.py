@@ -33,6 +33,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.params import param
 
 __all__ = ["IdentityBreak", "IdentityGuardParams", "identity_breaks", "is_break", "trunk", "tracks"]
 
@@ -45,9 +46,21 @@ _HIPS = (23, 24)
 class IdentityGuardParams:
     """Thresholds of the identity-break guard (module docstring), in trunk lengths."""
 
-    min_jump_torso: float = 1.5
-    max_speed_torso_per_s: float = 10.0
-    max_scale_ratio: float = 2.0
+    min_jump_torso: float = param(
+        1.5,
+        "A trunk centre jump of at least this many trunk lengths can be a break.",
+        min=0.0,
+        min_open=True,
+    )
+    max_speed_torso_per_s: float = param(
+        10.0, "Trunk lengths per second a person can move; a faster jump is a break.", min=0.0
+    )
+    max_scale_ratio: float = param(
+        2.0,
+        "A trunk length changing by more than this factor between frames is a break.",
+        min=1.0,
+        min_open=True,
+    )
 
     def __post_init__(self) -> None:
         if not (self.min_jump_torso > 0 and self.max_speed_torso_per_s >= 0):

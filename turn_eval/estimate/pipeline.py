@@ -38,7 +38,7 @@ import numpy as np
 
 from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.fileio import sha256_file, write_json, write_npz
+from turn_datasets.fileio import manifest_path, sha256_file, write_json, write_npz
 from turn_eval.estimate.blazepose import BlazePose, PoseParams
 from turn_eval.estimate.guard import IdentityGuardParams, identity_breaks, tracks
 from turn_eval.estimate.joints import blazepose_to_h36m17
@@ -287,12 +287,6 @@ def estimate_video(
         "speed": {"wall_s": elapsed, "frames_per_s": len(pts) / elapsed if elapsed > 0 else None},
     }
     return result
-
-
-def manifest_path(npz: str | os.PathLike[str]) -> Path:
-    """``poses.npz`` -> ``poses.manifest.json`` beside it."""
-    p = Path(npz)
-    return p.with_name(p.stem + ".manifest.json")
 
 
 def write_estimate(result: SkeletonEstimate, out_npz: str | os.PathLike[str]) -> tuple[Path, Path]:

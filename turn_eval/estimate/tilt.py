@@ -25,6 +25,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.params import param
 from turn_datasets.skeleton import H36M17
 
 __all__ = ["LevelParams", "Levelling", "estimate_up", "level"]
@@ -40,10 +41,16 @@ _UP_VECTORS = {
 class LevelParams:
     """Which frames say where the floor is (module docstring)."""
 
-    #: A frame counts as upright when both knees (hip-knee-ankle angle) are straighter than this.
-    min_knee_angle_deg: float = 150.0
-    #: Fewer upright frames than this and every frame with a body is used instead.
-    min_upright_frames: int = 10
+    min_knee_angle_deg: float = param(
+        150.0,
+        "A frame counts as upright when both knees (hip-knee-ankle angle) are straighter "
+        "than this, degrees.",
+        min=0.0,
+        max=180.0,
+    )
+    min_upright_frames: int = param(
+        10, "Fewer upright frames than this and every frame with a body is used instead.", min=1
+    )
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,6 @@
 """Untrimmed sessions: the detections contract, event matching and ``turn-eval score-events``.
 
-The library face of issue 12: :func:`score_events` scores a detections table against
+The library face of ``score-events``: :func:`score_events` scores a detections table against
 time-stamped reference turns and returns :class:`EventScores` (``.doc`` is the JSON
 document); the matching is inspectable on its own (:func:`categorize_events`).
 """

@@ -29,8 +29,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from turn_eval.events._order import stable_argsort
 from turn_eval.events.matching import eligible_pairs, overlapping_pairs
+from turn_eval.events.order import stable_argsort
 
 __all__ = ["AP_IOUS", "interpolated_ap", "greedy_true_positives", "average_precision"]
 

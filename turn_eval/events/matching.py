@@ -32,15 +32,21 @@ The functions return DataFrames (mobgap's ``categorize_intervals`` /
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pandas as pd
 from scipy.sparse import coo_array, csr_array
 from scipy.sparse.csgraph import connected_components, min_weight_full_bipartite_matching
 
-from turn_eval.events._order import lexsort, unit_time_guess
+from turn_datasets.errors import TurnbenchError
+from turn_datasets.params import param
+from turn_eval.events.order import lexsort, unit_time_guess
 
 __all__ = [
     "EVENT_COLUMNS",
+    "IOU",
+    "MatchParams",
     "temporal_iou",
     "overlapping_pairs",
     "eligible_pairs",
@@ -122,7 +128,28 @@ def overlapping_pairs(
     )
 
 
-def eligible_pairs(overlaps: pd.DataFrame, *, iou: float = 0.5) -> pd.DataFrame:
+@dataclass(frozen=True)
+class MatchParams:
+    """The matching's one parameter (DESIGN.md: eligible pairs at temporal IoU >= ``iou``)."""
+
+    iou: float = param(
+        0.5,
+        "A detection and a turn can match when their temporal IoU is at least this.",
+        min=0.0,
+        min_open=True,
+        max=1.0,
+    )
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.iou <= 1.0:
+            raise TurnbenchError(f"iou must be in (0, 1], got {self.iou}")
+
+
+#: The default IoU threshold of an eligible pair (:class:`MatchParams`).
+IOU = MatchParams().iou
+
+
+def eligible_pairs(overlaps: pd.DataFrame, *, iou: float = IOU) -> pd.DataFrame:
     """The pairs of :func:`overlapping_pairs` whose temporal IoU is at least ``iou``.
 
     One sweep serves every threshold (AP tries five).
@@ -132,8 +159,7 @@ def eligible_pairs(overlaps: pd.DataFrame, *, iou: float = 0.5) -> pd.DataFrame:
     DataFrame
         ``det_row, ref_row, unit, iou`` (rows of the two frames), in detection order.
     """
-    if not 0.0 < iou <= 1.0:
-        raise ValueError(f"iou must be in (0, 1], got {iou}")
+    MatchParams(iou=iou)  # checks the range
     keep = overlaps["iou"].to_numpy() >= iou
     return overlaps.loc[keep].reset_index(drop=True)
 
@@ -221,7 +247,7 @@ def categorize_events(
     reference: pd.DataFrame,
     ref_unit: np.ndarray,
     *,
-    iou: float = 0.5,
+    iou: float = IOU,
     overlaps: pd.DataFrame | None = None,
 ) -> pd.DataFrame:
     """Every detection and reference turn as TP, FP or FN under the matching rule.

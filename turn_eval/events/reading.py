@@ -1,6 +1,6 @@
 """Read and validate the files of ``score-events``: detections, reference, context, sessions.
 
-Every file is read by the harness's one reader of user tables (:mod:`turn_eval.scoring.table`:
+Every file is read by the harness's one reader of user tables (:mod:`turn_datasets.usertable`:
 header names matched ignoring case and spaces, comma, semicolon or tab delimiter, a UTF-8 BOM dropped, each
 row's own line number kept), so a detections file is as forgiving to write as a predictions
 file and every error names the file and its line (line 1 is the header).
@@ -29,6 +29,7 @@ import pandas as pd
 
 from turn_datasets.errors import TurnbenchError, require_columns
 from turn_datasets.strings import stripped_objects
+from turn_datasets.usertable import Problems, Table, numbers, read_table, require
 from turn_eval.events.contract import (
     CLIP_INDEX_SESSION,
     CONTEXT_COLUMNS,
@@ -40,7 +41,6 @@ from turn_eval.events.contract import (
     REFERENCE_REQUIRED,
     SESSIONS_COLUMNS,
 )
-from turn_eval.scoring.table import Problems, Table, numbers, read_table, require
 
 __all__ = [
     "read_detections",
@@ -56,6 +56,12 @@ __all__ = [
     "known_units",
     "units_of",
     "pair_codes",
+    "Pairs",
+    "check_detections_pairs",
+    "check_event_reference_pairs",
+    "read_detections_pairs",
+    "read_event_reference_pairs",
+    "units_of_pairs",
 ]
 
 _UNIT = ("session", "subject")
@@ -127,7 +133,7 @@ def _factorize_names(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 @dataclass(frozen=True)
-class _Pairs:
+class Pairs:
     """The (session, subject) pair of every row of a table, factorised once for its checks,
     its unit numbers and the lookup of its units: each row's pair number (in order of first
     appearance) and each number's session and subject."""
@@ -137,7 +143,7 @@ class _Pairs:
     subjects: np.ndarray
 
     @classmethod
-    def of(cls, frame: pd.DataFrame) -> _Pairs:
+    def of(cls, frame: pd.DataFrame) -> Pairs:
         a, uniq_a = _factorize_names(frame["session"].to_numpy(dtype=object))
         b, uniq_b = _factorize_names(frame["subject"].to_numpy(dtype=object))
         width = max(len(uniq_b), 1)
@@ -175,7 +181,7 @@ def _check_text(frame: pd.DataFrame, what: str, columns: Sequence[str]) -> None:
             raise _fail(f"{col} is empty", frame, what, i, count)
 
 
-def _check_unit_names(frame: pd.DataFrame, what: str, pairs: _Pairs) -> None:
+def _check_unit_names(frame: pd.DataFrame, what: str, pairs: Pairs) -> None:
     """:func:`_check_text` of ``session`` and ``subject``, through their distinct pairs."""
     for col, names in (("session", pairs.sessions), ("subject", pairs.subjects)):
         empty = names == ""
@@ -306,12 +312,12 @@ def check_detections(frame: pd.DataFrame, *, what: str = "detections") -> pd.Dat
     the required ones, ``direction`` lower-cased (empty where not given), and ``attrs``
     ``path`` and ``lines`` kept. Raises :class:`TurnbenchError` as the module docstring says.
     """
-    return _checked_detections(frame, what)[0]
+    return check_detections_pairs(frame, what)[0]
 
 
-def _checked_detections(
+def check_detections_pairs(
     frame: pd.DataFrame, what: str = "detections"
-) -> tuple[pd.DataFrame, _Pairs]:
+) -> tuple[pd.DataFrame, Pairs]:
     """:func:`check_detections`, and the rows' (session, subject) pairs it factorised."""
     _missing(frame, list(DETECTION_REQUIRED), what)
     cols = [*DETECTION_REQUIRED, *(c for c in DETECTION_OPTIONAL if c in frame.columns)]
@@ -320,7 +326,7 @@ def _checked_detections(
     out = frame.loc[:, cols].copy(deep=False)
     out.attrs = dict(frame.attrs)
     _set_texts(out, _UNIT)
-    pairs = _Pairs.of(out)
+    pairs = Pairs.of(out)
     # Every kind of problem in one pass (each check's first line and count), then one error
     problems = Problems(_path_of(out, what))
     problems.run(lambda: _check_unit_names(out, what, pairs))
@@ -420,10 +426,10 @@ def _frame_of(
 
 def read_detections(path: str | os.PathLike[str]) -> pd.DataFrame:
     """Read and validate a detections CSV (:func:`check_detections`); other columns ignored."""
-    return _read_detections(path)[0]
+    return read_detections_pairs(path)[0]
 
 
-def _read_detections(path: str | os.PathLike[str]) -> tuple[pd.DataFrame, _Pairs]:
+def read_detections_pairs(path: str | os.PathLike[str]) -> tuple[pd.DataFrame, Pairs]:
     """:func:`read_detections`, and the rows' (session, subject) pairs."""
     numeric = (*_DETECTION_NUMBERS, *_OPTIONAL_NUMBERS)
     # A detector that finds no turn (a still person, a video with nobody in it) writes the
@@ -431,7 +437,7 @@ def _read_detections(path: str | os.PathLike[str]) -> tuple[pd.DataFrame, _Pairs
     table = read_table(path, what="detections", numeric_columns=numeric, allow_no_rows=True)
     require(table, list(DETECTION_REQUIRED), what="the detections file")
     frame = _frame_of(table, numeric, allow_empty=_OPTIONAL_NUMBERS)
-    return _checked_detections(frame, what=table.path)
+    return check_detections_pairs(frame, what=table.path)
 
 
 def check_event_reference(frame: pd.DataFrame, *, what: str = "reference") -> pd.DataFrame:
@@ -441,18 +447,18 @@ def check_event_reference(frame: pd.DataFrame, *, what: str = "reference") -> pd
     Returns ``session, subject, start_s, end_s, angle_deg`` (typed), ``direction`` when the
     reference has it, then every other text column (stripped strings) as possible groupings.
     """
-    return _checked_event_reference(frame, what)[0]
+    return check_event_reference_pairs(frame, what)[0]
 
 
-def _checked_event_reference(
+def check_event_reference_pairs(
     frame: pd.DataFrame, what: str = "reference"
-) -> tuple[pd.DataFrame, _Pairs]:
+) -> tuple[pd.DataFrame, Pairs]:
     """:func:`check_event_reference`, and the rows' (session, subject) pairs it factorised."""
     frame = frame if "session" in frame.columns else _clip_index_sessions(frame, what)
     _missing(frame, REFERENCE_REQUIRED, what)
     out = frame.copy(deep=False)
     _set_texts(out, _UNIT)
-    pairs = _Pairs.of(out)
+    pairs = Pairs.of(out)
     _check_unit_names(out, what, pairs)
     for col in ("start_s", "end_s", "angle_deg"):
         _set_floats(out, (col,))
@@ -487,15 +493,15 @@ def _clip_index_sessions(frame: pd.DataFrame, what: str) -> pd.DataFrame:
 
 def read_event_reference(path: str | os.PathLike[str]) -> pd.DataFrame:
     """Read and validate a reference CSV (:func:`check_event_reference`)."""
-    return _read_event_reference(path)[0]
+    return read_event_reference_pairs(path)[0]
 
 
-def _read_event_reference(path: str | os.PathLike[str]) -> tuple[pd.DataFrame, _Pairs]:
+def read_event_reference_pairs(path: str | os.PathLike[str]) -> tuple[pd.DataFrame, Pairs]:
     """:func:`read_event_reference`, and the rows' (session, subject) pairs."""
     numeric = ("start_s", "end_s", "angle_deg")
     table = read_table(path, what="reference", numeric_columns=numeric)
     frame = _frame_of(table, numeric)
-    return _checked_event_reference(frame, what=table.path)
+    return check_event_reference_pairs(frame, what=table.path)
 
 
 def check_context(frame: pd.DataFrame, *, what: str = "context") -> pd.DataFrame:
@@ -650,10 +656,10 @@ def units_of(
     reference: pd.DataFrame, sessions: pd.DataFrame | None = None
 ) -> tuple[Units, np.ndarray]:
     """:func:`known_units` and each reference row's unit number, from one factorisation."""
-    return _units_of_pairs(_Pairs.of(reference), sessions)
+    return units_of_pairs(Pairs.of(reference), sessions)
 
 
-def _units_of_pairs(pairs: _Pairs, sessions: pd.DataFrame | None) -> tuple[Units, np.ndarray]:
+def units_of_pairs(pairs: Pairs, sessions: pd.DataFrame | None) -> tuple[Units, np.ndarray]:
     """:func:`units_of` from the reference's pairs: only its distinct pairs and the sessions
     table's rows are numbered, not every reference row again."""
     sessions_all, subjects_all = pairs.sessions, pairs.subjects
@@ -679,7 +685,7 @@ def drop_unknown(
     *,
     ignore_unknown: bool,
     warn: Callable[[str], None] | None = None,
-    pairs: _Pairs | None = None,
+    pairs: Pairs | None = None,
 ) -> tuple[pd.DataFrame, np.ndarray, int]:
     """The detections of annotated units, their unit numbers, and how many were dropped.
 

@@ -4,39 +4,20 @@ percentages with one decimal in Markdown, rounded by :func:`turn_datasets.render
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from types import MappingProxyType
 from typing import Any
 
-import numpy as np
 import pandas as pd
 
-from turn_datasets.fileio import typed_frame
-from turn_datasets.render.labels import METRIC_LABELS
+from turn_datasets.render.labels import EVENT_LABELS
 from turn_datasets.render.markdown import metric_table
 from turn_datasets.render.numbers import MISSING, fixed, is_missing, one_decimal
 from turn_eval.events.bootstrap import CI_METRICS
 from turn_eval.events.scoring import MATCHED_METRICS, NO_DETECTIONS, UNKNOWN_GROUP
+from turn_eval.scoring.signature import signature_line
+from turn_eval.scoring.writers import csv_row, grouped_frame
 
-__all__ = ["EVENT_LABELS", "EVENTS_CSV_COLUMNS", "events_markdown", "events_frame"]
+__all__ = ["EVENTS_CSV_COLUMNS", "events_markdown", "events_frame"]
 
-#: Row label and kind of every number of the tables (percent: a fraction printed x 100). The
-#: harness's angle metrics keep their one label (:data:`METRIC_LABELS`); the rest are the
-#: detection counts and rates, and the matched pairs' extras.
-EVENT_LABELS: Mapping[str, tuple[str, str]] = MappingProxyType(
-    {
-        "tp": ("# TP", "count"),
-        "fp": ("# FP", "count"),
-        "fn": ("# FN", "count"),
-        "precision": ("Precision (%)", "percent"),
-        "recall": ("Recall (%)", "percent"),
-        "f1": ("F1 (%)", "percent"),
-        "n": ("# Matched", "count"),
-        **{key: (label.short, label.kind) for key, label in METRIC_LABELS.items()},
-        "direction_agreement": ("Direction agreement (%)", "percent"),
-        "median_abs_dstart_s": ("Median |Δstart| (s)", "seconds"),
-        "median_abs_dend_s": ("Median |Δend| (s)", "seconds"),
-    }
-)
 _DETECTION = ("precision", "recall", "f1")
 # the matched-pair metrics in the order scoring reports them (declared once, in scoring)
 _MATCHED = MATCHED_METRICS
@@ -59,7 +40,7 @@ EVENTS_CSV_COLUMNS: Mapping[str, str] = {
 def _format(metric: str, value: Any) -> str:
     if is_missing(value):
         return MISSING
-    kind = EVENT_LABELS[metric][1]
+    kind = EVENT_LABELS[metric].kind
     if kind == "count":
         return f"{int(value)}" if float(value).is_integer() else one_decimal(value)
     if kind == "percent":
@@ -99,7 +80,7 @@ def events_markdown(doc: Mapping[str, Any]) -> str:
     header = ["Metric", "All"] + (["95% CI"] if with_ci else [])
     rows = []
     for m in ("tp", "fp", "fn", *_DETECTION, "n", *_present([overall], _MATCHED)):
-        row = [EVENT_LABELS[m][0], _format(m, _get(overall, m))]
+        row = [EVENT_LABELS[m].short, _format(m, _get(overall, m))]
         rows.append(row + ([_interval(overall, m)] if with_ci else []))
     out = ["## Overall", ""] + metric_table(header, rows)
 
@@ -139,13 +120,13 @@ def events_markdown(doc: Mapping[str, Any]) -> str:
         rows = []
         for m in (*_DETECTION, *_present(entries, _MATCHED[:4]), "tp", "fp", "fn", "n"):
             cells = [_format(m, _get(groups[g], m)) for g in names]
-            if EVENT_LABELS[m][1] == "count":
+            if EVENT_LABELS[m].kind == "count":
                 # a count is summed over the groups, not averaged (# TP 452.7 said nothing)
                 given = [_get(groups[g], m) for g in names]
                 last = f"Total {sum(int(v) for v in given if not is_missing(v))}"
             else:
                 last = _format(m, _get(avg, m))
-            rows.append([EVENT_LABELS[m][0], *cells, last])
+            rows.append([EVENT_LABELS[m].short, *cells, last])
         if "ci95" in avg:
             rows.append(
                 ["F1 95% CI"] + [_interval(groups[g], "f1") for g in names] + [_interval(avg, "f1")]
@@ -184,33 +165,20 @@ def events_markdown(doc: Mapping[str, Any]) -> str:
         + f"; Avg. is the unweighted mean over groups (counts: their total); turnbench {settings['version']}."
     )
     out += ["", summary, *notes]
+    if "signature" in doc:
+        out += ["", f"signature: {signature_line(doc['signature'])}"]
     return "\n".join(out) + "\n"
 
 
 def _csv_row(grouping: str, group: str, entry: Mapping[str, Any]) -> dict[str, Any]:
-    def num(value):
-        return np.nan if value is None else value
-
-    row: dict[str, Any] = {"grouping": grouping, "group": group}
-    for m in ("tp", "fp", "fn", *_DETECTION):
-        row[m] = num(entry.get(m))
-    row["matched_n"] = num(entry["matched"].get("n"))
-    for m in _MATCHED:
-        row[m] = num(entry["matched"].get(m))
-    ci = entry.get("ci95") or {}
-    for m in CI_METRICS:
-        bounds = ci.get(m)
-        row[f"{m}_ci_low"] = np.nan if bounds is None else bounds[0]
-        row[f"{m}_ci_high"] = np.nan if bounds is None else bounds[1]
-    return row
+    matched = entry["matched"]
+    values = {m: entry.get(m) for m in ("tp", "fp", "fn", *_DETECTION)}
+    values["matched_n"] = matched.get("n")
+    values.update({m: matched.get(m) for m in _MATCHED})
+    return csv_row(grouping, group, values, entry.get("ci95"), CI_METRICS)
 
 
 def events_frame(doc: Mapping[str, Any]) -> pd.DataFrame:
     """``score_events.csv``: the overall row, then every group of every grouping and its
     ``avg`` (:data:`EVENTS_CSV_COLUMNS`; fractions as in the JSON; empty where undefined)."""
-    rows = [_csv_row("overall", "all", doc["overall"])]
-    for col, block in doc.get("by", {}).items():
-        for label, entry in block["groups"].items():
-            rows.append(_csv_row(col, label, entry))
-        rows.append(_csv_row(col, "avg", block["avg"]))
-    return typed_frame(pd.DataFrame(rows), EVENTS_CSV_COLUMNS)
+    return grouped_frame(doc, _csv_row, EVENTS_CSV_COLUMNS)

@@ -1,7 +1,8 @@
 """The one reader of user tables: a CSV read with each row's own line number.
 
 Every table a user hands turnbench (a submission, a reference, detections, sessions, context,
-a clip index, a participants table, overrides) is read here, the same forgiving way, because
+a clip index, a participants table, overrides) is read here (here, not in the harness,
+because the curation's readers use it too and ``turn_datasets`` never imports ``turn_eval``), the same forgiving way, because
 such files come out of spreadsheets and notebooks: the text is UTF-8 with or without a
 byte-order mark; header names match ignoring case and surrounding spaces; the delimiter is a
 comma, a semicolon or a tab, whichever the header uses; with a semicolon or tab delimiter a
@@ -411,7 +412,7 @@ def read_table(
     """Read a CSV as :class:`Table`; ``numeric_columns`` are parsed as numbers by the C
     parser when every cell of them is a finite number (else :func:`numbers` parses them).
     A header without rows is refused unless ``allow_no_rows`` (a detector that found no
-    turns writes one)."""
+    turns writes one; a clip index of a corpus without turns)."""
     name = os.fspath(path)
     text = _one_newline(_read_text(name, what=what), name, what=what)
     if not text or text.isspace():  # blank (strip would copy the whole text to say so)
