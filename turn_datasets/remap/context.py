@@ -34,7 +34,13 @@ from turn_datasets.fileio import typed_frame
 if TYPE_CHECKING:  # the ELAN reader (pympi) is not needed to read the contracts
     from turn_datasets.remap.eaf import FileContext
 
-__all__ = ["CONTEXT_COLUMNS", "SESSIONS_COLUMNS", "context_table", "sessions_table"]
+__all__ = [
+    "CONTEXT_COLUMNS",
+    "SESSIONS_COLUMNS",
+    "SESSIONS_OPTIONAL",
+    "context_table",
+    "sessions_table",
+]
 
 #: ``context.csv``: the context tiers' intervals, per session and participant.
 CONTEXT_COLUMNS: Mapping[str, str] = MappingProxyType(
@@ -51,6 +57,10 @@ CONTEXT_COLUMNS: Mapping[str, str] = MappingProxyType(
 SESSIONS_COLUMNS: Mapping[str, str] = MappingProxyType(
     {"session": "str", "subject": "str", "duration_s": "float64"}
 )
+#: ``sessions.csv``'s optional column: when the session started, ISO 8601 with its UTC offset
+#: (``2024-03-05T09:30:00+00:00``), written where the source knows it; hour-of-day profiles
+#: (``turn-eval profile``) read the local time from it.
+SESSIONS_OPTIONAL: Mapping[str, str] = MappingProxyType({"start_time": "str"})
 _ROLES = ("scenario", "location")
 
 

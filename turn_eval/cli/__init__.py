@@ -22,6 +22,7 @@ from turn_datasets.cli.common import lazy_group, run_group
         "estimate": "turn_eval.cli.estimate",
         "score-events": "turn_eval.cli.score_events",
         "detect": "turn_eval.cli.detect",
+        "profile": "turn_eval.cli.profile",
     }
 )
 @click.version_option(__version__, prog_name="turn-eval")
@@ -36,6 +37,7 @@ def cli() -> None:
       turn-eval estimate walk.mp4 --out walk.npz   (needs: pip install 'turnbench[video]')
       turn-eval detect streams/ --layout h36m17 --up-axis -y --fps 30 --out detections.csv
       turn-eval score-events detections.csv --reference labels.csv
+      turn-eval profile detections.csv --sessions sessions.csv --participants p.csv --out-dir prof
     """
 
 
