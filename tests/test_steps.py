@@ -144,3 +144,18 @@ def test_pivot_rule_and_step_count_by_hand():
 def test_default_steps():
     assert default_steps("pivot_turn", 80) == 1 and default_steps("pivot_turn", -180) == 2
     assert default_steps("walking_turn", 90) == 3 and default_steps("walking_turn", 400) == 7
+
+
+def test_predict_gives_each_clip_its_steps_and_type(clean):
+    """``predict --fps`` on clips cut at the planted turns: the clip is the turn."""
+    from turn_eval.predict import predict_angles
+
+    pl = clean.planted
+    clips = [
+        (f"c{i}", clean.positions[a:b])
+        for i, (a, b) in enumerate(zip(pl["start_frame"], pl["end_frame"], strict=True))
+    ]
+    table = predict_angles(clips, layout=H36M32, fps_hz=clean.fps)
+    diff = table["steps"].to_numpy() - pl["steps"].to_numpy()
+    assert np.mean(np.abs(diff) <= 1) >= 0.9
+    assert np.mean(table["turn_type"].to_numpy() == pl["turn_type"].to_numpy()) >= 0.9
