@@ -10,13 +10,14 @@ so its feet never rest: good enough for a heading, useless for counting steps. W
 - walking: one swing after the other, the feet alternating, two per stride
   (:func:`~turn_datasets.synthetic.mocap.stride_frequency_hz`); no swing is started that would
   land after its segment ends; standing: both feet planted;
-- a **pivot turn** of ``k`` (1 or 2) steps: the body turns over its planted feet (both swivel
-  in place: the toes follow the pelvis, the ankles stay) and the ``k`` steps, each lasting a
-  fifth of the turn, end at 90% of it to put the feet back under the new heading (REMAP's
-  pivot turn: one or both feet swivel in place);
-- a **step turn** (a walking turn) of ``k`` (3 to 7) steps: ``k`` swings spread evenly over 5%
-  to 90% of the turn, so no planted foot carries much more than ``1/k`` of the rotation
-  (REMAP's step turn: three steps or more without pivoting).
+- a turn of ``k`` = 1 or 2 steps is a **pivot turn** (REMAP's: one or both feet swivel in
+  place): the body turns over its planted feet (the toes follow the pelvis, the ankles stay)
+  and the ``k`` steps, each lasting a fifth of the turn, end at 90% of it to put the feet
+  back under the new heading;
+- a turn of ``k`` = 3 to 7 steps is a **step turn** (REMAP's: three steps or more without
+  pivoting): ``k`` swings spread evenly over 5% to 90% of the turn, so no planted foot carries
+  much more than ``1/k`` of the rotation. A turn on the spot (``pivot_turn`` segment) can be
+  either: people with PD often turn on the spot in many small steps.
 
 Every landing of a turn falls inside the turn, so the planted truth of a turn's ``steps`` is
 the number of its swings. The knees are placed by two-bone inverse kinematics (thigh and
@@ -41,6 +42,7 @@ __all__ = [
     "schedule_swings",
     "plant_feet",
     "turn_steps",
+    "turn_type_of",
 ]
 
 #: The ankle joint's height above the floor when the foot is planted (the standing leg model's).
@@ -71,10 +73,15 @@ def default_steps(kind: str, heading_deg: float) -> int:
     return int(np.clip(round(magnitude / 45.0) + 1, 3, 7))
 
 
-def _turn_windows(kind: str, start: int, end: int, steps: int) -> list[tuple[int, int]]:
+def turn_type_of(steps: int) -> str:
+    """REMAP's class of a planted turn: ``pivot`` below three steps, else ``step``."""
+    return "pivot" if steps < 3 else "step"
+
+
+def _turn_windows(start: int, end: int, steps: int) -> list[tuple[int, int]]:
     """The swings of one turn (module docstring)."""
     span = end - start
-    if kind == "pivot_turn":
+    if turn_type_of(steps) == "pivot":
         width = 0.2 * span
         return [
             (
@@ -116,7 +123,7 @@ def schedule_swings(
             period = max(int(round(fps_hz / (2.0 * stride_hz[i]))), 2)
             windows = [(a, a + period) for a in range(max(s, free), e - period + 1, period)]
         elif kind in ("pivot_turn", "walking_turn"):
-            windows = _turn_windows(kind, s, e, int(steps[i]))
+            windows = _turn_windows(s, e, int(steps[i]))
         else:
             windows = []
         for a, b in windows:

@@ -322,8 +322,7 @@ def generate_sequence(
     footsteps
         Plant the feet (:mod:`turn_datasets.synthetic.footsteps`): feet rest on the ground
         between steps, and each turn takes its segment's ``steps``; the planted table then
-        has ``steps`` and ``turn_type`` (``pivot`` for a pivot turn, ``step`` for a walking
-        turn). Off, the legs swing from the pelvis as before and the same seed gives the
+        has ``steps`` and ``turn_type`` (``pivot`` below three steps, else ``step``). Off, the legs swing from the pelvis as before and the same seed gives the
         same array as before.
 
     Returns
@@ -392,7 +391,7 @@ def generate_sequence(
         segments, bounds, is_turn, true_yaw_deg, dropout_rows, fps_hz
     )
     if swings is not None:
-        planted = _with_steps(planted, swings)
+        planted = _with_steps(planted, segments, swings)
     return SyntheticSequence(
         positions=positions,
         fps=float(fps_hz),
@@ -439,13 +438,19 @@ def _footsteps(
     return swings
 
 
-def _with_steps(planted: pd.DataFrame, swings: Sequence[footsteps.Swing]) -> pd.DataFrame:
-    """The planted turns with their landings (``steps``) and REMAP's ``turn_type``."""
+def _with_steps(
+    planted: pd.DataFrame, segments: Sequence[Segment], swings: Sequence[footsteps.Swing]
+) -> pd.DataFrame:
+    """The planted turns with their landings (``steps``) and REMAP's ``turn_type`` (by the
+    steps asked for: :func:`~turn_datasets.synthetic.footsteps.turn_type_of`)."""
     out = planted.copy()
     start = out["start_frame"].to_numpy()
     end = out["end_frame"].to_numpy()
     out["steps"] = footsteps.turn_steps(swings, start, end).astype(np.int64)
-    out["turn_type"] = np.where(out["kind"] == "pivot_turn", "pivot", "step")
+    kinds = [
+        s.steps or footsteps.default_steps(s.kind, s.heading_deg) for s in segments if s.is_turn
+    ]
+    out["turn_type"] = [footsteps.turn_type_of(k) for k in kinds]
     return typed_frame(out, {**PLANTED_DTYPES, **FOOTSTEP_DTYPES})
 
 

@@ -41,7 +41,7 @@ from textwrap import indent
 
 import numpy as np
 import pandas as pd
-from scipy.ndimage import uniform_filter1d
+from scipy.ndimage import minimum_filter1d, uniform_filter1d
 
 from turn_datasets.geometry import frame_yaw_deg
 from turn_datasets.params import check_params, describe_params, param
@@ -73,8 +73,30 @@ class StepParams:
         min=0,
         max=10.0,
     )
+    lift_legs: float = param(
+        0.03,
+        "An ankle higher than this many leg lengths above its lowest of the last "
+        "ground_window_s (the floor under it) is lifted: in a swing.",
+        min=0,
+        min_open=True,
+        max=10.0,
+    )
+    min_lift_legs: float = param(
+        0.05,
+        "A swing that lifts the ankle this many leg lengths is a step, however short.",
+        min=0,
+        min_open=True,
+        max=10.0,
+    )
+    ground_window_s: float = param(
+        2.0,
+        "The floor under an ankle is its lowest height within this many seconds.",
+        min=0,
+        min_open=True,
+        max=60.0,
+    )
     smooth_s: float = param(
-        0.1, "Ankle speeds are averaged over this many seconds.", min=0, max=2.0
+        0.1, "Ankle speeds and heights are averaged over this many seconds.", min=0, max=2.0
     )
     landing_margin_s: float = param(
         0.25,
@@ -113,6 +135,27 @@ def _leg_length(positions: np.ndarray, layout: Layout) -> float:
     return float(np.median(d)) if d.size else float("nan")
 
 
+def _filled(values: np.ndarray) -> np.ndarray:
+    """Rows with a NaN filled by linear interpolation over time (a gap is not a swing unless
+    the foot moved across it); all-NaN columns stay NaN."""
+    out = np.array(values, dtype=float)
+    seen = np.isfinite(out).all(axis=1)
+    if seen.any() and not seen.all():
+        frames = np.arange(out.shape[0])
+        for k in range(out.shape[1]):
+            out[~seen, k] = np.interp(frames[~seen], frames[seen], out[seen, k])
+    return out
+
+
+def _pinned(p: np.ndarray, layout: Layout, leg: float) -> bool:
+    """Whether the stream is root-relative (the hips never leave the origin): then a planted
+    foot moves against the pelvis as fast as the person walks, and only its lift tells a
+    swing."""
+    mid = 0.5 * (p[:, layout.index(_HIPS[0]), :2] + p[:, layout.index(_HIPS[1]), :2])
+    mid = mid[np.isfinite(mid).all(axis=1)]
+    return bool(mid.size) and float(np.ptp(mid, axis=0).max()) < 0.05 * leg
+
+
 def foot_swings(
     positions: np.ndarray, layout: Layout, fps_hz: float, params: StepParams | None = None
 ) -> list[tuple[int, int, int]]:
@@ -124,23 +167,25 @@ def foot_swings(
     if not np.isfinite(leg) or leg <= 0 or p.shape[0] < 3:
         return []
     window = max(int(round(prm.smooth_s * fps_hz)), 1)
+    ground = max(int(round(prm.ground_window_s * fps_hz)), 1)
+    pinned = _pinned(p, layout, leg)
     out = []
     for foot, name in enumerate(_ANKLES):
-        xy = p[:, layout.index(name), :2]
-        seen = np.isfinite(xy).all(axis=1)
-        filled = xy.copy()
-        if not seen.any():
+        xyz = _filled(p[:, layout.index(name)])
+        if not np.isfinite(xyz).all():
             continue
-        frames = np.arange(xy.shape[0])
-        for k in range(2):  # bridge gaps linearly: a gap is not a swing unless the foot moved
-            filled[~seen, k] = np.interp(frames[~seen], frames[seen], xy[seen, k])
-        velocity = np.gradient(filled, axis=0) * fps_hz
+        velocity = np.gradient(xyz[:, :2], axis=0) * fps_hz
         speed = uniform_filter1d(np.hypot(velocity[:, 0], velocity[:, 1]), window, mode="nearest")
-        moving = np.concatenate([[False], speed > prm.move_legs_s * leg, [False]])
-        edges = np.flatnonzero(np.diff(moving.astype(np.int8)))
+        height = uniform_filter1d(xyz[:, 2], window, mode="nearest")
+        lift = height - minimum_filter1d(height, ground, mode="nearest")
+        moving = lift > prm.lift_legs * leg
+        if not pinned:
+            moving |= speed > prm.move_legs_s * leg
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], moving.astype(np.int8), [0]])))
         for a, b in zip(edges[::2], edges[1::2], strict=True):
-            travel = np.hypot(*(filled[b - 1] - filled[max(a - 1, 0)]))
-            if travel >= prm.min_step_legs * leg:
+            travel = np.hypot(*(xyz[b - 1, :2] - xyz[max(a - 1, 0), :2]))
+            stepped = travel >= prm.min_step_legs * leg and not pinned
+            if stepped or lift[a:b].max() >= prm.min_lift_legs * leg:
                 out.append((foot, int(a), int(b - 1)))
     return sorted(out, key=lambda s: (s[2], s[0]))
 
