@@ -29,8 +29,8 @@ from sklearn.metrics import precision_score
 
 from turn_datasets.fileio import to_json_text
 from turn_datasets.geometry import quantise_deg
-from turn_eval.scores import build_scores, scores_frame, scores_markdown
-from turn_eval.submission import read_predictions, read_reference
+from turn_eval.clips.submission import read_predictions, read_reference
+from turn_eval.clips.tables import build_scores, scores_frame, scores_markdown
 
 N_CLIPS = 100_000
 N_RESAMPLES = 1000

@@ -12,8 +12,8 @@ import pytest
 
 from turn_datasets import __version__
 from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
-from turn_eval import metrics
 from turn_eval.cli import cli
+from turn_eval.clips import metrics
 
 IDS = [f"clip{i}" for i in range(10)]
 REF = [45, 90, 90, 135, 180, 180, 90, 45, 225, 135]

@@ -10,8 +10,8 @@ import pytest
 from turn_datasets.errors import TurnbenchError
 from turn_eval.events import score_events
 from turn_eval.events.ap import interpolated_ap
-from turn_eval.events.bootstrap import COMPONENTS, cluster_bootstrap, unit_sums
-from turn_eval.metrics import resample_indices
+from turn_eval.events.bootstrap import COMPONENTS, cluster_bootstrap
+from turn_eval.scoring.bootstrap import resample_indices, unit_sums
 
 REF = pd.DataFrame(
     {
@@ -307,7 +307,7 @@ def test_ignore_unknown_drops_and_counts():
 
 def test_vectorised_percentiles_equal_the_harness_interval():
     from turn_eval.events.scoring import _percentiles
-    from turn_eval.metrics import percentile_interval
+    from turn_eval.scoring.bootstrap import percentile_interval
 
     rng = np.random.default_rng(5)
     values = rng.normal(size=(1000, 7))

@@ -14,7 +14,7 @@ from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.limits import MAX_ANGLE_DEG, MAX_SPEED_DEG_S
 from turn_eval.cli import cli as eval_cli
-from turn_eval.submission import read_predictions, read_reference
+from turn_eval.clips.submission import read_predictions, read_reference
 
 REFERENCE = "clip_id,angle_deg,duration_s\na,90,1.0\nb,180,2.0\nc,45,0.5\nd,135,1.5\n"
 PREDICTIONS = "clip_id,angle_deg\na,92.5\nb,170\nc,40\nd,100\n"

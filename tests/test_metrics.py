@@ -11,7 +11,7 @@ from sklearn.metrics import cohen_kappa_score, precision_score
 
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.geometry import quantise_deg
-from turn_eval.metrics import (
+from turn_eval.clips.metrics import (
     Partition,
     bin_report,
     bootstrap_ci,
@@ -19,11 +19,10 @@ from turn_eval.metrics import (
     compute_metrics,
     grouped_bootstrap,
     metrics_of,
-    percentile_interval,
     pooled_resampler,
-    resample_indices,
     wprec_from_counts,
 )
+from turn_eval.scoring.bootstrap import percentile_interval, resample_indices
 
 # Four clips worked by hand (also the CLI tests' example).
 REF = [90.0, 180.0, 45.0, 135.0]
@@ -277,7 +276,7 @@ def test_resampling_refuses_nonsense():
 
 
 def test_observed_group_metrics_equal_sklearn_per_group():
-    from turn_eval.metrics import grouped_metrics
+    from turn_eval.clips.metrics import grouped_metrics
 
     pred, ref, duration, speed, group = _sample(n=90)
     o = clip_outcomes(pred, ref, ref_duration_s=duration, pred_speed_deg_s=speed)
@@ -300,7 +299,7 @@ def test_observed_group_metrics_equal_sklearn_per_group():
 def test_quadratic_kappa_equals_sklearn_on_the_step_grid():
     # scikit-learn's own formula on integer steps with every step in between as a label is
     # the oracle; the closed form must agree whatever the bins present.
-    from turn_eval.metrics import quadratic_kappa
+    from turn_eval.clips.metrics import quadratic_kappa
 
     rng = np.random.default_rng(8)
     for spread in (30.0, 90.0, 400.0):
@@ -318,7 +317,7 @@ def test_quadratic_kappa_equals_sklearn_on_the_step_grid():
 def test_wprec_from_counts_is_sklearns_weighted_precision():
     # Reference bins 0,0,1,2 and predictions 0,1,1,1: true (2,1,1), predicted (1,3,0),
     # right (1,1,0) -> (2 * 1/1 + 1 * 1/3 + 1 * 0) / 4 = 7/12.
-    from turn_eval.metrics import wprec_from_counts
+    from turn_eval.clips.metrics import wprec_from_counts
 
     assert wprec_from_counts([2, 1, 1], [1, 3, 0], [1, 1, 0]) == pytest.approx(7 / 12)
     assert precision_score([0, 0, 1, 2], [0, 1, 1, 1], average="weighted", zero_division=0) == (
@@ -330,7 +329,7 @@ def test_hundreds_of_bins_score_like_sklearn_per_group_and_resample():
     # Predictions in centidegrees: hundreds of distinct bins. Every group metric on every resample
     # must still equal scikit-learn on that resample's clips of the group, and a chunk larger
     # than the engine's memory bound is evaluated in passes with the same numbers.
-    from turn_eval.metrics import _Engine
+    from turn_eval.clips.metrics import _Engine
 
     rng = np.random.default_rng(3)
     n = 400
@@ -379,7 +378,7 @@ def test_a_huge_finite_angle_is_scored_not_crashed():
 @pytest.mark.parametrize("seed", range(5))
 def test_segments_are_numpys_unique_rows(seed):
     # The distinct rows' first indices and every row's id, as np.unique(axis=0) gives them.
-    from turn_eval.metrics import _segments
+    from turn_eval.clips.metrics import _segments
 
     rng = np.random.default_rng(seed)
     sizes = [3, 5, 2]

@@ -85,12 +85,15 @@ def _trials(cmu_dir: Path):
     return source_table(cmu_dir)
 
 
-def test_source_table_lists_the_trials_issue_11_names(cmu_dir) -> None:
+def test_source_table_lists_every_trial_with_its_turns(cmu_dir) -> None:
     rows = {name: (count, side) for name, count, side in source_table(cmu_dir)}
     assert rows["69_20.bvh"] == (1, "right")
     assert rows["69_17.bvh"] == (3, "left")
+    assert rows["69_19.bvh"] == (4, "right")
+    assert rows["69_32.bvh"] == (1, "left")
     assert rows["16_21.bvh"] == (0, None) and rows["69_01.bvh"] == (0, None)
-    assert sum(c for c, _ in rows.values()) == 7
+    # 69_20, 69_25, 16_18, 16_27 and 69_32 one each; 69_17 three; 69_19 four
+    assert len(rows) == 9 and sum(c for c, _ in rows.values()) == 12
 
 
 def test_every_listed_trial_mined_against_the_roots_heading(cmu_dir) -> None:

@@ -14,9 +14,9 @@ from test_predict import minus_y_up_copy, turning_skeleton, y_up_copy
 
 from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
 from turn_datasets.skeleton import H36M32
-from turn_eval import metrics
-from turn_eval import submission as predictions
 from turn_eval.cli import cli
+from turn_eval.clips import metrics
+from turn_eval.clips import submission as predictions
 
 CONVERT = {"z": lambda p: p, "y": y_up_copy, "-y": minus_y_up_copy}
 

@@ -15,15 +15,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from turn_datasets.errors import TurnbenchError
-from turn_eval.submission import (
+from turn_eval.clips.submission import (
     GROUP_COLUMNS,
     JOINED_COLUMNS,
-    _has_blank_line,
-    _plain_lines,
-    _read_plain,
     read_predictions,
     read_reference,
 )
+from turn_eval.scoring.table import _has_blank_line, _plain_lines, _read_plain
 
 REFERENCE = (
     "clip_id,subject,action,split,angle_deg,duration_s\n"

@@ -15,9 +15,9 @@ from turn_datasets.render.labels import METRIC_LABELS
 from turn_datasets.render.markdown import markdown_table
 from turn_datasets.render.numbers import fixed, format_metric, one_decimal
 from turn_datasets.render.order import natural_key
+from turn_eval.clips.submission import read_predictions, read_reference
+from turn_eval.clips.tables import build_scores, scores_frame, scores_markdown
 from turn_eval.report import Report
-from turn_eval.scores import build_scores, scores_frame, scores_markdown
-from turn_eval.submission import read_predictions, read_reference
 
 
 @pytest.mark.parametrize(

@@ -13,9 +13,9 @@ import pandas as pd
 import pytest
 
 from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
-from turn_eval import plots
 from turn_eval.cli import cli
 from turn_eval.cli import score as _cli_score
+from turn_eval.clips import plots
 
 REPO = Path(__file__).resolve().parents[1]
 TURN_EVAL = Path(sys.executable).with_name("turn-eval")

@@ -12,7 +12,7 @@ from sklearn.metrics import accuracy_score, mean_absolute_error, precision_score
 from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.geometry import quantise_deg
-from turn_eval.significance import (
+from turn_eval.clips.significance import (
     _differences,
     _paired_outcomes,
     compare_predictions,

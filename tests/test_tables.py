@@ -11,9 +11,9 @@ from scipy import stats
 
 from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
-from turn_eval.metrics import METRICS
-from turn_eval.scores import SCORES_CSV_COLUMNS, build_scores, scores_frame, scores_markdown
-from turn_eval.submission import read_predictions, read_reference
+from turn_eval.clips.metrics import METRICS
+from turn_eval.clips.submission import read_predictions, read_reference
+from turn_eval.clips.tables import SCORES_CSV_COLUMNS, build_scores, scores_frame, scores_markdown
 
 
 def table4a_files(tmp_path: Path) -> tuple[Path, Path]:
@@ -242,7 +242,7 @@ def test_scores_frame_is_typed(table4a):
 
 
 def test_every_group_entry_equals_sklearn_on_its_clips(tmp_path):
-    from turn_eval.metrics import compute_metrics
+    from turn_eval.clips.metrics import compute_metrics
 
     rng = np.random.default_rng(2)
     n = 240

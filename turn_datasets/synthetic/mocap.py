@@ -320,9 +320,8 @@ def generate_sequence(
     start_heading_deg
         The walking direction at the first frame (degrees from +x); drawn when None.
     footsteps
-        Plant the feet (:mod:`turn_datasets.synthetic.footsteps`): feet rest on the ground
-        between steps, and each turn takes its segment's ``steps``; the planted table then
-        has ``steps`` and ``turn_type`` (``pivot`` below three steps, else ``step``). Off, the legs swing from the pelvis as before and the same seed gives the
+        Plant the feet (:mod:`turn_datasets.synthetic.footsteps`), each turn its ``steps``;
+        the planted table then has ``steps`` and ``turn_type`` (pivot below three, else step). Off, the legs swing from the pelvis as before and the same seed gives the
         same array as before.
 
     Returns

@@ -24,8 +24,9 @@ from turn_datasets.render.markdown import markdown_table
 from turn_datasets.render.numbers import one_decimal
 from turn_datasets.render.numbers import signed as with_sign
 from turn_eval.cli import cli
-from turn_eval.significance import Comparison, compare_predictions
-from turn_eval.submission import Joined, _list_ids, read_predictions, read_reference
+from turn_eval.clips.significance import Comparison, compare_predictions
+from turn_eval.clips.submission import Joined, read_predictions, read_reference
+from turn_eval.scoring.table import list_ids
 
 
 def _same_clips(a: Joined, b: Joined) -> list[str]:
@@ -40,7 +41,7 @@ def _same_clips(a: Joined, b: Joined) -> list[str]:
     parts = []
     for path, only in ((a.predictions_path, only_a), (b.predictions_path, only_b)):
         if only:
-            parts.append(f"{len(only)} only in {path} ({_list_ids(only)})")
+            parts.append(f"{len(only)} only in {path} ({list_ids(only)})")
     raise TurnbenchError(
         "the two submissions do not cover the same clips: " + "; ".join(parts),
         file=b.predictions_path,

@@ -1,7 +1,7 @@
 """``turn-eval score``: score a predictions file against a reference (issue 5).
 
-Thin: parse the options, read and validate (:mod:`turn_eval.submission`), score
-(:mod:`turn_eval.scores`), print one format on stdout and, with ``--out-dir``, write all three
+Thin: parse the options, read and validate (:mod:`turn_eval.clips.submission`), score
+(:mod:`turn_eval.clips.tables`), print one format on stdout and, with ``--out-dir``, write all three
 (and the figures) together, atomically.
 """
 
@@ -28,12 +28,12 @@ from turn_datasets.fileio import (
     write_files,
 )
 from turn_eval.cli import cli
-from turn_eval.scores import build_scores, scores_csv, scores_frame, scores_markdown
-from turn_eval.submission import read_predictions, read_reference
+from turn_eval.clips.submission import read_predictions, read_reference
+from turn_eval.clips.tables import build_scores, scores_csv, scores_frame, scores_markdown
 
 #: The files ``--out-dir`` receives besides the figures.
 SCORE_FILES = ("scores.json", "scores.md", "scores.csv")
-#: The figures ``--plots`` adds (as :data:`turn_eval.plots.PLOT_FILES`; matplotlib is only
+#: The figures ``--plots`` adds (as :data:`turn_eval.clips.plots.PLOT_FILES`; matplotlib is only
 #: imported when they are drawn).
 PLOT_FILES = ("confusion_matrix.png", "predicted_by_bin.png", "abs_error.png", "bland_altman.png")
 
@@ -134,7 +134,7 @@ def score(
                 {"scores.json": scores, "scores.md": texts["md"], "scores.csv": scores_csv(frame)},
             )
             if plots:
-                from turn_eval.plots import write_plots
+                from turn_eval.clips.plots import write_plots
 
                 t = joined.table
                 pred, ref_deg = t["pred_angle_deg"].to_numpy(), t["ref_angle_deg"].to_numpy()

@@ -9,8 +9,8 @@
 - ``pr_curve.png`` (detections with ``score``): precision against recall down the ranking,
   at each IoU threshold of the AP table, with the AP in the legend.
 
-Drawn as :mod:`turn_eval.plots` draws (matplotlib's object API on the Agg canvas, no
-software tag), so the same scores give the same bytes. matplotlib is imported only when a
+Drawn and saved as every figure of the harness (:func:`turn_eval.scoring.figures.save_figure`:
+matplotlib's object API on the Agg canvas, no software tag), so the same scores give the same bytes. matplotlib is imported only when a
 figure is drawn: the command line takes the file names from here without it.
 """
 
@@ -22,6 +22,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from turn_eval.scoring.figures import save_figure
 
 __all__ = ["EVENT_PLOT_FILES", "TIMELINE_DIR", "write_event_plots"]
 
@@ -42,12 +44,6 @@ def _figure(**kwargs):
     from matplotlib.figure import Figure
 
     return Figure(**kwargs)
-
-
-def _save(fig, path: Path) -> Path:
-    from turn_eval.plots import _save as save
-
-    return save(fig, path)
 
 
 def _timeline(unit_events, path: Path, session: str, subject: str) -> Path:
@@ -81,7 +77,7 @@ def _timeline(unit_events, path: Path, session: str, subject: str) -> Path:
     handles = [_bar(0, 0, 0, c) for c in _COLOURS.values()]
     ax.legend(handles, list(_COLOURS), loc="upper right", fontsize=7, ncols=3)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def _bar(start: float, end: float, y: float, colour: str):
@@ -97,7 +93,7 @@ def _f1_by_group(doc: Mapping[str, Any], path: Path) -> Path:
         ax = fig.add_subplot()
         ax.text(0.5, 0.5, "no groupings", ha="center", va="center")
         ax.set_axis_off()
-        return _save(fig, path)
+        return save_figure(fig, path)
     for k, (col, block) in enumerate(blocks, start=1):
         ax = fig.add_subplot(len(blocks), 1, k)
         entries = [*block["groups"].items(), ("Avg.", block["avg"])]
@@ -126,7 +122,7 @@ def _f1_by_group(doc: Mapping[str, Any], path: Path) -> Path:
         ax.set_ylabel("F1 (%)")
         ax.set_title(f"by {col}", fontsize=9)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def _pr_curve(curves: Mapping[str, Mapping[str, np.ndarray]], ap: Mapping, path: Path) -> Path:
@@ -142,7 +138,7 @@ def _pr_curve(curves: Mapping[str, Mapping[str, np.ndarray]], ap: Mapping, path:
     ax.set_ylabel("precision")
     ax.legend(loc="lower left", fontsize=8)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def write_event_plots(scores, out_dir: str | Path) -> list[Path]:

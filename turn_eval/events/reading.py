@@ -1,7 +1,7 @@
 """Read and validate the files of ``score-events``: detections, reference, context, sessions.
 
-Every file is read by the harness's own CSV reader (:mod:`turn_eval.submission`: header names
-matched ignoring case and spaces, comma, semicolon or tab delimiter, a UTF-8 BOM dropped, each
+Every file is read by the harness's one reader of user tables (:mod:`turn_eval.scoring.table`:
+header names matched ignoring case and spaces, comma, semicolon or tab delimiter, a UTF-8 BOM dropped, each
 row's own line number kept), so a detections file is as forgiving to write as a predictions
 file and every error names the file and its line (line 1 is the header).
 
@@ -43,7 +43,7 @@ from turn_eval.events.contract import (
     SESSIONS_OPTIONAL,
     TURN_TYPES,
 )
-from turn_eval.submission import _numbers, _read_table, _require, _Table
+from turn_eval.scoring.table import Table, numbers, read_table, require
 
 __all__ = [
     "read_detections",
@@ -396,7 +396,7 @@ def _shared_lines(lines: np.ndarray) -> _SharedLines:
 
 
 def _frame_of(
-    table: _Table, numeric: Sequence[str], allow_empty: Sequence[str] = ()
+    table: Table, numeric: Sequence[str], allow_empty: Sequence[str] = ()
 ) -> pd.DataFrame:
     """A file's columns as a frame: ``numeric`` ones parsed strictly, the rest as text."""
     data: dict[str, object] = {}
@@ -404,7 +404,7 @@ def _frame_of(
         if not col:
             continue
         if col in numeric:
-            data[col] = _numbers(
+            data[col] = numbers(
                 table, col, allow_empty=col in allow_empty, allow_negative=True, negative_hint=None
             )
         else:
@@ -427,8 +427,8 @@ def read_detections(path: str | os.PathLike[str]) -> pd.DataFrame:
 def _read_detections(path: str | os.PathLike[str]) -> tuple[pd.DataFrame, _Pairs]:
     """:func:`read_detections`, and the rows' (session, subject) pairs."""
     numeric = ("start_s", "end_s", "angle_deg", "speed_deg_s", "peak_speed_deg_s", "steps", "score")
-    table = _read_table(path, what="detections", numeric_columns=numeric)
-    _require(table, list(DETECTION_REQUIRED), what="the detections file")
+    table = read_table(path, what="detections", numeric_columns=numeric)
+    require(table, list(DETECTION_REQUIRED), what="the detections file")
     frame = _frame_of(table, numeric, allow_empty=("speed_deg_s", "peak_speed_deg_s", "steps"))
     return _checked_detections(frame, what=table.path)
 
@@ -492,7 +492,7 @@ def read_event_reference(path: str | os.PathLike[str]) -> pd.DataFrame:
 def _read_event_reference(path: str | os.PathLike[str]) -> tuple[pd.DataFrame, _Pairs]:
     """:func:`read_event_reference`, and the rows' (session, subject) pairs."""
     numeric = ("start_s", "end_s", "angle_deg")
-    table = _read_table(path, what="reference", numeric_columns=numeric)
+    table = read_table(path, what="reference", numeric_columns=numeric)
     frame = _frame_of(table, numeric)
     return _checked_event_reference(frame, what=table.path)
 
@@ -519,7 +519,7 @@ def check_context(frame: pd.DataFrame, *, what: str = "context") -> pd.DataFrame
 
 def read_context(path: str | os.PathLike[str]) -> pd.DataFrame:
     """Read and validate a ``context.csv`` (:func:`check_context`)."""
-    table = _read_table(path, what="context", numeric_columns=("start_s", "end_s"))
+    table = read_table(path, what="context", numeric_columns=("start_s", "end_s"))
     return check_context(_frame_of(table, ("start_s", "end_s")), what=table.path)
 
 
@@ -554,7 +554,7 @@ def check_sessions(frame: pd.DataFrame, *, what: str = "sessions") -> pd.DataFra
 
 def read_sessions(path: str | os.PathLike[str]) -> pd.DataFrame:
     """Read and validate a ``sessions.csv`` (:func:`check_sessions`)."""
-    table = _read_table(path, what="sessions", numeric_columns=("duration_s",))
+    table = read_table(path, what="sessions", numeric_columns=("duration_s",))
     return check_sessions(_frame_of(table, ("duration_s",)), what=table.path)
 
 

@@ -12,8 +12,8 @@ Detection
     midpoint, an FP is in the group :data:`UNKNOWN_GROUP`.
 Matched turns
     On the TP pairs, the harness's own angle metrics, with the same code as ``turn-eval
-    score`` (:func:`turn_eval.metrics.clip_outcomes`, :func:`turn_eval.metrics.metrics_of`,
-    :func:`turn_eval.metrics.grouped_metrics`): accuracy of the 45° bin, MAE, WPrec, and
+    score`` (:func:`turn_eval.clips.metrics.clip_outcomes`, :func:`turn_eval.clips.metrics.metrics_of`,
+    :func:`turn_eval.clips.metrics.grouped_metrics`): accuracy of the 45° bin, MAE, WPrec, and
     the MAE of angular speed when the detections give ``speed_deg_s`` (against the reference
     angle over the reference duration, equation 4; pairs whose detection has no speed are
     left out of it). Direction agreement when both sides have ``direction``; the medians of
@@ -43,13 +43,13 @@ import pandas as pd
 from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.render.order import natural_key
+from turn_eval.clips.metrics import Partition, clip_outcomes, grouped_metrics
 from turn_eval.events.ap import AP_IOUS, average_precision
 from turn_eval.events.bootstrap import (
     CI_METRICS,
     COMPONENTS,
     cluster_bootstrap,
     event_metrics,
-    unit_sums,
 )
 from turn_eval.events.contract import CONTEXT_GROUPS
 from turn_eval.events.matching import categorize_events, overlapping_pairs
@@ -67,13 +67,8 @@ from turn_eval.events.reading import (
     read_context,
     read_sessions,
 )
-from turn_eval.metrics import (
-    CONFIDENCE,
-    Partition,
-    clip_outcomes,
-    grouped_metrics,
-)
-from turn_eval.scores import BLANK_GROUP
+from turn_eval.scoring.bootstrap import CONFIDENCE, unit_sums
+from turn_eval.scoring.groups import BLANK_GROUP
 
 __all__ = ["DEFAULT_BY", "UNKNOWN_GROUP", "MATCHING_RULE", "EventScores", "score_events"]
 
@@ -543,7 +538,7 @@ def _percentiles(values: np.ndarray, qs: Sequence[float]) -> np.ndarray:
 def _intervals(distribution: Mapping[str, np.ndarray]) -> tuple[dict[str, np.ndarray], ...]:
     """Per metric, the percentile bounds of every group and of the groups' average.
 
-    :func:`turn_eval.metrics.percentile_interval` for all groups at once (tested equal):
+    :func:`turn_eval.scoring.bootstrap.percentile_interval` for all groups at once (tested equal):
     undefined resamples are left out; the average on a resample is undefined when one
     group is."""
     alpha = (1 - CONFIDENCE) / 2  # the bounds as percentile_interval computes them
@@ -591,7 +586,7 @@ def _average(groups: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
 
 def _event_components(events: pd.DataFrame, tp: np.ndarray, outcomes) -> np.ndarray:
     """Each event's additive components (:data:`COMPONENTS`): TP, FP, FN, matched-right,
-    matched absolute angle error (column by column in memory, as :func:`unit_sums` reads
+    matched absolute angle error (column by column in memory, as :func:`turn_eval.scoring.bootstrap.unit_sums` reads
     them)."""
     _, fp, fn = _kinds(events)
     out = np.zeros((events.shape[0], len(COMPONENTS)), order="F")

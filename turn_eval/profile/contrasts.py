@@ -32,7 +32,7 @@ import numpy as np
 import pandas as pd
 
 from turn_datasets.fileio import typed_frame
-from turn_eval.metrics import percentile_interval
+from turn_eval.scoring.bootstrap import percentile_interval
 
 __all__ = ["CONTRAST_COLUMNS", "GroupStats", "group_stats", "contrasts_table", "draw_counts"]
 

@@ -46,9 +46,9 @@ def _figure(**kwargs):
 
 
 def _save(fig, path: Path) -> Path:
-    from turn_eval.plots import _save as save
+    from turn_eval.scoring.figures import save_figure
 
-    return save(fig, path)
+    return save_figure(fig, path)
 
 
 def _heatmap(rows: pd.DataFrame, subject: str, path: Path) -> Path:

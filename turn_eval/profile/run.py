@@ -20,10 +20,10 @@ import pandas as pd
 from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import sha256_file
-from turn_eval.metrics import CONFIDENCE
 from turn_eval.profile.contrasts import contrasts_table
 from turn_eval.profile.inputs import DEFAULT_BY, read_inputs
 from turn_eval.profile.measures import by_hour_table, profile_table
+from turn_eval.scoring.bootstrap import CONFIDENCE
 
 __all__ = ["ProfileResult", "turning_profile", "contrast_measures"]
 

@@ -12,7 +12,7 @@ evaluation"; Efron and Tibshirani 1993, chapters 13 and 16)
     ``d*_r = metric_B(r) - metric_A(r)``. The resamples are
     ``numpy.random.default_rng(seed).integers(0, n, (n_resamples, n))``, the draws of
     ``scipy.stats.bootstrap(paired=True)`` and of the confidence intervals of
-    ``turn-eval score`` (:func:`turn_eval.metrics.resample_indices`). Reported: the observed
+    ``turn-eval score`` (:func:`turn_eval.scoring.bootstrap.resample_indices`). Reported: the observed
     difference ``d`` on all clips, the mean of ``d*``, and the 95% percentile interval of
     ``d*`` (2.5th and 97.5th percentiles, linear interpolation, as
     ``scipy.stats.bootstrap(method="percentile")``).
@@ -38,7 +38,7 @@ Exact McNemar test
     fair coin, so ``p = binomtest(c, b + c, 0.5)`` two-sided (``scipy.stats.binomtest``);
     with no discordant clip, ``p = 1``.
 
-Metrics (paper Section 5; :mod:`turn_eval.metrics`, the same code as ``turn-eval score``):
+Metrics (paper Section 5; :mod:`turn_eval.clips.metrics`, the same code as ``turn-eval score``):
 ``accuracy``, ``mae_deg``, ``wprec`` and, when the reference has durations,
 ``mae_speed_deg_s`` (equation 4).
 """
@@ -53,16 +53,14 @@ from scipy.stats import binomtest
 
 from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
-from turn_eval.metrics import (
-    CONFIDENCE,
+from turn_eval.clips.metrics import (
     METRICS,
     ClipOutcomes,
     clip_outcomes,
     metrics_of,
-    percentile_interval,
     pooled_resampler,
-    resample_indices,
 )
+from turn_eval.scoring.bootstrap import CONFIDENCE, percentile_interval, resample_indices
 
 __all__ = [
     "METRICS",

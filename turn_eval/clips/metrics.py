@@ -47,7 +47,7 @@ predictions (plain arrays in, a dict out) and :func:`bootstrap_ci` their pooled 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -56,10 +56,15 @@ from sklearn.metrics import precision_recall_fscore_support, precision_score
 
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.geometry import angular_speed_deg_s, quantise_deg
+from turn_eval.scoring.bootstrap import (
+    CHUNK_CELLS,
+    CONFIDENCE,
+    percentile_interval,
+    resample_indices,
+)
 
 __all__ = [
     "METRICS",
-    "CONFIDENCE",
     "KAPPA_WEIGHTS",
     "ClipOutcomes",
     "clip_outcomes",
@@ -68,25 +73,18 @@ __all__ = [
     "bin_report",
     "quadratic_kappa",
     "Partition",
-    "chunk_rows",
-    "resample_indices",
     "grouped_bootstrap",
     "grouped_metrics",
     "pooled_resampler",
     "bootstrap_distribution",
-    "percentile_interval",
     "bootstrap_ci",
     "wprec_from_counts",
 ]
 
 #: The aggregate metrics, in the paper's row order.
 METRICS = ("accuracy", "mae_deg", "wprec", "mae_speed_deg_s")
-#: Two-sided confidence level of every interval.
-CONFIDENCE = 0.95
 #: Weighting of Cohen's kappa between bins (ordinal classes: far misses weigh more).
 KAPPA_WEIGHTS = "quadratic"
-#: Index-matrix cells per chunk of resamples: a few arrays of this many 4- or 8-byte values.
-_CHUNK_CELLS = 1 << 21
 
 
 @dataclass(frozen=True)
@@ -308,41 +306,6 @@ def quadratic_kappa(outcomes: ClipOutcomes, *, bin_width_deg: float = 45.0) -> f
     return float(1.0 - np.mean((x - y) ** 2) / chance)
 
 
-def chunk_rows(n: int) -> int:
-    """Resamples drawn and evaluated together for ``n`` clips: bounds memory to a few arrays
-    of :data:`_CHUNK_CELLS` values whatever ``n``."""
-    return max(1, _CHUNK_CELLS // max(n, 1))
-
-
-def resample_indices(
-    n: int, *, n_resamples: int = 1000, seed: int = 0, rows_per_chunk: int | None = None
-) -> Iterator[np.ndarray]:
-    """The bootstrap index matrix of ``scipy.stats.bootstrap``, in chunks of rows.
-
-    ``numpy.random.default_rng(seed).integers(0, n, (n_resamples, n))`` is what scipy draws
-    for one sample, or for paired samples (whose common index it resamples); drawing it a
-    chunk of rows at a time takes the same values from the generator's stream. The values are
-    ``uint32``: for any ``n`` below 2**32 the generator draws 32-bit values whatever the
-    requested type, so they equal scipy's ``int64`` draws (tested).
-
-    Yields
-    ------
-    ndarray
-        ``(rows, n)`` chunks, ``n_resamples`` rows in all.
-    """
-    if n < 1:
-        raise TurnbenchError("cannot resample an empty set of clips")
-    if n >= 2**32:
-        raise TurnbenchError(f"too many clips to resample ({n})")
-    if n_resamples < 0:
-        raise TurnbenchError(f"the number of resamples must be 0 or more, got {n_resamples}")
-    rows = rows_per_chunk if rows_per_chunk is not None else chunk_rows(n)
-    rng = np.random.default_rng(seed)
-    for start in range(0, n_resamples, rows):
-        count = min(rows, n_resamples - start)
-        yield rng.integers(0, n, (count, n), dtype=np.uint32)
-
-
 def _precision_terms(true, predicted, true_positive) -> np.ndarray:
     """Each bin's ``true * tp / predicted``, zero where nothing was predicted in the bin."""
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -547,9 +510,9 @@ class _Engine:
             shape=(offset, blocks * n_seg),
         ).tocsc()
         # Resamples evaluated in one pass: bounds the dense intermediates (draw counts,
-        # segment sums, group sums) to a few arrays of _CHUNK_CELLS values, however many
+        # segment sums, group sums) to a few arrays of CHUNK_CELLS values, however many
         # rows a chunk has and however many groups and bins there are.
-        self.rows_per_pass = max(1, _CHUNK_CELLS // max(n, blocks * n_seg, offset))
+        self.rows_per_pass = max(1, CHUNK_CELLS // max(n, blocks * n_seg, offset))
 
     def evaluate(self, indices: np.ndarray) -> list[dict[str, np.ndarray]]:
         """Per partition, each metric (and ``n``) as ``(rows, groups)`` for a chunk of rows."""
@@ -698,22 +661,6 @@ def bootstrap_distribution(
         outcomes, [Partition.whole(outcomes.n)], n_resamples=n_resamples, seed=seed
     )
     return {name: values[:, 0] for name, values in result.items() if name != "n"}
-
-
-def percentile_interval(
-    values: np.ndarray, *, confidence: float = CONFIDENCE
-) -> tuple[float, float] | None:
-    """The percentile interval of a bootstrap distribution (linear interpolation, as scipy).
-
-    Undefined (NaN) resamples are left out; None when none is defined.
-    """
-    v = np.asarray(values, dtype=np.float64)
-    v = v[np.isfinite(v)]
-    if v.size == 0:
-        return None
-    alpha = (1 - confidence) / 2
-    low, high = np.percentile(v, [100 * alpha, 100 * (1 - alpha)])
-    return float(low), float(high)
 
 
 def bootstrap_ci(

@@ -19,18 +19,17 @@ import os
 from pathlib import Path
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from turn_datasets.geometry import quantise_deg
 from turn_datasets.render.numbers import fixed
-from turn_eval.submission import group_label
+from turn_eval.scoring.figures import save_figure
+from turn_eval.scoring.groups import group_label
 
 __all__ = ["PLOT_FILES", "write_plots"]
 
 #: File names of the figures, in the order :func:`write_plots` writes them.
 PLOT_FILES = ("confusion_matrix.png", "predicted_by_bin.png", "abs_error.png", "bland_altman.png")
-_DPI = 110
 #: Beyond these, a figure stops growing with its bins (a submission in the wrong unit can
 #: reach hundreds of bins; the figure must still fit in memory and on a screen).
 _MAX_INCHES = 14.0
@@ -38,13 +37,6 @@ _MAX_TICKS = 30
 _MAX_COUNTED_CELLS = 20
 _MAX_MATRIX_BINS = 40
 _MAX_BARS = 100
-
-
-def _save(fig: Figure, path: Path) -> Path:
-    FigureCanvasAgg(fig)
-    fig.savefig(path, format="png", dpi=_DPI, metadata={"Software": None})
-    fig.clear()
-    return path
 
 
 def _finish(
@@ -56,7 +48,7 @@ def _finish(
     ax.set_title(title)
     ax.legend(loc=legend_loc, fontsize=8)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def _confusion(
@@ -106,7 +98,7 @@ def _confusion(
     title = f"Confusion matrix of {bin_width_deg:g}° bins"
     ax.set_title(title if m == k else f"{title} ({k} bins in {m} runs)")
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def _predicted_by_bin(

@@ -1,87 +1,72 @@
-"""Read a reference table and a submission, validate the submission, join them per clip.
+"""The one reader of user tables: a CSV read with each row's own line number.
 
-The reference is any CSV with ``clip_id, angle_deg`` and, optionally, ``duration_s`` and
-group columns (``scenario, location, cohort, subject, action, split``, or any other): the
-Turn-H3.6M clip index and the Turn-REMAP labels both qualify as they are (DESIGN.md).
-A submission is ``clip_id, angle_deg`` and, optionally, ``speed_deg_s``; extra columns are
-kept and ignored.
+Every table a user hands turnbench (a submission, a reference, detections, sessions, context,
+a clip index, a participants table, overrides) is read here, the same forgiving way, because
+such files come out of spreadsheets and notebooks: the text is UTF-8 with or without a
+byte-order mark; header names match ignoring case and surrounding spaces; the delimiter is a
+comma, a semicolon or a tab, whichever the header uses; with a semicolon or tab delimiter a
+decimal comma (``12,5``) is read as a decimal point, as a spreadsheet in a European locale
+exports it; blank lines are skipped; CR and CRLF line ends count as one line each.
 
-Both are read the same forgiving way, because submissions come out of spreadsheets and
-notebooks: header names match ignoring case and surrounding spaces; a UTF-8 byte-order mark is
-dropped; the delimiter is a comma, a semicolon or a tab, whichever the header uses; with a
-semicolon or tab delimiter a decimal comma (``12,5``) is read as a decimal point, as a
-spreadsheet in a European locale exports it. Blank lines are skipped.
+What is refused, as one :class:`~turn_datasets.errors.TurnbenchError` naming the file and the
+file's own line number (line 1 is the header): a file that is missing, a folder, not UTF-8 or
+UTF-16 in disguise, empty, or a header without rows; a column named twice; a row with the
+wrong number of fields. :func:`numbers` then reads a numeric column strictly (not a number,
+empty, NaN, infinite, beyond its plausible bound, negative), naming the first bad line and
+counting the others.
 
-What the scoring is strict about, each found problem one :class:`TurnbenchError` naming the
-file and the file's own line number (line 1 is the header): an empty file, a missing column,
-a row with the wrong number of fields, an empty clip id, a non-numeric, NaN or infinite angle,
-a negative angle (angles are magnitudes; ``abs_angles=True`` takes them as such), duplicate
-clip ids, ids not in the reference, and reference ids missing from the submission (the first
-ten and the count; ``allow_missing=True`` scores the rest and reports ``n_missing``). All
-predicted angles below 2π while the reference's are not is only a warning: radians, perhaps.
+A file without quotes is split by pandas' C parser, which reads the numeric columns in the
+same pass (:func:`read_table`'s ``numeric_columns``); a quoted file goes through the csv
+module; both give the same :class:`Table`.
 """
 
 from __future__ import annotations
 
 import csv
 import io
-import math
 import os
 import re
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 
 from turn_datasets.errors import TurnbenchError, require_columns
-from turn_datasets.fileio import typed_frame
-from turn_datasets.geometry import quantise_deg
 from turn_datasets.limits import MAX_ANGLE_DEG, MAX_SPEED_DEG_S
 from turn_datasets.strings import count, stripped_objects, text_array
 
 __all__ = [
-    "GROUP_COLUMNS",
-    "BIN_COLUMN",
-    "JOINED_COLUMNS",
-    "Joined",
-    "read_reference",
-    "read_predictions",
-    "group_label",
+    "NUMERIC",
+    "PLAUSIBLE",
+    "Table",
+    "read_table",
+    "require",
+    "numbers",
+    "refuse_rows",
+    "first_and_count",
+    "and_more",
+    "list_ids",
 ]
 
-#: The default groupings, in this order, when the reference has them (issue 5). ``bin_deg``
-#: is the reference angle's 45° bin, which every reference has.
-GROUP_COLUMNS = ("scenario", "location", "cohort", "subject", "bin_deg", "action", "split")
-#: The reference bin column: always recomputed from the reference angle.
-BIN_COLUMN = "bin_deg"
-#: The per-clip columns of a joined table, before the reference's other columns.
-JOINED_COLUMNS = {
-    "clip_id": "str",
-    "ref_angle_deg": "float64",
-    "pred_angle_deg": "float64",
-    "ref_duration_s": "float64",
-    "pred_speed_deg_s": "float64",
-    "bin_deg": "float64",
-}
-_MAX_LISTED = 10
-_TWO_PI = 2 * math.pi
+#: At most this many ids are listed in one message (then "...").
+MAX_LISTED = 10
 
 
 #: Columns read as numbers wherever they appear.
-_NUMERIC = ("angle_deg", "duration_s", "speed_deg_s")
+NUMERIC = ("angle_deg", "duration_s", "speed_deg_s")
 #: The plausibility bound of each bounded column (turn_datasets.limits; the README's error
 #: section): above it a value is a typo or a unit mix-up, and 1.7e308 turned MAE into null.
-_PLAUSIBLE = {"angle_deg": MAX_ANGLE_DEG, "speed_deg_s": MAX_SPEED_DEG_S}
+PLAUSIBLE = {"angle_deg": MAX_ANGLE_DEG, "speed_deg_s": MAX_SPEED_DEG_S}
 _NAN_WORDS = ("nan", "+nan", "-nan", "na", "n/a", "null", "none")
 
 
 @dataclass
-class _Table:
+class Table:
     """A CSV as read: normalised header, stripped text cells, each row's line number.
 
     ``numbers`` holds the numeric columns the C parser could read as finite floats in one
-    go; a column it could not read is parsed from its text by :func:`_numbers`, which then
+    go; a column it could not read is parsed from its text by :func:`numbers`, which then
     names the first bad line.
     """
 
@@ -160,7 +145,7 @@ def _stripped(values) -> np.ndarray:
     return stripped_objects(values)
 
 
-def _read_quoted(text: str, name: str, delimiter: str) -> _Table:
+def _read_quoted(text: str, name: str, delimiter: str) -> Table:
     """The exact reader: the csv module, for files with quoted fields (which may span lines)."""
     reader = csv.reader(io.StringIO(text), delimiter=delimiter)
     header: list[str] | None = None
@@ -186,7 +171,7 @@ def _read_quoted(text: str, name: str, delimiter: str) -> _Table:
     assert header is not None  # the text has a non-blank line
     cells = np.array(rows, dtype=object).reshape(len(rows), len(header))
     columns = {col: _stripped(cells[:, i]) for i, col in enumerate(header) if col}
-    return _Table(
+    return Table(
         path=name,
         header=tuple(header),
         columns=columns,
@@ -317,10 +302,10 @@ def _read_plain(
     text: str,
     name: str,
     delimiter: str,
-    numeric_columns: Sequence[str] = _NUMERIC,
+    numeric_columns: Sequence[str] = NUMERIC,
     *,
     count_each_line: bool = False,
-) -> _Table:
+) -> Table:
     """The fast reader, for files without quotes: one record per line, so every row's line
     number is known before pandas' C parser splits the fields (``numeric_columns`` as
     numbers where they all parse). Each line's fields are counted when the body's total
@@ -341,7 +326,7 @@ def _read_plain(
             raise _wrong_width(
                 int(widths[i]), len(header), delimiter, name=name, line=int(lines[i])
             )
-    table = _Table(
+    table = Table(
         path=name,
         header=tuple(header),
         columns={},
@@ -377,11 +362,11 @@ def _read_plain(
     return table
 
 
-def _read_table(
-    path: str | os.PathLike[str], *, what: str, numeric_columns: Sequence[str] = _NUMERIC
-) -> _Table:
-    """Read a CSV as :class:`_Table`; ``numeric_columns`` are parsed as numbers by the C
-    parser when every cell of them is a finite number (else :func:`_numbers` parses them)."""
+def read_table(
+    path: str | os.PathLike[str], *, what: str, numeric_columns: Sequence[str] = NUMERIC
+) -> Table:
+    """Read a CSV as :class:`Table`; ``numeric_columns`` are parsed as numbers by the C
+    parser when every cell of them is a finite number (else :func:`numbers` parses them)."""
     name = os.fspath(path)
     text = _one_newline(_read_text(name, what=what), name, what=what)
     if not text or text.isspace():  # blank (strip would copy the whole text to say so)
@@ -407,7 +392,7 @@ def _read_table(
     return table
 
 
-def _require(table: _Table, required: Sequence[str], *, what: str) -> None:
+def require(table: Table, required: Sequence[str], *, what: str) -> None:
     require_columns(
         table.header,
         required,
@@ -418,26 +403,26 @@ def _require(table: _Table, required: Sequence[str], *, what: str) -> None:
     )
 
 
-def _first_and_count(table: _Table, bad: np.ndarray) -> tuple[int, int, int]:
+def first_and_count(table: Table, bad: np.ndarray) -> tuple[int, int, int]:
     where = np.flatnonzero(bad)
     return int(where[0]), int(table.lines[where[0]]), int(where.size)
 
 
-def _and_more(count: int) -> str:
+def and_more(count: int) -> str:
     return f" ({count - 1} more row{'s' if count > 2 else ''} like it)" if count > 1 else ""
 
 
-def _refuse_rows(
-    table: _Table, bad: np.ndarray, message: Callable[[int], str], *, hint: str | None = None
+def refuse_rows(
+    table: Table, bad: np.ndarray, message: Callable[[int], str], *, hint: str | None = None
 ) -> None:
     """Raise for the first ``bad`` row (``message`` of its index), counting the others."""
     if bad.any():
-        i, line, count = _first_and_count(table, bad)
-        raise TurnbenchError(message(i) + _and_more(count), file=table.path, row=line, hint=hint)
+        i, line, count = first_and_count(table, bad)
+        raise TurnbenchError(message(i) + and_more(count), file=table.path, row=line, hint=hint)
 
 
-def _numbers(
-    table: _Table,
+def numbers(
+    table: Table,
     column: str,
     *,
     allow_empty: bool,
@@ -479,17 +464,17 @@ def _numbers(
                 "nan": f"{column} is NaN ({raw[i]!r})",
                 "inf": f"{column} is infinite ({raw[i]!r})",
             }[kind]
-            raise TurnbenchError(message + _and_more(count), file=table.path, row=line)
-    bound = _PLAUSIBLE.get(column)
+            raise TurnbenchError(message + and_more(count), file=table.path, row=line)
+    bound = PLAUSIBLE.get(column)
     if bound is not None:
-        _refuse_rows(
+        refuse_rows(
             table,
             np.abs(values) > bound,
             lambda i: f"{column} {values[i]:g} is beyond the plausible {bound:g}",
             hint="see the bounds in the README's error section",
         )
     if not allow_negative:
-        _refuse_rows(
+        refuse_rows(
             table,
             values < 0,
             lambda i: f"{column} is negative ({values[i]:g})",
@@ -498,297 +483,6 @@ def _numbers(
     return values
 
 
-def _clip_ids(table: _Table) -> np.ndarray:
-    ids = table.columns["clip_id"]
-    if not table.ascii:
-        # "Café" typed on a Mac (NFD) and on Windows (NFC) are different strings but the
-        # same id; both sides are compared in NFC.
-        ids = pd.Series(ids, dtype=object).str.normalize("NFC").to_numpy(dtype=object)
-    _refuse_rows(table, ids == "", lambda _: "clip_id is empty")
-    duplicate = pd.Series(ids, dtype=object).duplicated(keep="first").to_numpy()
-    if duplicate.any():
-        i, line, count = _first_and_count(table, duplicate)
-        first = int(np.flatnonzero(ids == ids[i])[0])
-        raise TurnbenchError(
-            f"duplicate clip_id {ids[i]!r}, first on line {int(table.lines[first])}"
-            f"{_and_more(count)}",
-            file=table.path,
-            row=line,
-        )
-    return ids
-
-
-def _list_ids(ids: Sequence[str]) -> str:
-    shown = ", ".join(repr(str(i)) for i in ids[:_MAX_LISTED])
-    return shown + (", ..." if len(ids) > _MAX_LISTED else "")
-
-
-def group_label(value: object) -> str:
-    """The label of a group as the scores print it: bins as ``45``, text as it is."""
-    if isinstance(value, (float, np.floating)):
-        return f"{float(value):g}"
-    return str(value)
-
-
-def read_reference(path: str | os.PathLike[str], *, bin_width_deg: float = 45.0) -> pd.DataFrame:
-    """Read a reference table: clip index, labels, or any CSV with ``clip_id, angle_deg``.
-
-    Parameters
-    ----------
-    path
-        The reference CSV.
-    bin_width_deg
-        Width of the angle bins; ``bin_deg`` is recomputed from ``angle_deg`` with
-        :func:`turn_datasets.geometry.quantise_deg` so that it always agrees with the metrics.
-
-    Returns
-    -------
-    DataFrame
-        ``clip_id`` (str), ``angle_deg`` (float64), ``duration_s`` (float64, only when the
-        reference has it; an empty cell is NaN), ``bin_deg`` (float64), then every other
-        column of the file as stripped strings, in file order. ``attrs["path"]`` is the file
-        and ``attrs["lines"]`` each row's line number.
-
-    Raises
-    ------
-    TurnbenchError
-        The same problems as a submission (see the module docstring), each with its line.
-    """
-    table = _read_table(path, what="reference")
-    _require(table, ("clip_id", "angle_deg"), what="the reference")
-    ids = _clip_ids(table)
-    angle = _numbers(
-        table,
-        "angle_deg",
-        allow_empty=False,
-        allow_negative=False,
-        negative_hint="reference angles are magnitudes in degrees",
-    )
-    data: dict[str, object] = {"clip_id": ids, "angle_deg": angle}
-    dtypes: dict[str, str] = {"clip_id": "str", "angle_deg": "float64"}
-    if "duration_s" in table.header:
-        data["duration_s"] = _numbers(
-            table,
-            "duration_s",
-            allow_empty=True,
-            allow_negative=False,
-            negative_hint="durations are end minus start, in seconds",
-        )
-        dtypes["duration_s"] = "float64"
-    data[BIN_COLUMN] = np.asarray(quantise_deg(angle, bin_width_deg), dtype=np.float64)
-    dtypes[BIN_COLUMN] = "float64"
-    for col in table.header:
-        # Numeric columns (a clip index's speed_deg_s) are values, not groups.
-        if col and col not in dtypes and col not in _NUMERIC:
-            data[col] = table.columns[col]
-            dtypes[col] = "str"
-    frame = typed_frame(pd.DataFrame(data), dtypes)
-    frame.attrs["path"] = table.path
-    frame.attrs["lines"] = table.lines
-    frame.attrs["bin_width_deg"] = float(bin_width_deg)
-    return frame
-
-
-@dataclass(frozen=True)
-class Joined:
-    """A submission joined to its reference, one row per scored clip, in reference order.
-
-    Attributes
-    ----------
-    table
-        ``clip_id, ref_angle_deg, pred_angle_deg, ref_duration_s, pred_speed_deg_s, bin_deg``
-        and then the reference's other columns (strings), usable as groupings.
-        ``ref_duration_s`` is NaN where the reference has no duration, ``pred_speed_deg_s``
-        NaN where the submission gives no speed.
-    n_missing
-        Reference clips the submission left out (only non-zero with ``allow_missing``).
-    missing_ids
-        Those clips' ids, in reference order.
-    has_durations
-        Whether the reference has a ``duration_s`` column (else no speed metric).
-    predictions_path, reference_path
-        The files read.
-    bin_width_deg
-        The bin width ``bin_deg`` was computed with.
-    """
-
-    table: pd.DataFrame
-    n_missing: int
-    missing_ids: tuple[str, ...] = field(repr=False)
-    has_durations: bool
-    predictions_path: str
-    reference_path: str
-    bin_width_deg: float = 45.0
-
-    @property
-    def group_columns(self) -> tuple[str, ...]:
-        """Columns a ``--by`` may name: ``bin_deg`` and the reference's other columns."""
-        return tuple(self.table.columns[len(JOINED_COLUMNS) - 1 :])
-
-    @property
-    def default_groupings(self) -> tuple[str, ...]:
-        """:data:`GROUP_COLUMNS` the reference has with at least one non-empty value."""
-        out = []
-        for col in GROUP_COLUMNS:
-            if col == BIN_COLUMN:
-                out.append(col)
-            elif col in self.table.columns and (self.table[col] != "").any():
-                out.append(col)
-        return tuple(out)
-
-    def __len__(self) -> int:
-        return int(self.table.shape[0])
-
-
-def _place_in_reference(
-    table: _Table,
-    ids: np.ndarray,
-    ref: pd.DataFrame,
-    *,
-    ref_path: str,
-    allow_missing: bool,
-    say: Callable[[str], None],
-) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
-    """Each prediction's row in the reference, which reference rows are covered, and the
-    ids of those that are not (refused unless ``allow_missing``; an unknown id always)."""
-    ref_ids = ref["clip_id"].to_numpy(dtype=object)
-    position = pd.Index(ref_ids).get_indexer(ids)
-    unknown = position < 0
-    if unknown.any():
-        _, line, count = _first_and_count(table, unknown)
-        listed = _list_ids(list(ids[unknown]))
-        raise TurnbenchError(
-            f"{count} clip id{'s are' if count > 1 else ' is'} not in the reference "
-            f"{ref_path}: {listed}",
-            file=table.path,
-            row=line,
-        )
-    covered = np.zeros(ref.shape[0], dtype=bool)
-    covered[position] = True
-    missing_ids = tuple(str(i) for i in ref_ids[~covered])
-    if missing_ids:
-        message = (
-            f"{len(missing_ids)} of the reference's {ref.shape[0]} clips "
-            f"{'are' if len(missing_ids) > 1 else 'is'} missing from the predictions: "
-            f"{_list_ids(missing_ids)}"
-        )
-        if not allow_missing:
-            raise TurnbenchError(
-                message,
-                file=table.path,
-                hint="pass --allow-missing to score the clips that are there",
-            )
-        say(f"{table.path}: {message}; scoring the other {int(covered.sum())}")
-
-    return position, covered, missing_ids
-
-
-def read_predictions(
-    path: str | os.PathLike[str],
-    reference: pd.DataFrame | str | os.PathLike[str],
-    *,
-    allow_missing: bool = False,
-    abs_angles: bool = False,
-    warn: Callable[[str], None] | None = None,
-    bin_width_deg: float = 45.0,
-) -> Joined:
-    """Read and validate a submission and join it to the reference per clip.
-
-    Parameters
-    ----------
-    path
-        The predictions CSV: ``clip_id, angle_deg`` and optionally ``speed_deg_s``.
-    reference
-        A frame from :func:`read_reference`, or a reference CSV to read with it.
-    allow_missing
-        Score the clips the submission has and report how many it left out, instead of
-        refusing a submission that misses reference clips.
-    abs_angles
-        Take negative angles (and speeds) as their magnitudes (a signed-rotation submission),
-        instead of refusing them.
-    warn
-        Called with a one-line message for what is suspicious but scoreable (radians,
-        missing clips under ``allow_missing``); ignored when None.
-    bin_width_deg
-        Used only when ``reference`` is a path.
-
-    Returns
-    -------
-    Joined
-        See :class:`Joined`.
-
-    Raises
-    ------
-    TurnbenchError
-        Every problem listed in the module docstring, with the file and line.
-    """
-    say = warn if warn is not None else (lambda message: None)
-    ref = (
-        reference
-        if isinstance(reference, pd.DataFrame)
-        else read_reference(reference, bin_width_deg=bin_width_deg)
-    )
-    ref_path = str(ref.attrs.get("path", "reference"))
-    table = _read_table(path, what="predictions")
-    _require(table, ("clip_id", "angle_deg"), what="the predictions")
-    ids = _clip_ids(table)
-    hint = "angles are magnitudes; pass --abs to take the absolute value"
-    angle = _numbers(
-        table, "angle_deg", allow_empty=False, allow_negative=abs_angles, negative_hint=hint
-    )
-    speed = None
-    if "speed_deg_s" in table.header:
-        # An empty speed means "not given": the metric falls back to angle / duration.
-        speed = _numbers(
-            table, "speed_deg_s", allow_empty=True, allow_negative=abs_angles, negative_hint=hint
-        )
-    if abs_angles:
-        angle = np.abs(angle)
-        speed = None if speed is None else np.abs(speed)
-
-    position, covered, missing_ids = _place_in_reference(
-        table, ids, ref, ref_path=ref_path, allow_missing=allow_missing, say=say
-    )
-    ref_angle = ref["angle_deg"].to_numpy(dtype=np.float64)
-    if angle.size and float(np.max(angle)) < _TWO_PI and float(np.max(ref_angle)) >= _TWO_PI:
-        say(
-            f"{table.path}: every predicted angle is below 2π (the largest is "
-            f"{float(np.max(angle)):.4g}) while the reference's reach "
-            f"{float(np.max(ref_angle)):.4g}: are they in radians? turnbench expects degrees"
-        )
-
-    # Reference order, so the output does not depend on the submission's row order.
-    pred_angle = np.full(ref.shape[0], np.nan)
-    pred_angle[position] = angle
-    pred_speed = np.full(ref.shape[0], np.nan)
-    if speed is not None:
-        pred_speed[position] = speed
-    has_durations = "duration_s" in ref.columns
-    duration = (
-        ref["duration_s"].to_numpy(dtype=np.float64)
-        if has_durations
-        else np.full(ref.shape[0], np.nan)
-    )
-    data: dict[str, object] = {
-        "clip_id": ref["clip_id"][covered].reset_index(drop=True),
-        "ref_angle_deg": ref_angle[covered],
-        "pred_angle_deg": pred_angle[covered],
-        "ref_duration_s": duration[covered],
-        "pred_speed_deg_s": pred_speed[covered],
-        BIN_COLUMN: ref[BIN_COLUMN].to_numpy(dtype=np.float64)[covered],
-    }
-    dtypes = dict(JOINED_COLUMNS)
-    for col in ref.columns:
-        if col not in ("clip_id", "angle_deg", "duration_s") and col not in JOINED_COLUMNS:
-            data[col] = ref[col][covered].reset_index(drop=True)
-            dtypes[col] = "str"
-    joined = typed_frame(pd.DataFrame(data), dtypes)
-    return Joined(
-        table=joined,
-        n_missing=len(missing_ids),
-        missing_ids=missing_ids,
-        has_durations=has_durations,
-        predictions_path=table.path,
-        reference_path=ref_path,
-        bin_width_deg=float(ref.attrs.get("bin_width_deg", bin_width_deg)),
-    )
+def list_ids(ids: Sequence[str]) -> str:
+    shown = ", ".join(repr(str(i)) for i in ids[:MAX_LISTED])
+    return shown + (", ..." if len(ids) > MAX_LISTED else "")

@@ -3,7 +3,7 @@
 One document holds everything (DESIGN.md, "Scores"):
 
 ``overall``
-    Every scored clip pooled: ``n``, the metrics of :mod:`turn_eval.metrics`, their bootstrap
+    Every scored clip pooled: ``n``, the metrics of :mod:`turn_eval.clips.metrics`, their bootstrap
     ``ci95``, the quadratic-weighted ``kappa`` between predicted and reference bins and
     ``per_bin`` precision and recall.
 ``by``
@@ -11,7 +11,7 @@ One document holds everything (DESIGN.md, "Scores"):
     ``n``, the metrics and their ``ci95``, and ``avg``, the unweighted mean over the groups of
     each metric and of ``n`` (the "Avg." column of the paper's Tables 4 and 5) with its own
     ``ci95``. Every interval comes from the same bootstrap resamples of all the clips
-    (:func:`turn_eval.metrics.grouped_bootstrap`): a group's metric on a resample is computed
+    (:func:`turn_eval.clips.metrics.grouped_bootstrap`): a group's metric on a resample is computed
     on the group's clips it drew, and the average's on the same resample is the mean of those,
     so the groups' sampling noise enters the average's interval jointly. A resample that drew
     no clip of some group is left out of that group's interval and the average's.
@@ -40,34 +40,34 @@ from turn_datasets.render.labels import METRIC_LABELS
 from turn_datasets.render.markdown import markdown_cell, metric_table
 from turn_datasets.render.numbers import MISSING, fixed, format_metric
 from turn_datasets.render.order import natural_key
-from turn_eval.metrics import (
-    CONFIDENCE,
+from turn_eval.clips.metrics import (
     KAPPA_WEIGHTS,
     METRICS,
     ClipOutcomes,
     Partition,
     bin_report,
-    chunk_rows,
     clip_outcomes,
     grouped_bootstrap,
     grouped_metrics,
+)
+from turn_eval.clips.submission import BIN_COLUMN, Joined
+from turn_eval.scoring.bootstrap import (
+    CONFIDENCE,
+    chunk_rows,
     percentile_interval,
     resample_indices,
 )
-from turn_eval.submission import BIN_COLUMN, Joined, group_label
+from turn_eval.scoring.groups import BLANK_GROUP, group_label
 
 __all__ = [
     "SCORES_CSV_COLUMNS",
     "scores_csv",
-    "BLANK_GROUP",
     "outcomes_of",
     "build_scores",
     "scores_markdown",
     "scores_frame",
 ]
 
-#: The label of the group of clips whose grouping column is empty.
-BLANK_GROUP = "(blank)"
 #: Columns and dtypes of ``scores.csv``: one row per group, the overall row and ``avg`` rows.
 SCORES_CSV_COLUMNS: Mapping[str, str] = {
     "grouping": "str",
@@ -82,7 +82,7 @@ Progress = Callable[[Iterable[np.ndarray], int], Iterable[np.ndarray]]
 
 
 def outcomes_of(joined: Joined) -> ClipOutcomes:
-    """The per-clip outcomes of a joined submission (:func:`turn_eval.metrics.clip_outcomes`)."""
+    """The per-clip outcomes of a joined submission (:func:`turn_eval.clips.metrics.clip_outcomes`)."""
     t = joined.table
     return clip_outcomes(
         t["pred_angle_deg"].to_numpy(),
@@ -163,7 +163,7 @@ def build_scores(
     Parameters
     ----------
     joined
-        From :func:`turn_eval.submission.read_predictions`.
+        From :func:`turn_eval.clips.submission.read_predictions`.
     by
         Group columns of the reference; None or empty for every default grouping the
         reference has (:attr:`Joined.default_groupings`).
