@@ -185,3 +185,61 @@ def test_detect_on_untrimmed_sessions_with_footsteps(tmp_path):
     assert overall["within 1 step"] >= 0.8 and overall["type accuracy"] >= 0.85
     assert rows["PD"]["planted mean steps"] > rows["HC"]["planted mean steps"] + 1
     assert rows["PD"]["measured mean steps"] > rows["HC"]["measured mean steps"] + 1
+
+
+def test_score_reports_steps_and_turn_type_by_hand(tmp_path, capsys):
+    """Six clips, two cohorts. Steps: reference 1 2 3 4 5 6, predicted 1 3 3 2 5 (empty);
+    five pairs, |errors| 0 1 0 2 0: MAE 0.6, exact 3/5. Types: reference p p s s s s,
+    predicted p s s s p s: agreement 4/6; chance (2/6 * 2/6) + (4/6 * 4/6) = 5/9;
+    kappa = (4/6 - 5/9) / (1 - 5/9) = 0.25."""
+    import json
+
+    import pandas as pd
+
+    from turn_datasets.cli.common import run_group
+    from turn_eval.cli import cli
+
+    ref = pd.DataFrame(
+        {
+            "clip_id": [f"c{i}" for i in range(6)],
+            "angle_deg": [90.0] * 6,
+            "steps": [1, 2, 3, 4, 5, 6],
+            "turn_type": ["pivot", "pivot", "step", "step", "step", "step"],
+            "cohort": ["PD", "PD", "PD", "HC", "HC", "HC"],
+        }
+    )
+    pred = pd.DataFrame(
+        {
+            "clip_id": [f"c{i}" for i in range(6)],
+            "angle_deg": [90.0] * 6,
+            "steps": ["1", "3", "3", "2", "5", ""],
+            "turn_type": ["pivot", "step", "step", "step", "pivot", "Step"],
+        }
+    )
+    ref.to_csv(tmp_path / "ref.csv", index=False)
+    pred.to_csv(tmp_path / "pred.csv", index=False)
+    args = ["score", str(tmp_path / "pred.csv"), "-r", str(tmp_path / "ref.csv")]
+    code = run_group(cli, "turn-eval", [*args, "--format", "json", "--bootstrap", "0"])
+    out = capsys.readouterr().out
+    assert code == 0
+    steps = json.loads(out)["steps"]
+    overall = steps["overall"]
+    assert overall["n_steps"] == 5 and overall["steps_mae"] == pytest.approx(0.6)
+    assert overall["steps_exact"] == pytest.approx(0.6)
+    assert overall["type_accuracy"] == pytest.approx(4 / 6)
+    assert overall["type_kappa"] == pytest.approx(0.25)
+    # PD: steps 1 2 3 vs 1 3 3 -> MAE 1/3; types p p s vs p s s -> 2/3
+    pd_group = steps["by"]["cohort"]["PD"]
+    assert pd_group["steps_mae"] == pytest.approx(1 / 3)
+    assert pd_group["type_accuracy"] == pytest.approx(2 / 3)
+    code = run_group(cli, "turn-eval", [*args, "--bootstrap", "0"])
+    assert "## Steps and turn type" in capsys.readouterr().out
+    # without the columns on one side, no steps section
+    pred.drop(columns=["steps", "turn_type"]).to_csv(tmp_path / "pred.csv", index=False)
+    code = run_group(cli, "turn-eval", [*args, "--format", "json", "--bootstrap", "0"])
+    assert "steps" not in json.loads(capsys.readouterr().out)
+    # a fractional step count is refused with its line
+    pred.assign(steps=["1", "2.5", "3", "2", "5", "1"]).to_csv(tmp_path / "pred.csv", index=False)
+    code = run_group(cli, "turn-eval", [*args, "--bootstrap", "0"])
+    err = capsys.readouterr().err
+    assert code == 2 and "pred.csv:3" in err and "steps 2.5" in err
