@@ -202,12 +202,23 @@ def _check_inside(detections: pd.DataFrame, sessions: pd.DataFrame, unit: np.nda
 
 
 def _units(detections: pd.DataFrame, sessions: pd.DataFrame) -> np.ndarray:
-    """Each detection's row in ``sessions``, -1 where its (session, subject) is not there."""
+    """Each detection's row in ``sessions``, -1 where its (session, subject) is not there.
+
+    The rows' distinct pairs are found first (two factorisations and one ``unique`` of
+    integers), and only those few are looked up among the sessions."""
+    a, uniq_a = pd.factorize(detections["session"].to_numpy(dtype=object))
+    b, uniq_b = pd.factorize(detections["subject"].to_numpy(dtype=object))
+    width = max(len(uniq_b), 1)
+    pairs, inverse = np.unique(a.astype(np.int64) * width + b, return_inverse=True)
     keys = pd.MultiIndex.from_arrays([sessions["session"], sessions["subject"]])
-    found = keys.get_indexer(
-        pd.MultiIndex.from_arrays([detections["session"], detections["subject"]])
+    wanted = pd.MultiIndex.from_arrays(
+        [
+            np.asarray(uniq_a, dtype=object)[pairs // width],
+            np.asarray(uniq_b, dtype=object)[pairs % width],
+        ]
     )
-    return np.asarray(found, dtype=np.int64)
+    found = np.asarray(keys.get_indexer(wanted), dtype=np.int64)
+    return found[inverse.reshape(-1)]
 
 
 def read_inputs(

@@ -86,16 +86,23 @@ def turn_values(detections: pd.DataFrame) -> dict[str, np.ndarray]:
     if "steps" in detections:
         out["steps"] = detections["steps"].to_numpy(dtype=np.float64)
     if "turn_type" in detections:
-        kind = detections["turn_type"].to_numpy(dtype=object)
-        out["pivot"] = np.where(kind == "pivot", 1.0, np.where(kind == "step", 0.0, np.nan))
+        # through the few distinct values, not a string comparison per turn
+        codes, kinds = pd.factorize(detections["turn_type"].to_numpy(dtype=object))
+        value = {"pivot": 1.0, "step": 0.0}
+        lookup = np.array([value.get(str(k), np.nan) for k in kinds] + [np.nan])
+        out["pivot"] = lookup[codes]
     return out
 
 
 def _group_mean(code: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
     """The mean of ``values`` per group, NaN values left out (NaN for a group with none)."""
     ok = np.isfinite(values)
-    count = np.bincount(code[ok], minlength=n).astype(np.float64)
-    total = np.bincount(code[ok], weights=values[ok], minlength=n)
+    if ok.all():  # the usual case: no copy of the codes
+        count = np.bincount(code, minlength=n).astype(np.float64)
+        total = np.bincount(code, weights=values, minlength=n)
+    else:
+        count = np.bincount(code[ok], minlength=n).astype(np.float64)
+        total = np.bincount(code[ok], weights=values[ok], minlength=n)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(count > 0, total / np.maximum(count, 1), np.nan)
 
@@ -113,16 +120,11 @@ def _group_cv(code: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
 
 
 def _group_median(code: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
-    """The median per group (the mean of the two middle values of an even count)."""
-    order = np.lexsort((values, code))
-    sorted_values = values[order]
-    count = np.bincount(code, minlength=n)
-    first = np.concatenate([[0], np.cumsum(count)[:-1]])
-    low = first + (count - 1) // 2
-    high = first + count // 2
-    has = count > 0
+    """The median per group (the mean of the two middle values of an even count; pandas'
+    grouped median, which selects instead of sorting)."""
+    medians = pd.Series(values).groupby(code, sort=True).median()
     out = np.full(n, np.nan)
-    out[has] = 0.5 * (sorted_values[low[has]] + sorted_values[high[has]])
+    out[medians.index.to_numpy()] = medians.to_numpy()
     return out
 
 
@@ -134,15 +136,18 @@ def _day_cvs(
     out = {name: np.full(n, np.nan) for name in _CVS[3:]}
     if not known.any():
         return out
-    days = day[known].astype(np.int64)
-    span = int(days.max() - days.min() + 1)
-    _, cell_of = np.unique(code[known] * span + (days - days.min()), return_inverse=True)
-    cell_of = cell_of.reshape(-1)
-    n_cells = int(cell_of.max()) + 1
-    owner = np.zeros(n_cells, dtype=np.int64)
-    owner[cell_of] = code[known]
+    every = bool(known.all())
+    days = (day if every else day[known]).astype(np.int64)
+    first = int(days.min())
+    span = int(days.max()) - first + 1
+    # One cell per (participant, day) of the recording's span: indexed, not sorted.
+    cell = (code if every else code[known]) * span + (days - first)
+    count = np.bincount(cell, minlength=n * span)
+    used = np.flatnonzero(count)
+    owner = used // span
     for name, key in zip(_CVS[3:], ("angle", "duration", "speed"), strict=True):
-        daily = _group_mean(cell_of, values[key][known], n_cells)
+        v = values[key] if every else values[key][known]
+        daily = np.bincount(cell, weights=v, minlength=n * span)[used] / count[used]
         out[name] = _group_cv(owner, daily, n)
     return out
 
@@ -178,11 +183,15 @@ def profile_table(inputs: ProfileInputs, *, min_turns: int = 5) -> pd.DataFrame:
     ):
         if key in values:
             columns[name] = _group_mean(code, values[key], n)
-    bins = np.clip(
-        45.0 * np.floor(values["angle"] / 45.0 + 0.5), BIN_EDGES_DEG[0], BIN_EDGES_DEG[-1]
-    )
-    for name, centre in zip(_SHARES, BIN_EDGES_DEG, strict=True):
-        columns[name] = _group_mean(code, (bins == centre).astype(np.float64), n)
+    # Each turn's bin (0 for the first bin and below ... 4 for the last and above), then one
+    # count of turns per (participant, bin).
+    k = len(BIN_EDGES_DEG)
+    which = np.clip(np.floor(values["angle"] / 45.0 + 0.5).astype(np.int64) - 1, 0, k - 1)
+    per_bin = np.bincount(code * k + which, minlength=n * k).reshape(n, k)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        shares = per_bin / turns[:, None]
+    for j, name in enumerate(_SHARES):
+        columns[name] = np.where(turns > 0, shares[:, j], np.nan)
     columns["cv_angle"] = _group_cv(code, values["angle"], n)
     columns["cv_duration"] = _group_cv(code, values["duration"], n)
     columns["cv_speed"] = _group_cv(code, values["speed"], n)
@@ -242,15 +251,18 @@ def by_hour_table(inputs: ProfileInputs, *, keep: np.ndarray | None = None) -> p
     all_hour = np.concatenate([hour, turn_hour])
     if all_hour.size == 0:
         return typed_frame(pd.DataFrame({c: [] for c in BY_HOUR_COLUMNS}), BY_HOUR_COLUMNS)
-    span = int(all_hour.max() - all_hour.min() + 1)
-    key = all_subject * span + (all_hour - all_hour.min())
-    cells, inverse = np.unique(key, return_inverse=True)
-    inverse = inverse.reshape(-1)
+    low = int(all_hour.min())
+    span = int(all_hour.max()) - low + 1
+    # One cell per (participant, hour) of the recording's span: indexed, not sorted.
+    key = all_subject * span + (all_hour - low)
     n_pieces = hour.shape[0]
-    minutes = np.bincount(inverse[:n_pieces], weights=seconds / 60.0, minlength=cells.size)
-    turns = np.bincount(inverse[n_pieces:], minlength=cells.size)
+    size = len(subjects) * span
+    minutes = np.bincount(key[:n_pieces], weights=seconds / 60.0, minlength=size)
+    turns = np.bincount(key[n_pieces:], minlength=size)
+    cells = np.flatnonzero((minutes > 0) | (turns > 0))
+    minutes, turns = minutes[cells], turns[cells]
     cell_subject = cells // span
-    cell_hour = cells % span + all_hour.min()
+    cell_hour = cells % span + low
     day = cell_hour // 24
     dates = (np.datetime64("1970-01-01", "D") + day.astype("timedelta64[D]")).astype(str)
     table = pd.DataFrame(
