@@ -439,3 +439,56 @@ def test_existing_out_dir_is_kept_on_bad_input(inputs, tmp_path, capsys):
     )
     assert code == 2
     assert (out / "profile.csv").read_text() == "old\n"
+
+
+def test_remap_labels_copies_the_recorded_start_time(tmp_path, capsys):
+    """ELAN files that record their start (header property ``start_time``) give sessions.csv
+    a ``start_time``, which ``profile`` reads; files without it give the column as before."""
+    from turn_datasets.cli import cli as datasets_cli
+    from turn_datasets.synthetic.eaf import session_start_time, write_sessions
+
+    synth = write_sessions(
+        tmp_path / "eaf", seed=4, n_pairs=2, turns_per_subject=8, start_times=True
+    )
+    out = tmp_path / "labels" / "labels.csv"
+    args = [
+        "remap",
+        "labels",
+        str(tmp_path / "eaf"),
+        "--participants",
+        str(synth.participants_path),
+    ]
+    assert run_group(datasets_cli, "turn-datasets", [*args, "--out", str(out)]) == 0, (
+        capsys.readouterr().err
+    )
+    sessions = pd.read_csv(out.parent / "sessions.csv")
+    assert list(sessions.columns) == ["session", "subject", "duration_s", "start_time"]
+    for row in sessions.itertuples(index=False):
+        day = int(row.session.rsplit("day", 1)[1])
+        assert row.start_time == session_start_time(4, row.session, day)
+        assert datetime.fromisoformat(row.start_time).utcoffset() == timedelta(hours=1)
+    # the profile reads it: every participant's hours are in by_hour.csv
+    # (the annotated duration runs from the first to the last context annotation: turns
+    # after it are outside the recording as sessions.csv states it)
+    recorded = sessions.rename(columns={"duration_s": "recorded_s"})
+    det = pd.read_csv(out).merge(recorded, on=["session", "subject"])
+    det = det[det["end_s"] <= det["recorded_s"]]
+    det = det.loc[:, ["session", "subject", "start_s", "end_s", "angle_deg"]]
+    det.drop_duplicates(["session", "subject", "start_s", "end_s"]).to_csv(
+        tmp_path / "det.csv", index=False
+    )
+    res = turning_profile(
+        tmp_path / "det.csv",
+        out.parent / "sessions.csv",
+        synth.participants_path,
+        min_turns=0,
+        n_resamples=0,
+    )
+    assert set(res.by_hour["subject"]) == set(sessions["subject"])
+    assert res.by_hour["recorded_min"].sum() == pytest.approx(sessions["duration_s"].sum() / 60)
+    # without the property, no column
+    write_sessions(tmp_path / "eaf2", seed=4, n_pairs=2, turns_per_subject=8)
+    out2 = tmp_path / "labels2" / "labels.csv"
+    args[2] = str(tmp_path / "eaf2")
+    assert run_group(datasets_cli, "turn-datasets", [*args, "--out", str(out2)]) == 0
+    assert "start_time" not in pd.read_csv(out2.parent / "sessions.csv").columns

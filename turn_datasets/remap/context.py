@@ -17,7 +17,10 @@ read from ``context.csv``. Turns per hour need how long each participant was ann
 ``sessions.csv`` (:data:`SESSIONS_COLUMNS`)
     Per session and participant with turn annotations, the annotated duration in seconds:
     from the first start to the last end of the context annotations that apply to the
-    participant, or, without any, from 0 to the file's last time slot.
+    participant, or, without any, from 0 to the file's last time slot; and, when any file
+    records it (its header's ``start_time`` property:
+    :data:`turn_datasets.remap.eaf.START_TIME_PROPERTY`), ``start_time`` (empty for files
+    that do not).
 """
 
 from __future__ import annotations
@@ -149,8 +152,16 @@ def sessions_table(files: Iterable[FileContext]) -> pd.DataFrame:
             else:
                 duration_ms = file.last_time_ms
             rows.append(
-                {"session": file.session, "subject": participant, "duration_s": duration_ms / 1000}
+                {
+                    "session": file.session,
+                    "subject": participant,
+                    "duration_s": duration_ms / 1000,
+                    "start_time": file.start_time,
+                }
             )
-    frame = pd.DataFrame(rows, columns=list(SESSIONS_COLUMNS))
+    columns = dict(SESSIONS_COLUMNS)
+    if any(row["start_time"] for row in rows):
+        columns.update(SESSIONS_OPTIONAL)
+    frame = pd.DataFrame(rows, columns=[*SESSIONS_COLUMNS, *SESSIONS_OPTIONAL])
     frame = frame.sort_values(["session", "subject"], kind="mergesort")
-    return typed_frame(frame, SESSIONS_COLUMNS)
+    return typed_frame(frame, columns)
