@@ -135,6 +135,10 @@ def test_report_is_one_self_contained_page_with_everything(ran) -> None:
     events = out / "untrimmed" / "events"
     pngs += [sorted((events / "timelines").glob("*.png"))[0]]
     pngs += [events / "f1_by_group.png", events / "pr_curve.png"]
+    # and the turning profile's (issue 22): the forest plot, the distributions, a heat map
+    profile = out / "untrimmed" / "profile"
+    pngs += [profile / "forest.png", profile / "distributions.png"]
+    pngs += [sorted((profile / "heatmaps").glob("*.png"))[0]]
     assert len(sources) == len(pngs)
     embedded = set()
     for src in sources:

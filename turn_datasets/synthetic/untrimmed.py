@@ -826,6 +826,7 @@ def write_streams_for_labels(
     sessions: pd.DataFrame | None = None,
     fps_hz: float = 30.0,
     artefacts: ArtefactParams = ArtefactParams(),
+    footsteps: bool = False,
 ) -> list[Path]:
     """Untrimmed streams around the turns of a ``remap labels`` table (the demo's sessions).
 
@@ -846,6 +847,9 @@ def write_streams_for_labels(
         See :func:`synthesize_stream`.
     context, sessions
         ``context.csv`` and ``sessions.csv`` as ``remap labels`` writes them, or None.
+    footsteps
+        Plant footsteps, each turn's steps drawn by :func:`draw_steps` from a generator
+        seeded by ``seed`` and the names (see :func:`synthesize_stream`).
 
     Returns
     -------
@@ -874,6 +878,7 @@ def write_streams_for_labels(
                 camera_mm=camera,
                 fps_hz=fps_hz,
                 artefacts=artefacts,
+                footsteps=_seed(seed, str(session), str(subject), "steps") if footsteps else None,
             )
             arrays[str(subject)] = stream.positions
         written.append(write_npz(out / f"{session}.npz", arrays))
