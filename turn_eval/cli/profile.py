@@ -12,13 +12,13 @@ import click
 
 from turn_datasets.cli.common import (
     CONTEXT_SETTINGS,
-    Number,
     bootstrap_options,
     bootstrap_progress,
     check_out_dir,
     emit,
     format_option,
     one_run,
+    params_options,
     warn,
     wrote,
 )
@@ -26,7 +26,7 @@ from turn_datasets.fileio import to_json_text, write_files
 from turn_eval.cli import cli
 from turn_eval.profile.plots import HEATMAP_DIR, PROFILE_PLOT_FILES
 from turn_eval.profile.render import contrasts_markdown
-from turn_eval.profile.run import turning_profile
+from turn_eval.profile.run import ProfileParams, turning_profile
 
 #: The tables ``--out-dir`` receives.
 PROFILE_FILES = ("profile.csv", "by_hour.csv", "contrasts.csv", "contrasts.json")
@@ -34,7 +34,6 @@ PROFILE_FILES = ("profile.csv", "by_hour.csv", "contrasts.csv", "contrasts.json"
 OWNED = (*PROFILE_FILES, *PROFILE_PLOT_FILES, f"{HEATMAP_DIR}/*.png")
 
 _path = click.Path(dir_okay=False, path_type=Path)
-_MIN_TURNS = Number(int, min=0, max=100_000, why="a participant's turns in the recording")
 
 
 @cli.command("profile", context_settings=CONTEXT_SETTINGS)
@@ -60,13 +59,7 @@ _MIN_TURNS = Number(int, min=0, max=100_000, why="a participant's turns in the r
     type=click.Path(path_type=Path),
     help="Write profile.csv, by_hour.csv, contrasts.csv and contrasts.json here.",
 )
-@click.option(
-    "--min-turns",
-    type=_MIN_TURNS,
-    default=5,
-    show_default=True,
-    help="Participants with fewer turns get blank measures and stay out of the contrasts.",
-)
+@params_options(ProfileParams)
 @bootstrap_options("Bootstrap resamples of the participants within each group (0: none).")
 @click.option(
     "--by",

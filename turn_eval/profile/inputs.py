@@ -16,7 +16,10 @@ are refused, each one :class:`TurnbenchError` naming the file and line (line 1 i
   ``Z`` for UTC): without its offset a time is not a local hour anywhere in particular.
 
 An empty ``start_time`` means the start is not known: the session counts in the profile but not
-in ``by_hour.csv`` nor in the across-day variation (which needs local dates).
+in ``by_hour.csv`` nor in the across-day variation (which needs local dates). A session is taken
+as recorded from its ``start_time`` (time 0 of its detections) for ``duration_s``: a sessions
+table whose durations are an annotated stretch starting later (``remap labels``' from the first
+context annotation) places its hours as if it started at 0.
 """
 
 from __future__ import annotations

@@ -18,14 +18,31 @@ import numpy as np
 import pandas as pd
 
 from turn_datasets import __version__
-from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import sha256_file
+from turn_datasets.params import check_params, param
 from turn_eval.profile.contrasts import contrasts_table
 from turn_eval.profile.inputs import DEFAULT_BY, read_inputs
 from turn_eval.profile.measures import by_hour_table, profile_table
 from turn_eval.scoring.bootstrap import CONFIDENCE
 
-__all__ = ["ProfileResult", "turning_profile", "contrast_measures"]
+__all__ = ["ProfileParams", "ProfileResult", "turning_profile", "contrast_measures"]
+
+
+@dataclass(frozen=True)
+class ProfileParams:
+    """The profile's own parameter (the bootstrap's are every scorer's ``--bootstrap``/``--seed``)."""
+
+    min_turns: int = param(
+        5,
+        "Participants with fewer turns get blank measures and stay out of the contrasts (a "
+        "measure from a handful of turns is noise).",
+        min=0,
+        max=100_000,
+    )
+
+    def __post_init__(self) -> None:
+        check_params(self)
+
 
 _FIXED = ("subject", "recorded_h", "turns")
 
@@ -86,8 +103,7 @@ def turning_profile(
     TurnbenchError
         As :mod:`turn_eval.profile.inputs` says; a negative ``min_turns``.
     """
-    if min_turns < 0:
-        raise TurnbenchError(f"--min-turns must be 0 or more, got {min_turns}")
+    ProfileParams(min_turns=min_turns)  # checks it
     inputs = read_inputs(detections, sessions, participants, by=by)
     profile = profile_table(inputs, min_turns=min_turns)
     small = profile["turns"].to_numpy() < min_turns
