@@ -243,3 +243,40 @@ def test_score_reports_steps_and_turn_type_by_hand(tmp_path, capsys):
     code = run_group(cli, "turn-eval", [*args, "--bootstrap", "0"])
     err = capsys.readouterr().err
     assert code == 2 and "pred.csv:3" in err and "steps 2.5" in err
+
+
+def test_detect_cli_step_options_reach_the_counter_and_the_manifest(tmp_path, capsys):
+    """``--steps-*`` options are the counter's thresholds: impossible ones count no step."""
+    import json
+
+    import pandas as pd
+
+    from turn_datasets.cli.common import run_group
+    from turn_eval.cli import cli
+
+    segs = [sm.Segment.stand(2.0), sm.Segment.pivot_turn(120.0, 2.0, steps=2)]
+    segs += [sm.Segment.walk(3.0), sm.Segment.walking_turn(-150.0, 2.0, steps=5)]
+    segs += [sm.Segment.stand(2.0)]
+    seq = sm.generate_sequence(seed=3, segments=segs, noise_mm=0.0, footsteps=True)
+    np.savez(tmp_path / "home.npz", P1=seq.positions)
+    base = [
+        "detect",
+        str(tmp_path / "home.npz"),
+        "--layout",
+        "h36m32",
+        "--up-axis",
+        "z",
+        "--fps",
+        "50",
+    ]
+    assert run_group(cli, "turn-eval", [*base, "--out", str(tmp_path / "a.csv")]) == 0
+    found = pd.read_csv(tmp_path / "a.csv")
+    assert found["steps"].tolist() == [2, 5] and found["turn_type"].tolist() == ["pivot", "step"]
+    strict = ["--steps-min-step-legs", "5", "--steps-min-lift-legs", "5"]
+    out = tmp_path / "b.csv"
+    assert run_group(cli, "turn-eval", [*base, *strict, "--out", str(out)]) == 0
+    assert pd.read_csv(out)["steps"].tolist() == [0, 0]
+    manifest = json.loads(out.with_name("b.manifest.json").read_text())
+    assert manifest["params"]["steps_min_step_legs"] == 5.0
+    assert manifest["params"]["steps_pivot_share"] == 0.6
+    capsys.readouterr()
