@@ -492,3 +492,36 @@ def test_remap_labels_copies_the_recorded_start_time(tmp_path, capsys):
     args[2] = str(tmp_path / "eaf2")
     assert run_group(datasets_cli, "turn-datasets", [*args, "--out", str(out2)]) == 0
     assert "start_time" not in pd.read_csv(out2.parent / "sessions.csv").columns
+
+
+def test_optional_measures_follow_the_detections_columns(inputs, tmp_path):
+    """Detections without peak speed, steps and turn type: no such measures, the rest equal."""
+    det = pd.read_csv(inputs["detections"])
+    path = tmp_path / "plain.csv"
+    det.drop(columns=["peak_speed_deg_s", "steps", "turn_type"]).to_csv(path, index=False)
+    res = turning_profile(path, inputs["sessions"], inputs["participants"], n_resamples=0)
+    full = turning_profile(
+        inputs["detections"], inputs["sessions"], inputs["participants"], n_resamples=0
+    )
+    for col in ("peak_speed_deg_s", "mean_steps", "pivot_share"):
+        assert col not in res.profile.columns and col in full.profile.columns
+    kept = [c for c in res.profile.columns]
+    pd.testing.assert_frame_equal(res.profile, full.profile[kept])
+
+
+@pytest.mark.parametrize(
+    ("column", "value", "message"),
+    [
+        ("steps", "2.5", "steps 2.5 is not a whole number"),
+        ("steps", "-1", "steps -1 is outside"),
+        ("turn_type", "spin", "turn_type 'spin' is not one of pivot, step"),
+        ("peak_speed_deg_s", "1e9", "peak_speed_deg_s 1e+09 is outside"),
+    ],
+)
+def test_bad_step_columns_name_their_line(inputs, tmp_path, capsys, column, value, message):
+    det = pd.read_csv(inputs["detections"], dtype=str, keep_default_na=False)
+    det.loc[4, column] = value
+    path = tmp_path / "detections.csv"
+    det.to_csv(path, index=False)
+    err = _bad(inputs, tmp_path, capsys, detections=path)
+    assert message in err and "detections.csv:6" in err
