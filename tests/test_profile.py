@@ -505,8 +505,7 @@ def test_optional_measures_follow_the_detections_columns(inputs, tmp_path):
     )
     for col in ("peak_speed_deg_s", "mean_steps", "pivot_share"):
         assert col not in res.profile.columns and col in full.profile.columns
-    kept = [c for c in res.profile.columns]
-    pd.testing.assert_frame_equal(res.profile, full.profile[kept])
+    pd.testing.assert_frame_equal(res.profile, full.profile[list(res.profile.columns)])
 
 
 @pytest.mark.parametrize(
