@@ -80,11 +80,12 @@ def test_it_runs_the_commands_users_run(ran) -> None:
         "turn-eval predict",
         "turn-eval score",
         "turn-eval compare",
+        "turn-datasets remap open",
     ):
         assert expected in verbs, expected
-    # both methods, both sets
-    assert sum(v == "turn-eval predict" for v in verbs) == 4
-    assert sum(v == "turn-eval score" for v in verbs) == 4
+    # both methods, both sets, and the REMAP Open stage's one of each
+    assert sum(v == "turn-eval predict" for v in verbs) == 4 + 1
+    assert sum(v == "turn-eval score" for v in verbs) == 4 + 1
     assert "Table 3: clips per angle bin" in printed
     assert "--min-kappa 0.8" in printed
 
@@ -441,3 +442,28 @@ def test_untrimmed_stage_plants_the_labels_and_finds_them(ran) -> None:
     assert "--min-turn-deg 67.5" in said and "labelled turns found" in said
     text = (out / "report.html").read_text(encoding="utf-8")
     assert "Untrimmed sessions" in text
+
+
+def test_remap_open_stage_scores_by_medication_and_turn_type_in_the_report(ran) -> None:
+    from turn_eval.demo_remap_open import OPEN_DIR
+
+    out, results, said = ran
+    folder = out / OPEN_DIR
+    assert results["REMAP Open: release, read data, predictions, scores"] == folder
+    labels = pd.read_csv(folder / "data" / "labels.csv", keep_default_na=False, dtype=str)
+    assert len(labels) == 16  # --quick: 2 + 2 participants, 4 turns each
+    scores = json.loads((folder / "scores" / "scores.json").read_text())
+    assert scores["overall"]["n"] == 16
+    for col in ("medication", "dbs", "turn_type", "steps", "cohort", "scenario"):
+        counts = labels[col].replace("", "(blank)").value_counts().to_dict()  # score's name
+        assert {g: v["n"] for g, v in scores["by"][col]["groups"].items()} == counts, col
+    manifest = json.loads((folder / "data" / "manifest.json").read_text())
+    assert manifest["up_axis"]["found"] == {"-y": 16}  # camera axes, found from the trunk
+    assert "$ turn-datasets remap open" in said
+    text = (out / "report.html").read_text(encoding="utf-8")
+    section = text.split("Turn-REMAP as released (REMAP Open)</h2>")[1].split("<h2")[0]
+    for caption in ("by medication", "by turn_type", "by dbs", "by steps"):
+        assert f"Turn-REMAP as released, net {caption}" in section, caption
+    # the page's numbers are the scores file's: overall accuracy with one decimal
+    accuracy = f"{100 * scores['overall']['accuracy']:.1f}"
+    assert accuracy in section

@@ -534,11 +534,11 @@ def test_detect_reads_estimate_and_other_estimators_files_by_name(tmp_path, caps
     for table in found.values():
         assert table["direction"].tolist() == ["left"]
         assert abs(table["angle_deg"].iloc[0] - 90.0) < 6.0
-    # generic arrays still need the layout and axis; a JSON is AlphaPose's 2D
+    # generic arrays still need the layout (their axis is inferred); a JSON is AlphaPose's 2D
     code, _, err = run(
         cli, ["detect", tmp_path / "est", "--fps", "30", "--out", tmp_path / "x.csv"], capsys
     )
-    assert code == EXIT_BAD_INPUT and "--layout and --up-axis" in err
+    assert code == EXIT_BAD_INPUT and "generic arrays need --layout" in err
     alphapose = tmp_path / "alphapose-results.json"
     alphapose.write_text("[]")
     code, _, err = run(

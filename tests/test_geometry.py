@@ -195,8 +195,21 @@ def test_to_z_up_by_hand():
     np.testing.assert_allclose(to_z_up(np.array([0.5, 1.0, 2.0]), "y"), [0.5, -2.0, 1.0])
     # camera frame: y down, z forward -> up is -y, forward is +y
     np.testing.assert_allclose(to_z_up(np.array([0.5, 1.0, 2.0]), "-y"), [0.5, 2.0, -1.0])
+    # x up: -90° about y, (x, y, z) -> (-z, y, x); -x up: +90° about y, (z, y, -x);
+    # -z up: 180° about x, (x, -y, -z)
+    np.testing.assert_allclose(to_z_up(np.array([0.5, 1.0, 2.0]), "x"), [-2.0, 1.0, 0.5])
+    np.testing.assert_allclose(to_z_up(np.array([0.5, 1.0, 2.0]), "-x"), [2.0, 1.0, -0.5])
+    np.testing.assert_allclose(to_z_up(np.array([0.5, 1.0, 2.0]), "-z"), [0.5, -1.0, -2.0])
+    # every one is a proper rotation taking its axis to +z (handedness, so left/right, kept)
+    for axis in ("z", "y", "-y", "x", "-x", "-z"):
+        m = to_z_up(np.eye(3), axis)
+        np.testing.assert_allclose(m @ m.T, np.eye(3))
+        assert np.linalg.det(m) == pytest.approx(1.0)
+        unit = {"x": 0, "y": 1, "z": 2}[axis[-1]]
+        up = np.eye(3)[unit] * (-1.0 if axis.startswith("-") else 1.0)
+        np.testing.assert_allclose(to_z_up(up, axis), [0.0, 0.0, 1.0])
     with pytest.raises(TurnbenchError, match="unknown up axis"):
-        to_z_up(np.zeros(3), "x")
+        to_z_up(np.zeros(3), "w")
 
 
 # ---- properties -------------------------------------------------------------------------

@@ -12,6 +12,9 @@ from turn_eval.predict import predict_angle, predict_angles
 
 # Half-widths (metres) and heights of each left/right pair: any non-zero values do.
 _PAIRS = {"hip": (0.10, 0.9), "knee": (0.09, 0.5), "shoulder": (0.18, 1.4)}
+# Heights of the trunk and the feet, so that --up-axis auto (the default for generic arrays)
+# finds z up as it would in a person: pelvis to neck along z, the head above the feet.
+_HEIGHTS = {"pelvis": 0.9, "neck": 1.5, "head": 1.65, "left_foot": 0.05, "right_foot": 0.05}
 
 
 def turning_skeleton(
@@ -28,6 +31,8 @@ def turning_skeleton(
     p = np.zeros((n, layout.n_joints, 3))
     p[:, :, 0] = np.linspace(0.0, 1.5, n)[:, None]  # walking forward: translation is not rotation
     p[:, :, 2] = 1.0
+    for joint, z in _HEIGHTS.items():
+        p[:, layout.index(joint), 2] = z
     for pair, (r, z) in _PAIRS.items():
         yaw = np.radians(knee_yaw_deg if pair == "knee" and knee_yaw_deg is not None else yaw_deg)
         offset = np.stack([r * np.cos(yaw), r * np.sin(yaw)], axis=1)
@@ -155,7 +160,7 @@ def test_duplicate_clip_id_and_bad_clips_are_named():
 @pytest.mark.parametrize(
     "kwargs, message",
     [
-        ({"up_axis": "x"}, "up axis"),
+        ({"up_axis": "w"}, "up axis"),
         ({"method": "sum"}, "method"),
         ({"joints": "elbow"}, "joint pair"),
         ({"fps_hz": 0.0}, "frame rate"),
@@ -173,24 +178,44 @@ def test_bad_options_fail_before_reading(kwargs, message):
 
 
 def test_clip_arrays_reads_generic_or_named_files_with_their_up_axis(tmp_path):
+    from turn_datasets.up_axis import AxesFound
     from turn_eval.predict import clip_arrays
 
-    array = np.zeros((5, 17, 3))
-    np.savez(tmp_path / "two.npz", a=array, b=array)
+    body = turning_skeleton(np.linspace(0.0, 90.0, 5))  # z up
+    np.savez(tmp_path / "two.npz", a=body, b=minus_y_up_copy(body))
     (tmp_path / "clip7").mkdir()
-    np.save(tmp_path / "clip7" / "X3D.npy", array)
+    np.save(tmp_path / "clip7" / "X3D.npy", minus_y_up_copy(body))
+    found = AxesFound("auto")
     generic, axis = clip_arrays(
-        tmp_path / "two.npz", source_format="arrays", layout=H36M17, up_axis=None
+        tmp_path / "two.npz", source_format="arrays", layout=H36M17, up_axis=None, found=found
     )
-    assert [k for k, _ in generic] == ["a", "b"] and axis == "z"  # generic arrays: z unless told
-    named, axis = clip_arrays(
-        tmp_path / "clip7" / "X3D.npy", source_format="motionbert", layout=H36M17, up_axis=None
+    # generic arrays: each one's axis inferred (a: z, b: camera axes) and turned z up
+    pairs = list(generic)
+    assert [k for k, _ in pairs] == ["a", "b"] and axis == "z"
+    for _, array in pairs:
+        np.testing.assert_allclose(array, body)
+    assert dict(found.counts) == {"z": 1, "-y": 1}
+    found = AxesFound("motionbert")
+    named, _ = clip_arrays(
+        tmp_path / "clip7" / "X3D.npy",
+        source_format="motionbert",
+        layout=H36M17,
+        up_axis=None,
+        found=found,
     )
-    assert [k for k, _ in named] == ["clip7"] and axis == "-y"  # MotionBERT's camera axes
-    _, axis = clip_arrays(
-        tmp_path / "clip7" / "X3D.npy", source_format="motionbert", layout=H36M17, up_axis="y"
+    ((key, array),) = list(named)
+    assert key == "clip7" and dict(found.counts) == {"-y": 1}  # MotionBERT's camera axes
+    np.testing.assert_allclose(array, body)
+    found = AxesFound("y")
+    named, _ = clip_arrays(
+        tmp_path / "clip7" / "X3D.npy",
+        source_format="motionbert",
+        layout=H36M17,
+        up_axis="y",
+        found=found,
     )
-    assert axis == "y"  # the caller's word wins
+    list(named)
+    assert dict(found.counts) == {"y": 1}  # the caller's word wins
     with pytest.raises(TurnbenchError, match="16 joints but layout 'h36m17' has 17"):
         np.save(tmp_path / "short.npy", np.zeros((5, 16, 3)))
         list(clip_arrays(tmp_path / "short.npy", source_format="arrays", layout=H36M17,

@@ -171,6 +171,11 @@ def test_unusable_clip_names_file_and_key(tmp_path, capsys):
     src = write_skeletons(tmp_path / "x.npy", {"gone": lost})
     out = tmp_path / "p.csv"
     code, _, stderr = run(["predict", src, "--layout", "h36m17", "--out", out], capsys)
+    assert code == EXIT_BAD_INPUT  # the default --up-axis auto has nothing to infer from
+    assert f"{src}, gone: no frame shows the pelvis, neck, head and both feet" in stderr
+    assert not out.exists()
+    args = ["predict", src, "--layout", "h36m17", "--up-axis", "z", "--out", out]
+    code, _, stderr = run(args, capsys)
     assert code == EXIT_BAD_INPUT
     assert f"{src}, gone: fewer than two usable frames" in stderr
     assert not out.exists()
@@ -183,7 +188,7 @@ def test_refuses_to_overwrite_an_input_and_bad_options(tmp_path, capsys):
     assert code == EXIT_BAD_INPUT and "overwrite" in stderr
     assert src.read_bytes() == before
     out = tmp_path / "p.csv"
-    for bad in (["--joints", "elbow"], ["--up-axis", "x"], ["--fps", "0"], ["--layout", "coco"]):
+    for bad in (["--joints", "elbow"], ["--up-axis", "w"], ["--fps", "0"], ["--layout", "coco"]):
         args = ["predict", src, "--layout", "h36m17", *bad, "--out", out]
         code, _, stderr = run(args, capsys)
         assert code == EXIT_BAD_INPUT, bad

@@ -65,13 +65,15 @@ def test_check_joint_count() -> None:
 def test_skeleton_source_needs_what_generic_arrays_do_not_say() -> None:
     from turn_eval.cli.common import SkeletonSource
 
+    # the layout must be given; the vertical axis of generic arrays is inferred unless given
     with pytest.raises(TurnbenchError, match=r"^generic arrays need --layout \(hint"):
-        SkeletonSource("arrays", None, None).layout(need_up_axis=False)
-    with pytest.raises(TurnbenchError, match="generic arrays need --layout and --up-axis"):
-        SkeletonSource("arrays", None, None).layout(need_up_axis=True)
-    with pytest.raises(TurnbenchError, match="generic arrays need --up-axis"):
-        SkeletonSource("arrays", "h36m32", None).layout(need_up_axis=True)
-    assert SkeletonSource("arrays", "h36m32", None).layout(need_up_axis=False).n_joints == 32
+        SkeletonSource("arrays", None, None).layout()
+    assert SkeletonSource("arrays", "h36m32", None).layout().n_joints == 32
+    assert SkeletonSource("arrays", "h36m32", None).up_axis_option == "auto"
+    assert SkeletonSource("arrays", "h36m32", "-y").up_axis_option == "-y"
     with pytest.raises(TurnbenchError, match="--from motionbert files are in the h36m17"):
-        SkeletonSource("motionbert", "h36m32", None).layout(need_up_axis=True)
-    assert SkeletonSource("motionbert", None, None).layout(need_up_axis=True).name == "h36m17"
+        SkeletonSource("motionbert", "h36m32", None).layout()
+    assert SkeletonSource("motionbert", None, None).layout().name == "h36m17"
+    # a named format's own axis (None here) unless one is given
+    assert SkeletonSource("motionbert", None, None).up_axis_option is None
+    assert SkeletonSource("motionbert", None, "auto").up_axis_option == "auto"

@@ -25,6 +25,8 @@ __all__ = [
     "LAYOUTS",
     "JOINT_PAIRS",
     "UP_AXES",
+    "AUTO",
+    "UP_AXIS_CHOICES",
     "MocapSequence",
     "get_layout",
     "to_z_up",
@@ -88,7 +90,27 @@ JOINT_PAIRS: Mapping[str, tuple[str, str]] = MappingProxyType(
     }
 )
 
-UP_AXES = ("z", "y", "-y")
+#: The vertical axes a source may state (signed: ``-y`` is a camera's y pointing down).
+UP_AXES = ("z", "y", "-y", "x", "-x", "-z")
+#: ``--up-axis auto``: infer the axis from the skeleton
+#: (:func:`turn_datasets.up_axis.infer_up_axis`), where the source states none.
+AUTO = "auto"
+#: What ``--up-axis`` accepts.
+UP_AXIS_CHOICES = (*UP_AXES, AUTO)
+
+# Each axis's rotation onto z up as (source coordinate, sign) per output coordinate. Only
+# permutations and sign changes, so a NaN in one coordinate never spreads to the others and
+# values are copied exactly; every one is a proper rotation (determinant +1).
+_TO_Z_UP: Mapping[str, tuple[tuple[int, int], ...]] = MappingProxyType(
+    {
+        "z": ((0, 1), (1, 1), (2, 1)),
+        "y": ((0, 1), (2, -1), (1, 1)),
+        "-y": ((0, 1), (2, 1), (1, -1)),
+        "x": ((2, -1), (1, 1), (0, 1)),
+        "-x": ((2, 1), (1, 1), (0, -1)),
+        "-z": ((0, 1), (1, -1), (2, -1)),
+    }
+)
 
 
 def get_layout(name: str) -> Layout:
@@ -104,19 +126,19 @@ def to_z_up(positions: np.ndarray, up_axis: str) -> np.ndarray:
 
     ``z``: already z up (Human3.6M world). ``y``: y up (BVH, many estimators); rotated +90°
     about x, so (x, y, z) -> (x, -z, y). ``-y``: camera frames (x right, y down, z forward);
-    rotated -90° about x, so (x, y, z) -> (x, z, -y). Both are proper rotations
-    (determinant +1), so handedness, and with it the meaning of left and right, is kept.
+    rotated -90° about x, so (x, y, z) -> (x, z, -y). ``x``: (x, y, z) -> (-z, y, x) and
+    ``-x``: (z, y, -x), rotations of -90° and +90° about y; ``-z``: (x, -y, -z), 180° about
+    x. All are proper rotations (determinant +1), so handedness, and with it the meaning of
+    left and right, is kept.
     """
     p = np.asarray(positions)
     if p.shape[-1] != 3:
         raise TurnbenchError(f"positions must end in an axis of 3 coordinates, got shape {p.shape}")
     if up_axis == "z":
         return p
-    if up_axis == "y":
-        return np.stack([p[..., 0], -p[..., 2], p[..., 1]], axis=-1)
-    if up_axis == "-y":
-        return np.stack([p[..., 0], p[..., 2], -p[..., 1]], axis=-1)
-    raise TurnbenchError(f"unknown up axis {up_axis!r}; choose one of {list(UP_AXES)}")
+    if up_axis not in _TO_Z_UP:
+        raise TurnbenchError(f"unknown up axis {up_axis!r}; choose one of {list(UP_AXES)}")
+    return np.stack([sign * p[..., src] for src, sign in _TO_Z_UP[up_axis]], axis=-1)
 
 
 @dataclass

@@ -15,7 +15,10 @@ printed as ``$ turn-datasets ...`` before it runs:
    ``turn-eval predict`` with both methods (``paper``: equation 3 as printed; ``net``);
 5. ``turn-eval score --plots`` of each method on each set (Tables 4 and 5, Figure 5);
 6. ``turn-eval compare`` of the two methods on each set;
-7. ``report.html``: one self-contained page of all of it (:mod:`turn_eval.report`).
+7. untrimmed sessions: ``turn-eval detect`` and ``score-events`` (:mod:`turn_eval.detect.demo_stage`);
+8. Turn-REMAP as released: a REMAP-Open-shaped tree, ``turn-datasets remap open``, ``predict``
+   and ``score`` by medication, DBS, turn type and steps (:mod:`turn_eval.demo_remap_open`);
+9. ``report.html``: one self-contained page of all of it (:mod:`turn_eval.report`).
 
 It ends by printing where each result is. Same seed, same outputs.
 """
@@ -54,6 +57,13 @@ from turn_datasets.synthetic.demo_corpus import (
     write_remap_estimates,
 )
 from turn_eval import cli as eval_cli
+from turn_eval.demo_remap_open import (
+    OPEN_DIR,
+    RemapOpenResults,
+    load_remap_open,
+    remap_open_section,
+    run_remap_open_stage,
+)
 from turn_eval.detect.demo_stage import FPS_HZ as UNTRIMMED_FPS_HZ
 from turn_eval.detect.demo_stage import (
     UNTRIMMED_DIR,
@@ -222,7 +232,7 @@ def _overall_line(scores: dict) -> str:
 #: Written first into the output folder: a folder holding it is the demo's to empty.
 MARKER = ".turnbench-demo"
 #: What the demo writes into its output folder, removed before each run.
-OWNED = ("corpus", "h36m", "remap", UNTRIMMED_DIR, "report.html")
+OWNED = ("corpus", "h36m", "remap", UNTRIMMED_DIR, OPEN_DIR, "report.html")
 
 
 def prepare_out_dir(out: Path) -> None:
@@ -251,8 +261,9 @@ def prepare_out_dir(out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
     write_text(
         out / MARKER,
-        "Written by python -m turn_eval.demo: each run empties corpus/, h36m/, remap/ and "
-        "report.html here and writes them again.\n",
+        "Written by python -m turn_eval.demo: each run empties "
+        + ", ".join(OWNED)
+        + " here and writes them again.\n",
     )
 
 
@@ -299,6 +310,7 @@ class DemoResults:
     sets: list[SetScores]
     paths: dict[str, Path] = field(default_factory=dict)
     untrimmed: UntrimmedResults | None = None
+    remap_open: RemapOpenResults | None = None
 
 
 #: The benchmarks the demo scores: key, name, folder, groupings shown in the report.
@@ -546,6 +558,20 @@ def _untrimmed_step(
     return results
 
 
+def _remap_open_step(out: Path, *, seed: int, quick: bool, bootstrap: int) -> RemapOpenResults:
+    _say("\n# 8. Turn-REMAP as released (REMAP Open): read, predicted, scored by every label")
+    results = run_remap_open_stage(
+        out, seed=seed, run_datasets=_datasets, run_eval=_eval, quick=quick, bootstrap=bootstrap
+    )
+    o = results.scores["overall"]
+    _say(
+        f"{o['n']} turns: accuracy {format_metric('accuracy', o.get('accuracy'))}%, "
+        f"MAE {format_metric('mae_deg', o.get('mae_deg'))}°, "
+        f"WPrec {format_metric('wprec', o.get('wprec'))}%"
+    )
+    return results
+
+
 def run_demo(
     out_dir: str | Path,
     *,
@@ -575,8 +601,10 @@ def run_demo(
         out, labels_path, remap.participants_path, seed=seed, quick=quick, bootstrap=bootstrap
     )
     paths["Untrimmed streams, detections, event scores"] = untrimmed.folder
+    remap_open = _remap_open_step(out, seed=seed, quick=quick, bootstrap=bootstrap)
+    paths["REMAP Open: release, read data, predictions, scores"] = remap_open.folder
 
-    _say("\n# 8. The report")
+    _say("\n# 9. The report")
     results = DemoResults(
         seed=seed,
         table3_md=table3,
@@ -585,6 +613,7 @@ def run_demo(
         sets=sets,
         paths=paths,
         untrimmed=untrimmed,
+        remap_open=remap_open,
         **_audit_results(audit_dir),
     )
     paths["The report (open in a browser)"] = write_report(results, out / "report.html")
@@ -691,6 +720,7 @@ def load_results(out_dir: str | Path, *, seed: int = DEMO_SEED) -> DemoResults:
     return DemoResults(
         seed=seed,
         untrimmed=load_untrimmed(out),
+        remap_open=load_remap_open(out),
         table3_md=(h36m_dir / "table3.md").read_text(encoding="utf-8"),
         miner_md=miner_md.read_text(encoding="utf-8") if miner_md.exists() else None,
         tables12_md=(remap_dir / "tables1-2.md").read_text(encoding="utf-8"),
@@ -715,6 +745,8 @@ _FILES = {
     "(and its manifest), untrimmed/events/ (event scores, timelines, PR curve)",
     "turning profiles": "untrimmed/profile/ (profile.csv, by_hour.csv, contrasts.csv and "
     ".json, heat maps, distributions, forest plot)",
+    "Turn-REMAP as released": "remap-open/release/ (the REMAP-Open-shaped tree), remap-open/data/ "
+    "(labels, participants, skeletons, manifest), remap-open/predictions.csv, remap-open/scores/",
 }
 
 
@@ -761,6 +793,8 @@ def write_report(results: DemoResults, path: str | Path) -> Path:
     if results.untrimmed is not None:
         untrimmed_section(report, results.untrimmed)
         profile_section(report, results.untrimmed.folder / PROFILE_DIR)
+    if results.remap_open is not None:
+        remap_open_section(report, results.remap_open)
 
     report.section("Files").files(_FILES, caption="Where everything is, relative to this page")
     return report.write(path)

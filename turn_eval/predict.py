@@ -23,7 +23,8 @@ from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import typed_frame
 from turn_datasets.geometry import METHODS, angular_speed_deg_s, parse_joints, turning_angle
 from turn_datasets.mocap.arrays import iter_arrays
-from turn_datasets.skeleton import UP_AXES, Layout, get_layout, to_z_up
+from turn_datasets.skeleton import AUTO, UP_AXIS_CHOICES, Layout, get_layout, to_z_up
+from turn_datasets.up_axis import AxesFound, resolve_up_axis, z_up_arrays
 from turn_eval.steps import STEP_COLUMNS, turn_steps
 
 __all__ = ["PREDICTION_DTYPES", "SPEED_DTYPES", "clip_arrays", "predict_angle", "predict_angles"]
@@ -62,7 +63,8 @@ def predict_angle(
     layout
         ``"h36m17"``, ``"h36m32"`` or a :class:`~turn_datasets.skeleton.Layout`.
     up_axis
-        ``z``, ``y`` or ``-y`` (see :func:`turn_datasets.skeleton.to_z_up`).
+        ``z``, ``y``, ``-y``, ``x``, ``-x``, ``-z`` (see :func:`turn_datasets.skeleton.to_z_up`)
+        or ``auto``: inferred from the trunk (:func:`turn_datasets.up_axis.infer_up_axis`).
     joints
         Any of ``hip``, ``knee``, ``shoulder`` (Table 7's ablation); the paper uses the hip.
     method
@@ -82,7 +84,8 @@ def predict_angle(
         ``speed_deg_s``, ``peak_speed_deg_s``, ``steps`` and ``turn_type``.
     """
     lay = _resolve_layout(layout)
-    z_up = to_z_up(np.asarray(positions, dtype=float), up_axis)
+    p = np.asarray(positions, dtype=float)
+    z_up = to_z_up(p, resolve_up_axis(p, lay, up_axis))
     result = turning_angle(z_up, lay, joints=joints, method=method)
     out: dict[str, float | str] = {"angle_deg": result.angle_deg, "direction": result.direction}
     if fps_hz is not None:
@@ -94,22 +97,33 @@ def predict_angle(
 
 
 def clip_arrays(
-    path: str | os.PathLike[str], *, source_format: str, layout: Layout, up_axis: str | None
+    path: str | os.PathLike[str],
+    *,
+    source_format: str,
+    layout: Layout,
+    up_axis: str | None,
+    found: AxesFound | None = None,
 ) -> tuple[Iterable[tuple[str, np.ndarray]], str]:
-    """The ``(clip id, array)`` pairs of one skeleton file and the axis that points up in it.
+    """The ``(clip id, array)`` pairs of one skeleton file, z up, and the axis now up (``z``).
 
     ``source_format`` ``arrays``: a generic ``.npy``/``.npz``/``.h5`` whose arrays must have
-    ``layout``'s joints, read one at a time, z up unless ``up_axis`` says otherwise. Else an
+    ``layout``'s joints, read one at a time; their vertical axis is ``up_axis``, or, when
+    None, inferred per array (``auto``: generic arrays do not state their axes). Else an
     estimator's own file by name (:func:`turn_eval.estimate.formats.read_estimator_output`),
-    its own axis unless ``up_axis`` is given.
+    its own axis unless ``up_axis`` is given. The axis used for each array is recorded in
+    ``found``.
     """
     if source_format == "arrays":
-        return iter_arrays(path, layout=layout), up_axis or "z"
-    # imported here: the estimate package is only needed for an estimator's own files
-    from turn_eval.estimate.formats import read_estimator_output
+        named: Iterable[tuple[str, np.ndarray]] = iter_arrays(path, layout=layout)
+        axis = up_axis or AUTO
+    else:
+        # imported here: the estimate package is only needed for an estimator's own files
+        from turn_eval.estimate.formats import read_estimator_output
 
-    spec, named = read_estimator_output(path, source_format)
-    return named, up_axis or spec.up_axis
+        spec, named = read_estimator_output(path, source_format)
+        axis = up_axis or spec.up_axis
+    log = found if found is not None else AxesFound(axis)
+    return z_up_arrays(named, layout=layout, up_axis=axis, found=log), "z"
 
 
 def predict_angles(
@@ -146,8 +160,10 @@ def predict_angles(
         clip.
     """
     lay = _resolve_layout(layout)
-    if up_axis not in UP_AXES:
-        raise TurnbenchError(f"unknown up axis {up_axis!r}; choose one of {', '.join(UP_AXES)}")
+    if up_axis not in UP_AXIS_CHOICES:
+        raise TurnbenchError(
+            f"unknown up axis {up_axis!r}; choose one of {', '.join(UP_AXIS_CHOICES)}"
+        )
     if method not in METHODS:
         raise TurnbenchError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
     names = parse_joints(joints)

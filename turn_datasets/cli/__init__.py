@@ -50,16 +50,18 @@ def h36m() -> None:
         "labels": "turn_datasets.cli.labels",
         "stats": "turn_datasets.cli.labels",
         "agreement": "turn_datasets.cli.agreement",
+        "open": "turn_datasets.cli.remap_open",
     },
     parent=cli,
 )
 def remap() -> None:
-    """Turn-REMAP: labels from ELAN exports and the inter-rater agreement audit.
+    """Turn-REMAP: labels from ELAN exports, the inter-rater agreement audit, the REMAP Open release.
 
     \b
     Example:
       turn-datasets remap inspect session01.eaf
       turn-datasets remap agreement eaf/ --min-kappa 0.8
+      turn-datasets remap open Open_dataset_REMAP --out-dir remap-open/
     """
 
 

@@ -24,7 +24,7 @@ from turn_datasets.errors import GateFailed, TurnbenchError
 from turn_datasets.fileio import check_not_input, staged_dir
 from turn_datasets.params import param_fields
 from turn_datasets.render.numbers import counted
-from turn_datasets.skeleton import LAYOUTS, UP_AXES
+from turn_datasets.skeleton import LAYOUTS, UP_AXIS_CHOICES
 
 __all__ = [
     "EXIT_OK",
@@ -338,8 +338,9 @@ def layout_option(help: str, *, dest: str = "layout", **kwargs):
 
 
 def up_axis_option(help: str, **kwargs):
-    """``--up-axis``: the vertical axis of skeleton arrays (converted to z up)."""
-    return click.option("--up-axis", type=click.Choice(UP_AXES), help=help, **kwargs)
+    """``--up-axis``: the vertical axis of skeleton arrays (converted to z up), or ``auto``
+    (inferred per array from the trunk: :mod:`turn_datasets.up_axis`)."""
+    return click.option("--up-axis", type=click.Choice(UP_AXIS_CHOICES), help=help, **kwargs)
 
 
 def params_options(cls: type, *, prefix: str = "", defaults: object | None = None):

@@ -47,6 +47,7 @@ from turn_datasets.mocap.bvh import parse_joint_map
 from turn_datasets.mocap.readers import (
     FORMATS,
 )
+from turn_datasets.skeleton import AUTO
 
 
 def _check_out_folder(out: Path) -> None:
@@ -82,7 +83,8 @@ def _check_out_folder(out: Path) -> None:
 @click.option("--fps", type=FPS_HZ, default=None, help="Frame rate of generic arrays, in Hz.")
 @up_axis_option(
     default=None,
-    help="Vertical axis of generic arrays (converted to z up).",
+    help="Vertical axis of generic arrays (converted to z up). Default: auto, inferred per "
+    "array from the trunk, signed by the head above the feet (recorded in the manifest).",
 )
 @click.option(
     "--units",
@@ -154,6 +156,8 @@ def mine_cmd(
       turn-datasets h36m mine cmu/*.bvh --out cmu-turns.csv
       turn-datasets h36m mine poses.npy --layout h36m17 --fps 30 --up-axis y --units m \\
           --out turns.csv
+      turn-datasets h36m mine remap-open/skeletons.npz --layout h36m17 --fps 30 --units m \\
+          --out turns.csv   (up axis inferred)
       turn-datasets h36m mine visit1.npz --layout h36m17 --up-axis -y --fps 30 --units m \\
           --out turns.csv   (`turn-eval estimate`'s skeletons: see its manifest's fps_hz)
     """
@@ -196,6 +200,10 @@ def mine_cmd(
             what.append(f"{len(corpus.bad_sequences)} unusable sequence(s)")
         warn(f"skipped {' and '.join(what)}, listed in {mpath}")
     n_read = sum(1 for r in corpus.records if r.error is None)
+    axes = sorted({a for r in corpus.records for a in r.up_axes})
+    if axes:
+        how = "stated" if up_axis not in (None, AUTO) else "inferred from the trunk"
+        info(f"up axis of the arrays, {how}: {', '.join(axes)} (per file in the manifest)")
     info(
         f"wrote {counted(len(corpus.index), 'clip')} from "
         f"{counted(corpus.manifest['counts']['sequences'], 'sequence')} to {out}, manifest "

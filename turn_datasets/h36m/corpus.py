@@ -94,6 +94,8 @@ class FileRecord:
     sequences: int = 0
     frames: int = 0
     units: set[str] = field(default_factory=set)
+    #: The vertical axes the sequences were read with (generic arrays: stated or inferred).
+    up_axes: set[str] = field(default_factory=set)
     #: 1 for a BVH whose rest-pose frame 0 was dropped: index frame k is the file's k + 1.
     frame_offset: int = 0
     bad_sequences: list[TurnbenchError] = field(default_factory=list)
@@ -106,6 +108,8 @@ class FileRecord:
         self.sequences += 1
         self.frames += seq.n_frames
         self.units.add(seq.units)
+        if "up_axis" in seq.meta:
+            self.up_axes.add(str(seq.meta["up_axis"]))
         self.frame_offset = int(bool(seq.meta.get("skipped_first_frame", False)))
 
     def manifest_entry(self) -> dict[str, Any]:
@@ -119,6 +123,7 @@ class FileRecord:
             "sequences": self.sequences if read else 0,
             "frames": self.frames if read else 0,
             "units": sorted(self.units) if read else [],
+            "up_axes": sorted(self.up_axes) if read else [],
             "frame_offset": self.frame_offset,
             "skipped_sequences": len(self.bad_sequences) if read else 0,
         }

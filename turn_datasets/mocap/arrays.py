@@ -1,6 +1,8 @@
 """Generic arrays of positions: ``.npy``, ``.npz``, ``.h5``/``.hdf5`` of shape ``(frames, joints, 3)``.
 
-Their layout, fps, up axis and units are not in the file and must be given. The parent
+Their layout, fps and units are not in the file and must be given; their vertical axis is
+given or inferred per array (``auto``, :mod:`turn_datasets.up_axis`) and recorded in each
+sequence's ``meta["up_axis"]``. The parent
 folder's name is the ``subject``, the file stem (with the array key for ``.npz``/``.h5``)
 the ``action``, so two files of the same name in different folders stay apart.
 """
@@ -23,12 +25,14 @@ from turn_datasets.mocap.checks import (
     unreadable,
 )
 from turn_datasets.skeleton import (
-    UP_AXES,
+    AUTO,
+    UP_AXIS_CHOICES,
     Layout,
     MocapSequence,
     get_layout,
     to_z_up,
 )
+from turn_datasets.up_axis import resolve_up_axis
 
 __all__ = [
     "UNITS",
@@ -52,12 +56,13 @@ def read_arrays(
     units: str | None,
     on_bad: OnBadSequence | None,
 ) -> Iterator[MocapSequence]:
+    # the vertical axis, unless stated, is inferred per array (--up-axis auto)
+    up_axis = up_axis or AUTO
     missing = [
         opt
         for opt, value in (
             ("--layout", layout),
             ("--fps", fps),
-            ("--up-axis", up_axis),
             ("--units", units),
         )
         if value is None
@@ -66,19 +71,18 @@ def read_arrays(
         raise TurnbenchError(
             f"a generic array does not say its {', '.join(m.lstrip('-') for m in missing)}",
             file=path,
-            hint=f"give {' '.join(missing)} (layout: h36m32 or h36m17; up axis: "
-            f"{'/'.join(UP_AXES)}; units: {'/'.join(UNITS)})",
+            hint=f"give {' '.join(missing)} (layout: h36m32 or h36m17; units: {'/'.join(UNITS)})",
         )
-    assert fps is not None and up_axis is not None and units is not None  # all given (above)
+    assert fps is not None and units is not None  # both given (above)
     try:
         lay = layout if isinstance(layout, Layout) else get_layout(str(layout))
     except TurnbenchError as exc:
         raise TurnbenchError(exc.message, file=path) from None
     if not (np.isfinite(fps) and fps > 0):
         raise TurnbenchError(f"fps must be positive, got {fps}", file=path)
-    if up_axis not in UP_AXES:
+    if up_axis not in UP_AXIS_CHOICES:
         raise TurnbenchError(
-            f"unknown up axis {up_axis!r}; choose one of {', '.join(UP_AXES)}", file=path
+            f"unknown up axis {up_axis!r}; choose one of {', '.join(UP_AXIS_CHOICES)}", file=path
         )
     if units not in UNITS:
         raise TurnbenchError(
@@ -86,10 +90,17 @@ def read_arrays(
         )
     single = path.suffix.lower() == ".npy"
 
+    axes: dict[str, str] = {}
+
     def z_up(named: tuple[str, np.ndarray]) -> tuple[str, np.ndarray]:
         key, array = named
-        positions = to_z_up(np.asarray(array, dtype=np.float64), up_axis)
-        return key, checked_positions(positions, lay, path=path, item=None if single else key)
+        item = None if single else key
+        try:
+            axes[key] = resolve_up_axis(array, lay, up_axis, item=item)
+        except TurnbenchError as exc:
+            raise TurnbenchError(exc.message, file=path, item=item, hint=exc.hint) from None
+        positions = to_z_up(np.asarray(array, dtype=np.float64), axes[key])
+        return key, checked_positions(positions, lay, path=path, item=item)
 
     arrays = iter_arrays(path, layout=lay, on_bad_array=on_bad)
     for key, positions in skip_bad(arrays, z_up, None if single else on_bad):
@@ -102,7 +113,7 @@ def read_arrays(
             fps=float(fps),
             units=units,
             source=str(path),
-            meta={"format": "array", "key": key, "up_axis": up_axis},
+            meta={"format": "array", "key": key, "up_axis": axes[key], "up_axis_option": up_axis},
         )
 
 
@@ -111,10 +122,15 @@ ARRAY_SUFFIXES = (".npy", ".npz", ".h5", ".hdf5")
 
 def _checked(array: np.ndarray, layout: Layout | None, *, path: Path, key: str) -> np.ndarray:
     if array.ndim != 3 or array.shape[2] != 3 or array.shape[0] < 1 or array.shape[1] < 1:
+        # 2D keypoints (a REMAP Open skeletons_2d.npz, a detector's output) have no depth to
+        # turn about a vertical axis: say what to do, not only what the shape is
+        flat = array.ndim == 3 and array.shape[2] == 2
         raise TurnbenchError(
-            f"array has shape {tuple(array.shape)}, expected (frames, joints, 3)",
+            f"array has shape {tuple(array.shape)}, expected (frames, joints, 3)"
+            + ("; these are 2D keypoints" if flat else ""),
             file=path,
             item=key,
+            hint="lift them to 3D first" if flat else None,
         )
     if not (np.issubdtype(array.dtype, np.floating) or np.issubdtype(array.dtype, np.integer)):
         raise TurnbenchError(

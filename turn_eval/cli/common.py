@@ -13,7 +13,7 @@ import click
 
 from turn_datasets.cli.common import layout_option, up_axis_option
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.skeleton import Layout, get_layout
+from turn_datasets.skeleton import AUTO, Layout, get_layout
 from turn_eval.estimate.formats import FORMAT_CHOICES
 
 
@@ -30,25 +30,29 @@ class SkeletonSource:
     layout_name: str | None
     up_axis: str | None
 
-    def layout(self, *, need_up_axis: bool) -> Layout:
-        """The joint layout, once the three options are known to fit together.
+    def layout(self) -> Layout:
+        """The joint layout, once the options are known to fit together.
 
-        Generic arrays need ``--layout`` (and ``--up-axis`` when ``need_up_axis``); an
-        estimator's files are in the h36m17 layout.
+        Generic arrays need ``--layout`` (their vertical axis, unless given, is inferred:
+        ``--up-axis auto``); an estimator's files are in the h36m17 layout.
         """
         if self.format == "arrays":
-            needed = [("--layout", self.layout_name)]
-            if need_up_axis:
-                needed.append(("--up-axis", self.up_axis))
-            missing = [option for option, value in needed if value is None]
-            if missing:
+            if self.layout_name is None:
                 raise TurnbenchError(
-                    f"generic arrays need {' and '.join(missing)}",
+                    "generic arrays need --layout",
                     hint="or name the estimator that wrote them with --from",
                 )
         elif self.layout_name not in (None, "h36m17"):
             raise TurnbenchError(f"--from {self.format} files are in the h36m17 layout")
         return get_layout(self.layout_name or "h36m17")
+
+    @property
+    def up_axis_option(self) -> str | None:
+        """The axis to read with: the one given, else ``auto`` for generic arrays (they do
+        not state theirs), else None (a named format's own)."""
+        if self.up_axis is not None:
+            return self.up_axis
+        return AUTO if self.format == "arrays" else None
 
 
 def skeleton_source_options(*, from_help: str, layout_help: str, up_axis_help: str):

@@ -29,7 +29,7 @@ from turn_eval.cli.common import SkeletonSource, skeleton_source_options
 from turn_eval.detect.mapping import build_manifest, detect_files
 from turn_eval.detect.protocol import TurnDetector
 from turn_eval.detect.rule import DETECT_MINER_DEFAULTS, DetectParams, MinerRule
-from turn_eval.detect.streams import stream_files
+from turn_eval.detect.streams import axes_found, stream_files
 from turn_eval.steps import StepParams
 
 
@@ -63,11 +63,12 @@ def _load_detector(spec: str | None, params: DetectParams) -> TurnDetector:
     help="Detections CSV to write (score-events reads it); <stem>.manifest.json goes beside it.",
 )
 @skeleton_source_options(
-    from_help="Whose files: generic arrays (give --layout and --up-axis), or an estimator's own "
+    from_help="Whose files: generic arrays (give --layout), or an estimator's own "
     "output by name (turnbench = `turn-eval estimate`'s npz).",
     layout_help="Joint layout of the skeletons; required with --from arrays.",
     up_axis_help="The vertical axis: z (world), y (y up), -y (camera axes: y down, as estimators "
-    "write); required with --from arrays, else the named format's own.",
+    "write), x, -x, -z, or auto (inferred per stream from the trunk, signed by the head above the "
+    "feet). Default: auto for generic arrays, else the named format's own.",
 )
 @click.option(
     "--fps",
@@ -149,7 +150,7 @@ def detect_command(
     )
     detector = _load_detector(detector_spec, params)
     files = stream_files(skeletons)  # first: an AlphaPose JSON is refused with its reason
-    layout = source.layout(need_up_axis=True)
+    layout = source.layout()
     check_not_input(out, files)
     mpath = manifest_path(out)
     check_not_input(mpath, files)
@@ -164,7 +165,7 @@ def detect_command(
             files,
             detector=detector,
             layout=layout,
-            up_axis=source.up_axis,
+            up_axis=source.up_axis_option,
             fps_hz=fps_hz,
             source_format=source.format,
             workers=workers,
@@ -179,10 +180,11 @@ def detect_command(
         detector=detector,
         params=params.as_dict() if detector_spec is None else {},
         layout=layout,
-        up_axis=source.up_axis,
+        up_axis=source.up_axis_option,
         fps_hz=fps_hz,
         source_format=source.format,
     )
+    info(axes_found(run.inputs, source.up_axis_option or source.format).summary())
     try:
         with atomic_path(out) as tmp_csv, atomic_path(mpath) as tmp_manifest:
             run.detections.to_csv(tmp_csv, index=False, lineterminator="\n")

@@ -12,6 +12,7 @@ from turn_datasets.cli.common import (
     FILE,
     FPS_HZ,
     file_option,
+    info,
     progress,
     writing,
     wrote,
@@ -19,6 +20,8 @@ from turn_datasets.cli.common import (
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, write_csv
 from turn_datasets.geometry import METHODS, parse_joints
+from turn_datasets.skeleton import AUTO
+from turn_datasets.up_axis import AxesFound
 from turn_eval.cli import cli
 from turn_eval.cli.common import SkeletonSource, skeleton_source_options
 from turn_eval.estimate.formats import refuse_2d
@@ -37,8 +40,9 @@ from turn_eval.predict import clip_arrays, predict_angles
     "(layout and up axis known: turnbench = `turn-eval estimate`).",
     layout_help="Joint layout of the skeletons (Human3.6M's 17- or 32-joint order); required with "
     "--from arrays.",
-    up_axis_help="The vertical axis: z (Human3.6M world), y (y up), -y (camera: y down). Default: z, "
-    "or the named format's own.",
+    up_axis_help="The vertical axis: z (Human3.6M world), y (y up), -y (camera: y down), x, -x, "
+    "-z, or auto (inferred per clip from the trunk, signed by the head above the feet). Default: "
+    "auto for generic arrays, the named format's own otherwise.",
 )
 @click.option(
     "--joints",
@@ -85,21 +89,27 @@ def predict_command(
     \b
     Example:
       turn-eval predict poses.npz --layout h36m17 --up-axis y --out predictions.csv
+      turn-eval predict remap-open/skeletons.npz --layout h36m17 --fps 30 --out pred.csv
       turn-eval predict walk.npz --layout h36m17 --up-axis -y --out pred.csv  (estimate's)
       turn-eval predict clips/*/X3D.npy --from motionbert --out pred.csv
       turn-eval predict S9_*.npy --layout h36m32 --joints hip,knee --fps 50 --out pred.csv
       turn-eval score pred.csv --reference turn-h36m.csv
     """
     refuse_2d(skeletons)  # AlphaPose's 2D output: said before anything else
-    layout = source.layout(need_up_axis=False)
+    layout = source.layout()
     names = parse_joints(joints)
     check_not_input(out, skeletons)
     frames: list[pd.DataFrame] = []
     first_file: dict[str, Path] = {}
+    found = AxesFound(source.up_axis or (AUTO if source.format == "arrays" else source.format))
     for path in progress(skeletons, label="predicting", length=len(skeletons)):
         try:
             arrays, file_up_axis = clip_arrays(
-                path, source_format=source.format, layout=layout, up_axis=source.up_axis
+                path,
+                source_format=source.format,
+                layout=layout,
+                up_axis=source.up_axis,
+                found=found,
             )
             table = predict_angles(
                 arrays,
@@ -127,6 +137,7 @@ def predict_command(
             first_file[clip_id] = path
         frames.append(table)
     result = pd.concat(frames, ignore_index=True)
+    info(found.summary())
     with writing("the predictions", out):
         write_csv(result, out)
     n = len(result)

@@ -102,7 +102,13 @@ def detect_file(
     try:
         for s in read_streams(path, layout=layout, up_axis=up_axis, source_format=source_format):
             streams.append(
-                {"key": s.key, "session": s.session, "subject": s.subject, "n_frames": s.n_frames}
+                {
+                    "key": s.key,
+                    "session": s.session,
+                    "subject": s.subject,
+                    "n_frames": s.n_frames,
+                    "up_axis": s.up_axis,
+                }
             )
             try:
                 found = detector.detect(s.positions, fps_hz, layout)

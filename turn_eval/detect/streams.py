@@ -38,11 +38,13 @@ from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import walk_files
 from turn_datasets.mocap.arrays import ARRAY_SUFFIXES, iter_arrays
 from turn_datasets.render.order import natural_key
-from turn_datasets.skeleton import Layout, to_z_up
+from turn_datasets.skeleton import AUTO, H36M17, Layout, to_z_up
+from turn_datasets.up_axis import AxesFound, resolve_up_axis
 
 __all__ = [
     "STREAM_SUFFIXES",
     "Stream",
+    "axes_found",
     "read_streams",
     "stream_files",
     "stream_names",
@@ -67,6 +69,9 @@ class Stream:
         The file it was read from.
     key
         The array's name inside the file (the stem for ``.npy``).
+    up_axis
+        The file's axis that was turned to z: stated, a named format's own, or inferred
+        (``--up-axis auto``, :mod:`turn_datasets.up_axis`).
     """
 
     session: str
@@ -74,6 +79,7 @@ class Stream:
     positions: np.ndarray
     source: str
     key: str
+    up_axis: str = "z"
 
     @property
     def n_frames(self) -> int:
@@ -131,16 +137,20 @@ def stream_names(path: str | os.PathLike[str], key: str) -> tuple[str, str]:
 
 def _named_streams(
     path: str | os.PathLike[str], source_format: str, up_axis: str | None
-) -> Iterator[tuple[str, str, str, np.ndarray]]:
-    """``(session, subject, key, z-up positions)`` of another estimator's file, read by
-    :func:`turn_eval.estimate.formats.read_estimator_output` (the one reader of those)."""
+) -> Iterator[tuple[str, str, str, str, np.ndarray]]:
+    """``(session, subject, key, up axis, z-up positions)`` of another estimator's file, read
+    by :func:`turn_eval.estimate.formats.read_estimator_output` (the one reader of those)."""
     from turn_eval.estimate.formats import read_estimator_output
 
     spec, named = read_estimator_output(path, source_format)
     for name, array in named:
         # turnbench's npz: stem = session, key = track; the others: one clip per file
         session, subject = stream_names(path, name) if spec.name == "turnbench" else (name, name)
-        yield session, subject, name, to_z_up(array, up_axis or spec.up_axis)
+        try:
+            axis = resolve_up_axis(array, H36M17, up_axis or spec.up_axis, item=name)
+        except TurnbenchError as exc:
+            raise TurnbenchError(exc.message, file=path, item=name, hint=exc.hint) from None
+        yield session, subject, name, axis, to_z_up(array, axis)
 
 
 def read_streams(
@@ -159,8 +169,10 @@ def read_streams(
     layout
         The joint layout every array must have (``h36m17`` for a named format).
     up_axis
-        The files' vertical axis: ``z``, ``y`` or ``-y`` (camera axes, y down); for a named
-        format, None means the format's own.
+        The files' vertical axis: ``z``, ``y``, ``-y`` (camera axes, y down), ``x``, ``-x``,
+        ``-z``, or ``auto`` (inferred per stream from the trunk,
+        :func:`turn_datasets.up_axis.infer_up_axis`); None means ``auto`` for generic arrays
+        and the format's own for a named format. Each stream records the axis used.
     source_format
         ``arrays`` (generic files, named as in the module docstring) or an estimator's
         name (:data:`turn_eval.estimate.formats.FORMAT_CHOICES`): ``turnbench`` for
@@ -177,15 +189,13 @@ def read_streams(
     if source_format != "arrays":
         if layout.name != "h36m17":
             raise TurnbenchError(f"--from {source_format} files are in the h36m17 layout")
-        for session, subject, key, positions in _named_streams(path, source_format, up_axis):
+        for session, subject, key, axis, positions in _named_streams(path, source_format, up_axis):
             if np.isinf(positions).any():
                 raise TurnbenchError(
                     "positions hold infinite values (corrupt?)", file=path, item=key
                 )
-            yield Stream(session, subject, np.ascontiguousarray(positions), str(path), key)
+            yield Stream(session, subject, np.ascontiguousarray(positions), str(path), key, axis)
         return
-    if up_axis is None:
-        raise TurnbenchError("generic arrays need --up-axis (z, y or -y)", file=path)
     for key, array in iter_arrays(path, layout=layout):
         # to_z_up is a fixed rotation: applied to the three unit vectors it gives its matrix,
         # and one float64 matrix product turns the stored (often float32) array and widens
@@ -193,7 +203,21 @@ def read_streams(
         # (checked before: inf x 0 would hide an infinity as NaN in the other coordinates)
         if np.isinf(array).any():
             raise TurnbenchError("positions hold infinite values (corrupt?)", file=path, item=key)
-        rotation = to_z_up(np.eye(3), up_axis)
+        try:
+            axis = resolve_up_axis(array, layout, up_axis or AUTO, item=key)
+        except TurnbenchError as exc:
+            raise TurnbenchError(exc.message, file=path, item=key, hint=exc.hint) from None
+        rotation = to_z_up(np.eye(3), axis)
         positions = np.ascontiguousarray(np.asarray(array) @ rotation, dtype=np.float64)
         session, subject = stream_names(path, key)
-        yield Stream(session, subject, positions, str(path), key)
+        yield Stream(session, subject, positions, str(path), key, axis)
+
+
+def axes_found(inputs: Iterable[dict], option: str) -> AxesFound:
+    """The vertical axis each stream was read with (``DetectRun.inputs``: files with their
+    ``streams``, each with its ``key`` and ``up_axis``), for the one line on stderr."""
+    found = AxesFound(option)
+    for f in inputs:
+        for s in f["streams"]:
+            found.record(f"{f['file']}:{s['key']}", s["up_axis"])
+    return found
