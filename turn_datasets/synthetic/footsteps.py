@@ -34,6 +34,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from turn_datasets.remap.open_sheet import TURN_TYPES
+
 __all__ = [
     "ANKLE_HEIGHT_MM",
     "SWING_LIFT_MM",
@@ -73,15 +75,18 @@ def default_steps(kind: str, heading_deg: float) -> int:
     return int(np.clip(round(magnitude / 45.0) + 1, 3, 7))
 
 
+_PIVOT, _STEP = (v for v in TURN_TYPES.values() if v)
+
+
 def turn_type_of(steps: int) -> str:
     """REMAP's class of a planted turn: ``pivot`` below three steps, else ``step``."""
-    return "pivot" if steps < 3 else "step"
+    return _PIVOT if steps < 3 else _STEP
 
 
 def _turn_windows(start: int, end: int, steps: int) -> list[tuple[int, int]]:
     """The swings of one turn (module docstring)."""
     span = end - start
-    if turn_type_of(steps) == "pivot":
+    if turn_type_of(steps) == _PIVOT:
         width = 0.2 * span
         return [
             (

@@ -14,6 +14,7 @@ from types import MappingProxyType
 
 from turn_datasets import limits
 from turn_datasets.remap import context as remap_context
+from turn_datasets.remap import open_sheet
 
 #: Columns every detections file has, in this order, with these dtypes.
 DETECTION_REQUIRED = MappingProxyType(
@@ -65,6 +66,7 @@ MAX_SPEED_DEG_S = limits.MAX_SPEED_DEG_S
 MAX_STEPS = 40.0
 #: The two directions (DESIGN.md: ``left`` = counter-clockwise seen from above).
 DIRECTIONS = ("left", "right")
-#: The two turn types REMAP's raters use: a pivot turn (one or both feet swivel in place) and a
-#: step turn (three steps or more without pivoting).
-TURN_TYPES = ("pivot", "step")
+#: The two turn types REMAP's raters use, in turnbench's words: a pivot turn (one or both feet
+#: swivel in place) and a step turn (three steps or more without pivoting); declared where the
+#: release's spreadsheet is read (:data:`turn_datasets.remap.open_sheet.TURN_TYPES`).
+TURN_TYPES = tuple(v for v in open_sheet.TURN_TYPES.values() if v)

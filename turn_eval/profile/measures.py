@@ -38,6 +38,7 @@ import numpy as np
 import pandas as pd
 
 from turn_datasets.fileio import typed_frame
+from turn_eval.events.contract import TURN_TYPES
 from turn_eval.profile.inputs import ProfileInputs
 
 __all__ = [
@@ -88,7 +89,7 @@ def turn_values(detections: pd.DataFrame) -> dict[str, np.ndarray]:
     if "turn_type" in detections:
         # through the few distinct values, not a string comparison per turn
         codes, kinds = pd.factorize(detections["turn_type"].to_numpy(dtype=object))
-        value = {"pivot": 1.0, "step": 0.0}
+        value = {TURN_TYPES[0]: 1.0, TURN_TYPES[1]: 0.0}  # pivot, step
         lookup = np.array([value.get(str(k), np.nan) for k in kinds] + [np.nan])
         out["pivot"] = lookup[codes]
     return out

@@ -46,12 +46,14 @@ from scipy.ndimage import minimum_filter1d, uniform_filter1d
 from turn_datasets.geometry import frame_yaw_deg
 from turn_datasets.params import check_params, describe_params, param
 from turn_datasets.skeleton import Layout
+from turn_eval.events.contract import TURN_TYPES
 
 __all__ = ["StepParams", "STEP_COLUMNS", "turn_steps", "foot_swings"]
 
 #: What :func:`turn_steps` adds to each turn, in the detections contract's order.
 STEP_COLUMNS = {"peak_speed_deg_s": "float64", "steps": "float64", "turn_type": "str"}
 _ANKLES = ("right_foot", "left_foot")
+_PIVOT, _STEP = TURN_TYPES
 _HIPS = ("right_hip", "left_hip")
 
 
@@ -262,5 +264,5 @@ def turn_steps(
         steps = int(((landings >= a) & (landings <= b + margin)).sum())
         out["steps"][i] = steps
         share = _stance_share(swings, yaw, a, b)
-        kinds[i] = "step" if steps >= 3 and not share >= prm.pivot_share else "pivot"
+        kinds[i] = _STEP if steps >= 3 and not share >= prm.pivot_share else _PIVOT
     return pd.DataFrame({**out, "turn_type": kinds})
