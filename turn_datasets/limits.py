@@ -18,6 +18,9 @@ __all__ = [
     "MAX_BIN_WIDTH_DEG",
     "MAX_RESAMPLES",
     "MAX_SEED",
+    "MAX_POSITION_ABS",
+    "MAX_ARRAY_VALUES",
+    "MAX_LOCAL_WORKERS",
 ]
 
 #: Ten full revolutions: no single turn of a person comes near it (the paper's largest
@@ -39,3 +42,18 @@ MAX_BIN_WIDTH_DEG = 360.0
 MAX_RESAMPLES = 100_000
 #: NumPy's legacy seeds are 32-bit; keeping every seed there keeps runs reproducible anywhere.
 MAX_SEED = 2**32 - 1
+#: Largest coordinate a skeleton may hold, in any length unit: a billion is 1,000 km in
+#: millimetres and far beyond any pixel grid. Beyond it a value is corrupt or in the wrong
+#: unit, and the geometry breaks down: squared lengths overflow float64 near 1e154 (at
+#: 1e150 every turn vanished; at 1e300 the rule stopped with an OverflowError).
+MAX_POSITION_ABS = 1e9
+#: Most values one skeleton array may declare (frames x joints x 3): 2**28, 1 GiB as
+#: float32. A 17-joint stream at 30 fps holds 48 hours, a 32-joint one at 50 Hz 15; a
+#: longer recording is split into files (one per day or session). Checked, with the
+#: machine's free memory, before anything is read: a few kilobytes of gzip-compressed HDF5
+#: can declare 40 million frames (8 GB).
+MAX_ARRAY_VALUES = 2**28
+#: Most worker processes a local cluster (``--workers``) starts: one machine's. Each is
+#: single-threaded and holds about 200 MB before any file, and more processes than cores run
+#: no faster; 256 is already 51 GB. A bigger run belongs on a cluster (``--scheduler``).
+MAX_LOCAL_WORKERS = 256

@@ -23,6 +23,7 @@ from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import typed_frame
 from turn_datasets.geometry import METHODS, angular_speed_deg_s, parse_joints, turning_angle
 from turn_datasets.mocap.arrays import iter_arrays
+from turn_datasets.mocap.checks import check_magnitude
 from turn_datasets.skeleton import AUTO, UP_AXIS_CHOICES, Layout, get_layout, to_z_up
 from turn_datasets.up_axis import AxesFound, resolve_up_axis, z_up_arrays
 from turn_eval.steps import STEP_COLUMNS, turn_steps
@@ -123,7 +124,14 @@ def clip_arrays(
         spec, named = read_estimator_output(path, source_format)
         axis = up_axis or spec.up_axis
     log = found if found is not None else AxesFound(axis)
-    return z_up_arrays(named, layout=layout, up_axis=axis, found=log), "z"
+    # the magnitude check of every skeleton reader, before the axis inference reads them
+    checked = ((key, _magnitude_checked(a, path, str(key))) for key, a in named)
+    return z_up_arrays(checked, layout=layout, up_axis=axis, found=log), "z"
+
+
+def _magnitude_checked(array: np.ndarray, path: str | os.PathLike[str], key: str) -> np.ndarray:
+    check_magnitude(array, path=path, item=key)
+    return array
 
 
 def predict_angles(
@@ -156,8 +164,8 @@ def predict_angles(
     ------
     TurnbenchError
         A bad option, a duplicate clip id, or a clip the estimator cannot handle (wrong joint
-        count for the layout, fewer than two usable frames); the error's ``item`` names the
-        clip.
+        count for the layout, an infinite or implausibly large coordinate, fewer than two
+        usable frames); the error's ``item`` names the clip.
     """
     lay = _resolve_layout(layout)
     if up_axis not in UP_AXIS_CHOICES:
@@ -178,6 +186,8 @@ def predict_angles(
             raise TurnbenchError("duplicate clip id", item=clip_id)
         seen.add(clip_id)
         try:
+            # the magnitude check every reader of skeletons applies (no inf, no 1e300)
+            check_magnitude(positions, path=None, item=clip_id)
             row = predict_angle(
                 positions, layout=lay, up_axis=up_axis, joints=names, method=method, fps_hz=fps_hz
             )

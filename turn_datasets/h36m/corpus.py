@@ -31,6 +31,7 @@ from turn_datasets.fileio import atomic_path, sha256_file, to_json_text
 from turn_datasets.h36m.manifest import build_manifest, manifest_path
 from turn_datasets.h36m.miner import (
     FILTER_MAX_FRACTION_OF_FPS,
+    FILTER_MIN_FRACTION_OF_FPS,
     MinerParams,
     SequenceClips,
     build_index,
@@ -199,6 +200,20 @@ def _refuse_bad(
     )
 
 
+def _unfiltered_note(cutoff_hz: float, fps: float, names: Sequence[str]) -> str:
+    """What the manifest and the warning say of sequences whose rate the cut-off does not fit
+    (:func:`turn_datasets.h36m.miner.position_filter_applies`)."""
+    side = (
+        f"at or above {FILTER_MAX_FRACTION_OF_FPS:g} x {fps:g} Hz"
+        if cutoff_hz >= FILTER_MAX_FRACTION_OF_FPS * fps
+        else f"below {FILTER_MIN_FRACTION_OF_FPS:g} x {fps:g} Hz"
+    )
+    return (
+        f"--position-cutoff-hz {cutoff_hz:g} is {side}: the hip positions of {len(names)} "
+        f"sequence(s) at that rate were not filtered (first: {names[0]})"
+    )
+
+
 def mine_corpus(
     sources: Sources,
     params: MinerParams,
@@ -284,9 +299,7 @@ def mine_corpus(
         for e in r.bad_sequences
     ]
     notes = [
-        f"--position-cutoff-hz {params.position_cutoff_hz:g} is at or above "
-        f"{FILTER_MAX_FRACTION_OF_FPS:g} x {fps:g} Hz: the hip positions of "
-        f"{len(names)} sequence(s) at that rate were not filtered (first: {names[0]})"
+        _unfiltered_note(params.position_cutoff_hz, fps, names)
         for fps, names in sorted(unfiltered.items())
     ] + odd_rates
     manifest = build_manifest(

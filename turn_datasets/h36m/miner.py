@@ -130,6 +130,7 @@ __all__ = [
     "build_index",
     "mine",
     "iter_clips",
+    "check_position_cutoff",
 ]
 
 #: The clip index (DESIGN.md), column order and dtypes.
@@ -198,8 +199,10 @@ class MinerParams:
 
     Each field is declared once, with its unit in its name and its help and bounds in its
     metadata (:func:`turn_datasets.params.param`); ``turn-datasets h36m mine`` makes its
-    options from them. A ``position_cutoff_hz`` at or above 0.45 times the frame rate, too
-    near the Nyquist frequency to filter, leaves the hips unfiltered as 0 does.
+    options from them. A ``position_cutoff_hz`` outside 1e-4 to 0.45 times the frame rate
+    (too low for the filter's precision, or too near the Nyquist frequency to filter) leaves
+    the hips unfiltered as 0 does (:func:`position_filter_applies`); ``detect`` refuses it
+    (:func:`check_position_cutoff`).
     """
 
     min_turn_deg: float = param(
@@ -649,14 +652,43 @@ def _pieces(usable: np.ndarray, max_gap_frames: int) -> list[tuple[int, int]]:
     return list(zip(piece_starts.tolist(), piece_ends.tolist(), strict=True))
 
 
-#: The hip low-pass is applied only below this fraction of the frame rate (nearer the Nyquist
-#: frequency a second-order Butterworth is not a filter); above it the hips go unfiltered.
+#: A hip low-pass cut-off must lie below this fraction of the frame rate: nearer the Nyquist
+#: frequency a second-order Butterworth is not a filter.
 FILTER_MAX_FRACTION_OF_FPS = 0.45
+#: ... and at or above this fraction: lower, the filter's coefficients lose their precision
+#: (at 1e-5 of the frame rate its gain at rest is off by 4e-8, at 1e-8 by 3%, and near 1e-10
+#: its initial conditions are a singular system). 1e-4 of 30 fps is 0.003 Hz, far below any
+#: cut-off that keeps a turn.
+FILTER_MIN_FRACTION_OF_FPS = 1e-4
 
 
 def position_filter_applies(cutoff_hz: float, fps_hz: float) -> bool:
-    """Whether ``position_cutoff_hz`` low-passes the hips of a sequence at ``fps_hz``."""
-    return 0 < cutoff_hz < FILTER_MAX_FRACTION_OF_FPS * fps_hz
+    """Whether ``position_cutoff_hz`` low-passes the hips of a sequence at ``fps_hz``: the one
+    rule of ``h36m mine`` and ``detect``, from at least :data:`FILTER_MIN_FRACTION_OF_FPS` to
+    below :data:`FILTER_MAX_FRACTION_OF_FPS` times the rate (0: no filter, by choice)."""
+    lo, hi = FILTER_MIN_FRACTION_OF_FPS * fps_hz, FILTER_MAX_FRACTION_OF_FPS * fps_hz
+    return lo <= cutoff_hz < hi
+
+
+def check_position_cutoff(cutoff_hz: float, fps_hz: float) -> None:
+    """Refuse a non-zero ``position_cutoff_hz`` that cannot filter at ``fps_hz``
+    (:func:`position_filter_applies`), where the rate is one option for every stream
+    (``detect``'s ``--fps``). ``h36m mine``, whose files bring their own rates, mines such a
+    sequence unfiltered and says so (a warning and the manifest's ``position_filter``).
+
+    Raises
+    ------
+    TurnbenchError
+        Naming the cut-off, the frame rate and the range they allow.
+    """
+    lo, hi = FILTER_MIN_FRACTION_OF_FPS * fps_hz, FILTER_MAX_FRACTION_OF_FPS * fps_hz
+    if cutoff_hz != 0 and not position_filter_applies(cutoff_hz, fps_hz):
+        raise TurnbenchError(
+            f"--position-cutoff-hz {cutoff_hz:g} cannot filter at {fps_hz:g} fps: it must be 0 "
+            f"(no filter) or from {FILTER_MIN_FRACTION_OF_FPS:g} x fps ({lo:.3g} Hz) to below "
+            f"{FILTER_MAX_FRACTION_OF_FPS:g} x fps ({hi:.3g} Hz)",
+            hint="the default 6 Hz suits rates from 13.4 fps up",
+        )
 
 
 def _prepare_piece(

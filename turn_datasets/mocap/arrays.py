@@ -19,6 +19,7 @@ import numpy as np
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.mocap.checks import (
     OnBadSequence,
+    check_declared_size,
     check_joint_count,
     checked_positions,
     skip_bad,
@@ -40,6 +41,8 @@ __all__ = [
     "iter_arrays",
     "load_numpy",
     "read_arrays",
+    "read_h5_dataset",
+    "read_npz_member",
 ]
 
 
@@ -169,10 +172,71 @@ def _check_numpy_container(path: Path, suffix: str) -> None:
         )
 
 
+def _npy_header(fh) -> tuple[tuple[int, ...], np.dtype]:
+    """The shape and dtype an ``.npy`` stream's header declares (the stream is left after
+    the header): read before NumPy allocates what they add up to."""
+    version = np.lib.format.read_magic(fh)
+    read = (
+        np.lib.format.read_array_header_1_0
+        if version == (1, 0)
+        else np.lib.format.read_array_header_2_0
+    )
+    shape, _, dtype = read(fh)
+    return tuple(shape), np.dtype(dtype)
+
+
 def _np_load(p: Path, suffix: str):
-    """``np.load`` without pickles; a file it cannot read is a :class:`TurnbenchError`."""
+    """``np.load`` without pickles; a file it cannot read is a :class:`TurnbenchError`. An
+    ``.npy``'s declared size is checked first (:func:`~turn_datasets.mocap.checks.check_declared_size`)."""
+    if suffix == ".npy":
+        with unreadable("the .npy header", p), open(p, "rb") as fh:
+            shape, dtype = _npy_header(fh)
+        check_declared_size(shape, dtype, path=p, item=None)
     with unreadable(suffix, p):
         return np.load(p, allow_pickle=False)
+
+
+def read_npz_member(archive, key: str, path: Path) -> np.ndarray:
+    """Member ``key`` of an open ``.npz`` (``np.load``'s ``NpzFile``), the size its ``.npy``
+    header declares checked before it is inflated (a few megabytes of deflated zeros can
+    declare gigabytes)."""
+    name = f"{key}.npy" if f"{key}.npy" in archive.zip.namelist() else key
+    with unreadable("this array", path, item=key, guess="pickled, truncated or corrupt?"):
+        with archive.zip.open(name) as fh:
+            shape, dtype = _npy_header(fh)
+    check_declared_size(shape, dtype, path=path, item=key)
+    with unreadable("this array", path, item=key, guess="pickled, truncated or corrupt?"):
+        return archive[key]
+
+
+def read_h5_dataset(fh: h5py.File, name: str, path: Path) -> np.ndarray:
+    """Dataset ``name`` of an open HDF5 file, read whole after two checks: its declared size
+    (:func:`~turn_datasets.mocap.checks.check_declared_size`), and that its data are in this
+    file. A virtual dataset or one with external storage reads other files, which the
+    manifest (the sha256 of each input) would not record: refused, naming them."""
+    with unreadable("this dataset", path, item=name):
+        dset = fh[name]
+        shape, dtype = tuple(dset.shape or ()), dset.dtype
+        virtual = bool(dset.is_virtual)
+        external = dset.external
+    if virtual or external:
+        where = (
+            sorted({str(m.file_name) for m in dset.virtual_sources()})
+            if virtual
+            else sorted({str(e[0]) for e in external})
+        )
+        kind = "a virtual dataset" if virtual else "stored in external files"
+        raise TurnbenchError(
+            f"the dataset is {kind}, reading {', '.join(where)}: only data held in the file "
+            "itself is read (its sha256 is what the manifest records)",
+            file=path,
+            item=name,
+            hint="copy the data into the file (h5repack, or h5py: f[name] = f[name][()])",
+        )
+    if dtype.kind in "fiu":
+        check_declared_size(shape, dtype, path=path, item=name)
+    with unreadable("this dataset", path, item=name):
+        return np.asarray(dset[()])
 
 
 def load_numpy(path: str | os.PathLike[str]):
@@ -242,9 +306,7 @@ def iter_arrays(
                 raise TurnbenchError("the .npz archive holds no array", file=p)
 
             def member(key: str) -> tuple[str, np.ndarray]:
-                with unreadable("this array", p, item=key, guess="pickled, truncated or corrupt?"):
-                    array = archive[key]
-                return key, _checked(array, layout, path=p, key=key)
+                return key, _checked(read_npz_member(archive, key, p), layout, path=p, key=key)
 
             yield from skip_bad(keys, member, on_bad_array)
         return
@@ -257,8 +319,6 @@ def iter_arrays(
             raise TurnbenchError("the HDF5 file holds no dataset", file=p)
 
         def dataset(name: str) -> tuple[str, np.ndarray]:
-            with unreadable("this dataset", p, item=name):
-                array = np.asarray(fh[name][()])
-            return name, _checked(array, layout, path=p, key=name)
+            return name, _checked(read_h5_dataset(fh, name, p), layout, path=p, key=name)
 
         yield from skip_bad(names, dataset, on_bad_array)

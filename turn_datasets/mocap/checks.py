@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+import os
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -9,8 +11,10 @@ from typing import TypeVar
 
 import numpy as np
 
+from turn_datasets import limits, machine
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.geometry import usable_frames
+from turn_datasets.machine import gigabytes
 from turn_datasets.skeleton import (
     Layout,
 )
@@ -18,7 +22,9 @@ from turn_datasets.skeleton import (
 __all__ = [
     "OnBadSequence",
     "CORRUPT",
+    "check_declared_size",
     "check_joint_count",
+    "check_magnitude",
     "checked_positions",
     "skip_bad",
     "unreadable",
@@ -57,6 +63,96 @@ def unreadable(
         raise
     except CORRUPT as exc:
         raise TurnbenchError(f"cannot read {what} ({guess}): {exc}", file=path, item=item) from None
+
+
+#: Bytes per declared value that reading one array takes at most: the array as stored plus
+#: one float64 working copy (the detector's gather of the joints it reads, a reader's
+#: widening), beside the stored values' own size.
+_WORKING_BYTES_PER_VALUE = 8
+
+
+def check_declared_size(
+    shape: tuple[int, ...],
+    dtype: np.dtype | str,
+    *,
+    path: str | os.PathLike[str],
+    item: str | None,
+) -> None:
+    """Refuse an array whose declared size is past the bound or the machine, before reading.
+
+    A file's header (an ``.npy`` header, an HDF5 dataset's shape, a zip member's size)
+    declares how big the array is; compression lets a few kilobytes declare gigabytes. The
+    bound is :data:`turn_datasets.limits.MAX_ARRAY_VALUES`; the machine's is its free memory
+    (:func:`turn_datasets.machine.available_memory_bytes`) against the stored size plus one float64 working copy.
+
+    Raises
+    ------
+    TurnbenchError
+        Naming the file, the array, its declared shape and type and the bound it passes.
+    """
+    dt = np.dtype(dtype)
+    values = math.prod(int(n) for n in shape)
+    stored = values * dt.itemsize
+    declared = (
+        f"declares {' x '.join(str(int(n)) for n in shape)} {dt.name} values ({gigabytes(stored)})"
+    )
+    if values > limits.MAX_ARRAY_VALUES:
+        raise TurnbenchError(
+            f"the array {declared}: more than the {limits.MAX_ARRAY_VALUES:,} values turnbench "
+            "reads in one array (corrupt, or a recording to split into files)",
+            file=path,
+            item=item,
+        )
+    need = values * (dt.itemsize + _WORKING_BYTES_PER_VALUE)
+    free = machine.available_memory_bytes()
+    if free is not None and need > free:
+        raise TurnbenchError(
+            f"the array {declared}: reading it needs about {gigabytes(need)} and this machine has "
+            f"{gigabytes(free)} free",
+            file=path,
+            item=item,
+            hint="free memory, or split the recording into shorter files",
+        )
+
+
+#: Frames checked per pass of :func:`check_magnitude`: bounds its temporary memory.
+_MAGNITUDE_CHUNK_VALUES = 1 << 22
+
+
+def check_magnitude(
+    array: np.ndarray, *, path: str | os.PathLike[str] | None, item: str | None
+) -> None:
+    """Refuse positions holding an infinity or a coordinate beyond
+    :data:`turn_datasets.limits.MAX_POSITION_ABS` (NaN is an unseen joint and passes).
+
+    The one magnitude check of every reader of skeletons (``h36m mine``, ``predict``,
+    ``detect``). It reads the array in chunks with NaN-ignoring minimum and maximum, so it
+    makes no full-size temporary.
+    """
+    a = np.asarray(array)
+    if a.size == 0 or a.dtype.kind not in "fiu":
+        return
+    flat = a.reshape(-1) if a.flags.c_contiguous else a.ravel(order="K")
+    lo, hi = math.inf, -math.inf
+    for start in range(0, flat.size, _MAGNITUDE_CHUNK_VALUES):
+        chunk = flat[start : start + _MAGNITUDE_CHUNK_VALUES]
+        if a.dtype.kind == "f":
+            cmin, cmax = np.fmin.reduce(chunk), np.fmax.reduce(chunk)
+        else:
+            cmin, cmax = chunk.min(), chunk.max()
+        if not np.isnan(cmin):
+            lo, hi = min(lo, float(cmin)), max(hi, float(cmax))
+    if lo > hi:
+        return  # every value NaN: nothing seen, which the callers judge
+    if math.isinf(lo) or math.isinf(hi):
+        raise TurnbenchError("positions hold infinite values (corrupt?)", file=path, item=item)
+    if max(-lo, hi) > limits.MAX_POSITION_ABS:
+        raise TurnbenchError(
+            f"positions hold a coordinate of {lo if -lo > hi else hi:g}, beyond the "
+            f"plausible +-{limits.MAX_POSITION_ABS:g} in any unit (corrupt, or the wrong unit?)",
+            file=path,
+            item=item,
+        )
 
 
 def check_joint_count(
@@ -116,9 +212,8 @@ def checked_positions(
         raise TurnbenchError(
             f"positions have dtype {p.dtype}, expected numbers", file=path, item=item
         )
+    check_magnitude(p, path=path, item=item)
     p = np.ascontiguousarray(p, dtype=np.float64)
-    if np.isinf(p).any():
-        raise TurnbenchError("positions hold infinite values (corrupt?)", file=path, item=item)
     hips = p[:, [layout.index("left_hip"), layout.index("right_hip")], :2]
     if not np.isfinite(hips).all(axis=(1, 2)).any():
         raise TurnbenchError("the left or right hip is NaN in every frame", file=path, item=item)

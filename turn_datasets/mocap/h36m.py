@@ -37,6 +37,7 @@ import h5py
 import numpy as np
 
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.mocap.arrays import read_h5_dataset
 from turn_datasets.mocap.checks import (
     CORRUPT,
     OnBadSequence,
@@ -225,7 +226,7 @@ def read_h36m_h5(path: Path) -> Iterator[MocapSequence]:
     with unreadable("HDF5", path), h5py.File(path, "r") as fh:
         dset = fh.get(H36M_H5_DATASET)
         if isinstance(dset, h5py.Dataset):
-            stored = np.asarray(dset[()])
+            stored = read_h5_dataset(fh, H36M_H5_DATASET, path)  # size and storage checked
         else:
             names = sorted(fh)
     if stored is None:

@@ -29,7 +29,15 @@ import pandas as pd
 
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import sha256_file, typed_frame
+from turn_datasets.machine import check_local_workers
 from turn_datasets.skeleton import Layout
+from turn_eval.detect.plugins import (
+    call_detector,
+    check_picklable,
+    detector_name,
+    hush_worker_deaths,
+    worker_result,
+)
 from turn_eval.detect.protocol import TurnDetector, checked_turns
 from turn_eval.detect.streams import read_streams
 from turn_eval.events.contract import DETECTION_DTYPES
@@ -111,9 +119,9 @@ def detect_file(
                 }
             )
             try:
-                found = detector.detect(s.positions, fps_hz, layout)
+                found = call_detector(detector, s.positions, fps_hz, layout)
                 found = checked_turns(
-                    found, detector=detector.name, n_frames=s.n_frames, fps_hz=fps_hz
+                    found, detector=detector_name(detector), n_frames=s.n_frames, fps_hz=fps_hz
                 )
             except TurnbenchError as exc:
                 raise TurnbenchError(exc.message, file=path, item=s.key, hint=exc.hint) from None
@@ -183,6 +191,11 @@ def local_cluster(n_workers: int):
         )
 
 
+def _dead(path: str, message: str) -> FileResult:
+    """The result of a file whose worker died: its error, no sha256 (never hashed here)."""
+    return FileResult(path, "", (), _columns([]), (message, None, None))
+
+
 def _distributed(
     paths: Sequence[Path],
     kwargs: dict,
@@ -207,11 +220,13 @@ def _distributed(
         cluster = local_cluster(workers or 1)
         client = Client(cluster)
     try:
+        hush_worker_deaths()  # a dead worker is reported by worker_result, in one line
         futures = client.map(detect_file, list(paths), pure=False, **kwargs)
         order = {f.key: i for i, f in enumerate(futures)}
         results: list[FileResult | None] = [None] * len(futures)
         for fut in as_completed(futures):
-            results[order[fut.key]] = fut.result()
+            # a worker that died on a file: that file's error (plugins.worker_result)
+            results[order[fut.key]] = worker_result(fut, str(paths[order[fut.key]]), _dead)
             fut.release()  # the worker may drop it: memory stays one file per worker
             done()
     finally:
@@ -265,6 +280,8 @@ def detect_files(
     """
     if workers is not None and workers < 1:
         raise TurnbenchError(f"workers must be at least 1, got {workers}")
+    if workers is not None and not scheduler:
+        check_local_workers(workers)  # the processes must fit the machine's memory
     kwargs = {
         "detector": detector,
         "layout": layout,
@@ -275,6 +292,7 @@ def detect_files(
     done = on_file_done or (lambda: None)
     files = [Path(p) for p in paths]
     if scheduler or workers is not None:
+        check_picklable(detector)  # one line, before any cluster starts
         results = _distributed(files, kwargs, done, workers=workers, scheduler=scheduler)
     else:
         results = _serial(files, kwargs, done)

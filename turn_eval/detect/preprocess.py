@@ -34,7 +34,7 @@ from scipy.ndimage import median_filter
 from turn_datasets.geometry import usable_frames
 from turn_datasets.skeleton import JOINT_PAIRS, Layout
 
-__all__ = ["body_size", "identity_pieces", "repair_swaps", "runs"]
+__all__ = ["SIZE_JOINTS", "body_size", "identity_pieces", "repair_swaps", "runs"]
 
 # Bones whose length is the body's size: trunk and upper arms (see the module docstring).
 _SIZE_BONES = (
@@ -43,6 +43,8 @@ _SIZE_BONES = (
     ("left_shoulder", "left_elbow"),
     ("right_shoulder", "right_elbow"),
 )
+#: The joints :func:`body_size` reads.
+SIZE_JOINTS = tuple(dict.fromkeys(j for bone in _SIZE_BONES for j in bone))
 # Limbs whose sides a swap exchanges.
 _SIDES = ("hip", "knee", "foot", "shoulder", "elbow", "wrist")
 

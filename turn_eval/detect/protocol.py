@@ -6,7 +6,8 @@ stream, plain arrays in, a DataFrame of turns out. The built-in rule
 IMU method implements the same method and runs through ``turn-eval detect --detector``,
 its manifest and ``score-events`` unchanged.
 
-A detector receives ``positions`` ``(frames, joints, 3)`` float64, **z up** (DESIGN.md's
+A detector receives ``positions`` ``(frames, joints, 3)`` float32 or float64 (as the file
+stores them; a day at 30 fps is half the memory in float32), **z up** (DESIGN.md's
 frame; the stream reader has converted the file's axes), in the file's own length unit,
 NaN where the person is not seen; ``fps_hz``; and the joint ``layout``. It returns one row
 per turn with the columns of :data:`TURN_DTYPES` (the detections contract without
@@ -22,6 +23,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 import pandas as pd
 
+from turn_datasets import limits
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import typed_frame
 from turn_datasets.skeleton import Layout
@@ -59,6 +61,82 @@ def _typed(table: pd.DataFrame) -> bool:
     return all(table[col].dtype == want[col] for col in TURN_DTYPES)
 
 
+def _text(value: object) -> str:
+    """A cell of a text column: missing (None, NA, NaN) is empty, anything else its str."""
+    missing = value is None or value is pd.NA or (isinstance(value, float) and value != value)
+    return "" if missing else str(value)
+
+
+def _as_contract(table: pd.DataFrame, detector: str) -> pd.DataFrame:
+    """The detector's table with exactly the contract's columns and dtypes (missing optional
+    columns empty), or one :class:`TurnbenchError` saying what does not fit."""
+    duplicated = sorted(set(table.columns[table.columns.duplicated()].map(str)))
+    if duplicated:
+        raise TurnbenchError(
+            f"detector {detector!r} returned the column(s) {', '.join(duplicated)} twice"
+        )
+    missing = [c for c in ("start_s", "end_s", "angle_deg") if c not in table.columns]
+    if missing:
+        raise TurnbenchError(f"detector {detector!r} returned no {', '.join(missing)} column")
+    if _typed(table):
+        return table  # already the contract (the built-in rule's output): nothing to convert
+    t = table.copy()
+    for col in TURN_DTYPES:
+        if col not in t.columns:
+            t[col] = "" if TURN_DTYPES[col] == "str" else np.nan
+    for col, dtype in TURN_DTYPES.items():
+        if dtype == "str":
+            continue
+        try:
+            t[col] = pd.to_numeric(t[col], errors="raise").astype(np.float64)
+        except (TypeError, ValueError) as exc:
+            raise TurnbenchError(
+                f"detector {detector!r} returned a {col} column that is not numbers "
+                f"({' '.join(str(exc).split())[:120]})"
+            ) from None
+    for col, dtype in TURN_DTYPES.items():
+        if dtype == "str":
+            t[col] = t[col].map(_text)
+    return typed_frame(t[list(TURN_DTYPES)], TURN_DTYPES)
+
+
+def _check_plausible(t: pd.DataFrame, detector: str) -> None:
+    """Refuse a turn no person makes, by the bounds every reader applies
+    (:mod:`turn_datasets.limits`): an angle above ``MAX_ANGLE_DEG``, a speed (given, or the
+    angle over the duration) negative or above ``MAX_SPEED_DEG_S``, a score that is infinite.
+    An optional column may be empty (NaN); ``score-events`` reads what passes."""
+    angle = t["angle_deg"].to_numpy(dtype=float)
+    duration = (t["end_s"] - t["start_s"]).to_numpy(dtype=float)
+    speed = t["speed_deg_s"].to_numpy(dtype=float)
+    score = t["score"].to_numpy(dtype=float)
+    checks = (
+        (angle > limits.MAX_ANGLE_DEG, "angle_deg", angle, f"at most {limits.MAX_ANGLE_DEG:g}"),
+        (
+            ~np.isnan(speed) & ~((speed >= 0) & (speed <= limits.MAX_SPEED_DEG_S)),
+            "speed_deg_s",
+            speed,
+            f"in [0, {limits.MAX_SPEED_DEG_S:g}]",
+        ),
+        (
+            angle / duration > limits.MAX_SPEED_DEG_S,
+            "angle_deg / (end_s - start_s)",
+            angle / duration,
+            f"at most {limits.MAX_SPEED_DEG_S:g} deg/s",
+        ),
+        (np.isinf(score), "score", score, "finite (or empty)"),
+    )
+    for bad, what, values, bound in checks:
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            more = int(bad.sum()) - 1
+            raise TurnbenchError(
+                f"detector {detector!r} returned an implausible turn (row {i}: {what} "
+                f"{values[i]:g}, plausible: {bound}"
+                + (f"; {more} more row(s) like it)" if more else ")"),
+                hint="the bounds are turnbench's for every reader (README, errors section)",
+            )
+
+
 def checked_turns(
     table: pd.DataFrame, *, detector: str, n_frames: int, fps_hz: float
 ) -> pd.DataFrame:
@@ -67,21 +145,12 @@ def checked_turns(
     Raises
     ------
     TurnbenchError
-        A missing column, a time outside the stream or an interval that ends before it
-        starts, an angle that is not a positive finite number, a direction other than
-        left/right, or two turns that overlap: naming the detector.
+        A missing, duplicated or non-numeric column, a time outside the stream or an
+        interval that ends before it starts, an angle that is not a positive finite number,
+        a direction other than left/right, a value outside the plausibility bounds of
+        :mod:`turn_datasets.limits`, or two turns that overlap: naming the detector.
     """
-    missing = [c for c in ("start_s", "end_s", "angle_deg") if c not in table.columns]
-    if missing:
-        raise TurnbenchError(f"detector {detector!r} returned no {', '.join(missing)} column")
-    if _typed(table):
-        t = table  # already the contract (the built-in rule's output): nothing to convert
-    else:
-        t = table.copy()
-        for col in TURN_DTYPES:
-            if col not in t.columns:
-                t[col] = "" if TURN_DTYPES[col] == "str" else np.nan
-        t = typed_frame(t[list(TURN_DTYPES)], TURN_DTYPES)
+    t = _as_contract(table, detector)
     start, end, angle = (t[c].to_numpy(dtype=float) for c in ("start_s", "end_s", "angle_deg"))
     length_s = n_frames / fps_hz
     bad = ~(np.isfinite(start) & np.isfinite(end) & (start >= 0) & (end > start))
@@ -95,6 +164,7 @@ def checked_turns(
             f"end {end[i]}, angle {angle[i]}, direction {t['direction'].iloc[i]!r}; the "
             f"stream lasts {length_s:.3f} s)"
         )
+    _check_plausible(t, detector)
     t = t.sort_values(["start_s", "end_s"], kind="stable").reset_index(drop=True)
     s = t["start_s"].to_numpy()
     e = t["end_s"].to_numpy()

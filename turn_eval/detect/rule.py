@@ -46,7 +46,7 @@ from turn_datasets.geometry import angular_speed_deg_s, frontal_vectors, parse_j
 from turn_datasets.h36m.miner import MinerParams, mine_sequence
 from turn_datasets.params import check_params, describe_params, param
 from turn_datasets.skeleton import JOINT_PAIRS, Layout
-from turn_eval.detect.preprocess import identity_pieces, repair_swaps
+from turn_eval.detect.preprocess import SIZE_JOINTS, identity_pieces, repair_swaps
 from turn_eval.detect.protocol import TURN_DTYPES, empty_turns
 from turn_eval.steps import STEP_COLUMNS, StepParams, turn_steps
 
@@ -156,6 +156,20 @@ def _paired_joints(positions: np.ndarray, layout: Layout) -> tuple[np.ndarray, L
     return positions[:, [layout.index(n) for n in names]], sub
 
 
+def _joints_read(positions: np.ndarray, layout: Layout) -> tuple[np.ndarray, Layout]:
+    """The joints the rule reads (the pairs and the body-size bones), gathered into one
+    float64 ``(frames, joints, 3)`` array, and the layout that names them: the stream itself
+    (often float32, all joints) is never widened whole."""
+    wanted = [*(n for pair in JOINT_PAIRS.values() for n in pair), *SIZE_JOINTS]
+    names = [n for n in dict.fromkeys(wanted) if n in layout.joints]
+    sub = Layout(f"{layout.name}-read", len(names), {n: i for i, n in enumerate(names)})
+    p = np.asarray(positions)
+    out = np.empty((p.shape[0], len(names), 3), dtype=np.float64)
+    for k, name in enumerate(names):  # joint by joint: no stored-precision copy in between
+        out[:, k] = p[:, layout.index(name)]
+    return out, sub
+
+
 class MinerRule:
     """The built-in :class:`~turn_eval.detect.protocol.TurnDetector` (module docstring)."""
 
@@ -166,7 +180,7 @@ class MinerRule:
 
     def detect(self, positions: np.ndarray, fps_hz: float, layout: Layout) -> pd.DataFrame:
         """The turns of one stream: :data:`~turn_eval.detect.protocol.TURN_DTYPES` columns."""
-        p = np.asarray(positions, dtype=float)
+        p, layout = _joints_read(positions, layout)
         prm = self.params
         usable = usable_frames(p, layout, ("hip",))
         pieces = identity_pieces(

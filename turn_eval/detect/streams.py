@@ -18,7 +18,9 @@ positions, NaN on frames where the person is not seen. Files hold streams as
 A folder given as input is walked (sorted, sub-folders included) for these suffixes.
 Positions may be absolute or root-relative (the pelvis at the origin, as most 2D-to-3D
 lifters write them); any length unit. They are turned to DESIGN.md's z-up frame here, once,
-with :func:`turn_datasets.skeleton.to_z_up`, so every consumer works on z-up float64.
+with :func:`turn_datasets.skeleton.to_z_up`, in the stored precision (float32 stays float32:
+a day at 30 fps is 0.5 GB instead of 1 GB), and checked for impossible magnitudes
+(:func:`turn_datasets.mocap.checks.check_magnitude`).
 
 ``turn-eval predict`` reads clips with :func:`turn_datasets.mocap.arrays.iter_arrays` given
 the layout (one array per clip id, named as stored); ``turn-eval detect`` reads streams with
@@ -37,6 +39,7 @@ import numpy as np
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import walk_files
 from turn_datasets.mocap.arrays import ARRAY_SUFFIXES, iter_arrays
+from turn_datasets.mocap.checks import check_magnitude
 from turn_datasets.render.order import natural_key
 from turn_datasets.skeleton import AUTO, H36M17, Layout, to_z_up
 from turn_datasets.up_axis import AxesFound, resolve_up_axis
@@ -64,7 +67,8 @@ class Stream:
     session, subject
         Names (see the module docstring for where they come from).
     positions
-        ``(frames, joints, 3)`` float64, z up, in the file's own unit; NaN where unseen.
+        ``(frames, joints, 3)`` float32 or float64 as stored (other types float64), z up,
+        in the file's own unit; NaN where unseen.
     source
         The file it was read from.
     key
@@ -146,6 +150,7 @@ def _named_streams(
     for name, array in named:
         # turnbench's npz: stem = session, key = track; the others: one clip per file
         session, subject = stream_names(path, name) if spec.name == "turnbench" else (name, name)
+        check_magnitude(array, path=path, item=name)  # first: the axis inference reads it
         try:
             axis = resolve_up_axis(array, H36M17, up_axis or spec.up_axis, item=name)
         except TurnbenchError as exc:
@@ -160,7 +165,8 @@ def read_streams(
     up_axis: str | None,
     source_format: str = "arrays",
 ) -> Iterator[Stream]:
-    """The streams of one file, z up, float64, one at a time (memory: one array).
+    """The streams of one file, z up, in the stored float type, one at a time (memory: one
+    array).
 
     Parameters
     ----------
@@ -183,34 +189,63 @@ def read_streams(
     Raises
     ------
     TurnbenchError
-        An unreadable file, an array of the wrong shape or joint count, infinite values,
-        naming the file and the array.
+        An unreadable file, an array declaring more values than the bound or the machine's
+        memory, an array of the wrong shape or joint count, infinite or implausibly large
+        values, naming the file and the array.
     """
     if source_format != "arrays":
         if layout.name != "h36m17":
             raise TurnbenchError(f"--from {source_format} files are in the h36m17 layout")
         for session, subject, key, axis, positions in _named_streams(path, source_format, up_axis):
-            if np.isinf(positions).any():
-                raise TurnbenchError(
-                    "positions hold infinite values (corrupt?)", file=path, item=key
-                )
-            yield Stream(session, subject, np.ascontiguousarray(positions), str(path), key, axis)
+            yield Stream(session, subject, _stored_float(positions), str(path), key, axis)
         return
     for key, array in iter_arrays(path, layout=layout):
-        # to_z_up is a fixed rotation: applied to the three unit vectors it gives its matrix,
-        # and one float64 matrix product turns the stored (often float32) array and widens
-        # it in a single pass over the data
-        # (checked before: inf x 0 would hide an infinity as NaN in the other coordinates)
-        if np.isinf(array).any():
-            raise TurnbenchError("positions hold infinite values (corrupt?)", file=path, item=key)
+        # (checked first: the axis inference reads the positions)
+        check_magnitude(array, path=path, item=key)
         try:
             axis = resolve_up_axis(array, layout, up_axis or AUTO, item=key)
         except TurnbenchError as exc:
             raise TurnbenchError(exc.message, file=path, item=key, hint=exc.hint) from None
-        rotation = to_z_up(np.eye(3), axis)
-        positions = np.ascontiguousarray(np.asarray(array) @ rotation, dtype=np.float64)
+        # to_z_up exchanges and negates axes, exact in any float type: the stream keeps the
+        # stored precision (float32 from estimators), is never widened whole to float64, and
+        # is turned in place (the array was just read for this stream alone)
+        positions = _z_up_in_place(_stored_float(array), axis)
+        del array
         session, subject = stream_names(path, key)
         yield Stream(session, subject, positions, str(path), key, axis)
+
+
+def _z_up_in_place(p: np.ndarray, up_axis: str) -> np.ndarray:
+    """:func:`~turn_datasets.skeleton.to_z_up` of ``p`` written into ``p`` itself: the
+    rotation is a signed exchange of axes (read off the unit vectors), so each output axis is
+    one input axis, and only an axis overwritten before it is read is copied (one third of
+    the array for ``y`` and ``-y``, instead of a whole second array)."""
+    rotation = to_z_up(np.eye(3), up_axis)  # row i: where input axis i goes
+    source = [int(np.flatnonzero(rotation[:, j])[0]) for j in range(3)]
+    if not p.flags.writeable or any(np.count_nonzero(rotation[:, j]) != 1 for j in range(3)):
+        return _stored_float(to_z_up(p, up_axis))  # not ours to change, or not an exchange
+    saved: dict[int, np.ndarray] = {}
+    for j in range(3):
+        i = source[j]
+        sign = rotation[i, j]
+        if i == j and sign > 0:
+            continue
+        if any(source[k] == j for k in range(j + 1, 3)):
+            saved[j] = p[..., j].copy()  # still to be read for a later axis
+        column = saved.get(i, p[..., i])
+        if sign > 0:
+            p[..., j] = column
+        else:
+            np.negative(column, out=p[..., j])
+    return p
+
+
+def _stored_float(array: np.ndarray) -> np.ndarray:
+    """``array`` as a C-contiguous float32 or float64 array, as stored when it is one of
+    those (no copy then); other types (integers, float16) widened to float64."""
+    a = np.asarray(array)
+    dtype = a.dtype if a.dtype in (np.float32, np.float64) else np.float64
+    return np.ascontiguousarray(a, dtype=dtype)
 
 
 def axes_found(inputs: Iterable[dict], option: str) -> AxesFound:

@@ -42,8 +42,7 @@ from types import MappingProxyType
 import numpy as np
 
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.mocap.arrays import iter_arrays, load_numpy
-from turn_datasets.mocap.checks import unreadable
+from turn_datasets.mocap.arrays import iter_arrays, load_numpy, read_npz_member
 from turn_datasets.skeleton import H36M17
 
 __all__ = [
@@ -131,16 +130,16 @@ def _as_h36m17(array: np.ndarray, path: Path, key: str) -> np.ndarray:
         )
     if not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
         raise TurnbenchError(f"array has dtype {a.dtype}, expected numbers", file=path, item=key)
-    return a.astype(np.float64)
+    # float32 stays float32 (half the memory of a long stream); other types become float64
+    return a if a.dtype in (np.float32, np.float64) else a.astype(np.float64)
 
 
 def _npz_arrays(path: Path) -> dict[str, np.ndarray]:
     out = {}
     with load_numpy(path) as archive:
         for key in sorted(archive.files):
-            # a pickled member (an object array needs allow_pickle) or a damaged one
-            with unreadable("this array", path, item=key, guess="pickled, truncated or corrupt?"):
-                out[key] = archive[key]
+            # declared size checked first; a pickled member or a damaged one is one error
+            out[key] = read_npz_member(archive, key, path)
     return out
 
 
@@ -182,7 +181,8 @@ def _read(path: Path, fmt: EstimatorFormat) -> Iterator[tuple[str, np.ndarray]]:
 def read_estimator_output(
     path: str | os.PathLike[str], fmt: str
 ) -> tuple[EstimatorFormat, list[tuple[str, np.ndarray]]]:
-    """The format's description and ``(name, (frames, 17, 3) float64)`` arrays of one file.
+    """The format's description and ``(name, (frames, 17, 3))`` arrays of one file (float32
+    or float64 as stored, other number types float64).
 
     Arrays keep the estimator's own axes and unit (:class:`EstimatorFormat` says which);
     convert with :func:`turn_datasets.skeleton.to_z_up` and ``up_axis``. The name is the
