@@ -48,7 +48,7 @@ from turn_datasets.params import check_params, describe_params, param
 from turn_datasets.skeleton import JOINT_PAIRS, Layout
 from turn_eval.detect.preprocess import SIZE_JOINTS, identity_pieces, repair_swaps
 from turn_eval.detect.protocol import TURN_DTYPES, empty_turns
-from turn_eval.steps import STEP_COLUMNS, StepParams, turn_steps
+from turn_eval.steps import STEP_COLUMNS, STEP_JOINTS, StepParams, turn_steps
 
 __all__ = ["DetectParams", "MinerRule", "DETECT_MINER_DEFAULTS", "split_overlaps"]
 
@@ -157,10 +157,10 @@ def _paired_joints(positions: np.ndarray, layout: Layout) -> tuple[np.ndarray, L
 
 
 def _joints_read(positions: np.ndarray, layout: Layout) -> tuple[np.ndarray, Layout]:
-    """The joints the rule reads (the pairs and the body-size bones), gathered into one
-    float64 ``(frames, joints, 3)`` array, and the layout that names them: the stream itself
-    (often float32, all joints) is never widened whole."""
-    wanted = [*(n for pair in JOINT_PAIRS.values() for n in pair), *SIZE_JOINTS]
+    """The joints the rule reads (the pairs, the body-size bones and the step counter's
+    ankles), gathered into one float64 ``(frames, joints, 3)`` array, and the layout that
+    names them: the stream itself (often float32, all joints) is never widened whole."""
+    wanted = [*(n for pair in JOINT_PAIRS.values() for n in pair), *SIZE_JOINTS, *STEP_JOINTS]
     names = [n for n in dict.fromkeys(wanted) if n in layout.joints]
     sub = Layout(f"{layout.name}-read", len(names), {n: i for i, n in enumerate(names)})
     p = np.asarray(positions)

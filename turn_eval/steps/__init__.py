@@ -3,6 +3,12 @@
 :mod:`~turn_eval.steps.contacts` holds the rule and its thresholds (:class:`StepParams`).
 """
 
-from turn_eval.steps.contacts import STEP_COLUMNS, StepParams, foot_swings, turn_steps
+from turn_eval.steps.contacts import (
+    STEP_COLUMNS,
+    STEP_JOINTS,
+    StepParams,
+    foot_swings,
+    turn_steps,
+)
 
-__all__ = ["STEP_COLUMNS", "StepParams", "foot_swings", "turn_steps"]
+__all__ = ["STEP_COLUMNS", "STEP_JOINTS", "StepParams", "foot_swings", "turn_steps"]

@@ -48,11 +48,13 @@ from turn_datasets.params import check_params, describe_params, param
 from turn_datasets.skeleton import Layout
 from turn_eval.events.contract import TURN_TYPES
 
-__all__ = ["StepParams", "STEP_COLUMNS", "turn_steps", "foot_swings"]
+__all__ = ["StepParams", "STEP_COLUMNS", "STEP_JOINTS", "turn_steps", "foot_swings"]
 
 #: What :func:`turn_steps` adds to each turn, in the detections contract's order.
 STEP_COLUMNS = {"peak_speed_deg_s": "float64", "steps": "float64", "turn_type": "str"}
 _ANKLES = ("right_foot", "left_foot")
+#: The joints :func:`turn_steps` reads beside the hips and shoulders: the ankles.
+STEP_JOINTS = _ANKLES
 _PIVOT, _STEP = TURN_TYPES
 _HIPS = ("right_hip", "left_hip")
 
