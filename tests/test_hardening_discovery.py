@@ -277,7 +277,8 @@ def test_a_manifest_path_that_is_a_folder_is_named(tmp_path, capsys):
     (tmp_path / "q.manifest.json").mkdir()
     code, _, err = _run(["h36m", "mine", root, "--out", tmp_path / "q.csv"], capsys)
     assert code == EXIT_BAD_INPUT
-    assert f"{tmp_path / 'q.manifest.json'}: cannot write the clip index" in err
+    # refused before any mining, as any output path that is not a regular file
+    assert f"{tmp_path / 'q.manifest.json'}: is a folder, not a regular file" in err
     assert not (tmp_path / "q.csv").exists()
 
 

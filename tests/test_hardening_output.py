@@ -21,6 +21,7 @@ from _eaf_builder import Tier, write_eaf
 
 from turn_datasets.cli import cli as datasets_cli
 from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
+from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import atomic_path, staged_dir
 from turn_eval.cli import cli as eval_cli
 
@@ -64,6 +65,7 @@ def test_score_without_plots_removes_the_previous_runs_figures(score_files, tmp_
         "notes.txt",
         "scores.csv",
         "scores.json",
+        "scores.manifest.json",
         "scores.md",
     ]
     assert "removed 4 file(s) of the previous run" in err and "bland_altman.png" in err
@@ -109,10 +111,12 @@ def test_staged_dir_failure_keeps_the_old_owned_files(tmp_path):
     out = tmp_path / "o"
     out.mkdir()
     (out / "a.png").write_text("old")
-    with pytest.raises(RuntimeError), staged_dir(out, owns=("*.png",)) as stage:
+    with staged_dir(out, record="run.manifest.json") as stage:
+        (stage / "a.png").write_text("old")
+    with pytest.raises(RuntimeError), staged_dir(out, record="run.manifest.json") as stage:
         (stage / "b.txt").write_text("new")
         raise RuntimeError("boom")
-    assert sorted(p.name for p in out.iterdir()) == ["a.png"]
+    assert sorted(p.name for p in out.iterdir()) == ["a.png", "run.manifest.json"]
 
 
 # -- #9 ----------------------------------------------------------------------------------
@@ -198,9 +202,9 @@ def test_staged_dir_error_names_the_users_file(tmp_path):
     out = tmp_path / "o"
     out.mkdir()
     (out / "scores.md").mkdir()  # a folder where the command's file goes
-    with pytest.raises(OSError) as info, staged_dir(out) as stage:
+    with pytest.raises(TurnbenchError) as info, staged_dir(out) as stage:
         (stage / "scores.md").write_text("x")
-    assert info.value.filename == str(out / "scores.md")
+    assert info.value.where.file == str(out / "scores.md")
     assert _hidden(tmp_path) == []
 
 

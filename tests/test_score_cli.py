@@ -88,6 +88,7 @@ def test_out_dir_writes_everything_and_reruns_are_byte_identical(files, tmp_path
     assert names == sorted(
         [
             *_cli_score.SCORE_FILES,
+            _cli_score.SCORE_RECORD,
             "confusion_matrix.png",
             "predicted_by_bin.png",
             "abs_error.png",

@@ -81,7 +81,14 @@ def test_out_dir_is_written_whole_and_identically(capsys, files, tmp_path):
     code, _, _ = _run(capsys, [*args, "--out-dir", str(tmp_path / "b")])
     names = sorted(p.name for p in (tmp_path / "a").iterdir())
     assert names == sorted(
-        ["event_scores.json", "event_scores.md", "event_scores.csv", "events.csv", "turn_rates.csv"]
+        [
+            "event_scores.json",
+            "event_scores.md",
+            "event_scores.csv",
+            "event_scores.manifest.json",
+            "events.csv",
+            "turn_rates.csv",
+        ]
     )
     for name in names:
         assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes()

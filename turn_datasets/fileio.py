@@ -3,6 +3,18 @@
 Files are written to a temporary file in the target folder and renamed into place, so a
 crash or a bad input never leaves a half-written file. Several files that belong together
 (``--out-dir``) are staged in a temporary folder and moved in only when all are written.
+
+A rename replaces whatever has the target's name, so an output path that exists and is not
+a regular file (a symbolic link, a FIFO, a device, a socket, a folder) is refused, never
+replaced (:func:`check_output_path`): ``--out /dev/null`` run as root would otherwise turn
+the machine's null device into a CSV. A symbolic link is refused too rather than written
+through: its target may be anywhere, and replacing the link with a file silently breaks it.
+
+An output folder that a command cleans up (files one run writes and another does not:
+figures, review copies) holds a run record, ``<name>.manifest.json``: every file the run
+wrote with its sha256 (:func:`staged_dir`). The next run removes only files listed there
+that still hold what was written, never a file matched by a pattern; and no input may lie
+among what the folder owns (:func:`check_owned`).
 """
 
 from __future__ import annotations
@@ -13,20 +25,25 @@ import io
 import json
 import os
 import shutil
+import stat
 import tempfile
 import zipfile
 from collections.abc import Callable, Iterable, Iterator, Mapping
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
+from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
 
 __all__ = [
     "atomic_path",
     "staged_dir",
+    "check_output_path",
+    "check_owned",
+    "read_run_record",
     "write_text",
     "write_csv",
     "write_json",
@@ -58,14 +75,63 @@ def _user_path(exc: OSError, tmp: Path, target: Path) -> OSError:
     return exc
 
 
+#: What a file type is called in a refusal (``stat.S_IFMT`` of ``lstat``).
+_KINDS = {
+    stat.S_IFLNK: "a symbolic link",
+    stat.S_IFIFO: "a FIFO (named pipe)",
+    stat.S_IFCHR: "a character device",
+    stat.S_IFBLK: "a block device",
+    stat.S_IFSOCK: "a socket",
+    stat.S_IFDIR: "a folder",
+}
+
+
+def check_output_path(path: str | os.PathLike[str], *, option: str = "--out") -> None:
+    """Refuse an output path that exists and is not a regular file, before anything is
+    written to it or beside it (a manifest, a temporary file).
+
+    A rename onto a FIFO, a device or a socket replaces the node itself (as root, ``--out
+    /dev/null`` leaves every process on the machine without a null device), so such a path
+    is refused. So is a symbolic link, dangling or not: replacing it would break the link
+    while its target kept the old content, and writing through it would write wherever it
+    points; the message names its target, so the user may give that. A missing path,
+    or one that cannot be examined (a folder without permission), is left to the write.
+
+    Raises
+    ------
+    TurnbenchError
+        Naming ``path``, what it is, and ``option``.
+    """
+    target = Path(path)
+    try:
+        mode = os.lstat(target).st_mode
+    except OSError:
+        return
+    if stat.S_ISREG(mode):
+        return
+    kind = _KINDS.get(stat.S_IFMT(mode), "not a regular file")
+    if stat.S_ISLNK(mode):
+        try:
+            kind += f" to {os.readlink(target)}"
+        except OSError:
+            pass
+    hint = f"choose another {option}"
+    raise TurnbenchError(
+        f"is {kind}, not a regular file: refusing to replace it", file=str(target), hint=hint
+    )
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it onto ``path`` if the block succeeds.
 
     The temporary file is hidden in the destination's own folder (the only folder the user
-    asked us to write into), and an error names ``path``, not the temporary file.
+    asked us to write into), and an error names ``path``, not the temporary file. A ``path``
+    that exists and is not a regular file is refused (:func:`check_output_path`) before the
+    block runs, and again just before the rename (it may have appeared meanwhile).
     """
     target = Path(path)
+    check_output_path(target)
     target.parent.mkdir(parents=True, exist_ok=True)
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
@@ -77,6 +143,7 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
         yield tmp_path
         # mkstemp makes owner-only files; an output should get the user's usual permissions
         os.chmod(tmp_path, 0o666 & ~_umask())
+        check_output_path(target)
         os.replace(tmp_path, target)
     except OSError as exc:
         raise _user_path(exc, tmp_path, target) from None
@@ -108,21 +175,121 @@ def _stage_folder(target: Path) -> tuple[Path, bool]:
         raise OSError(exc.errno, exc.strerror, str(target)) from None
 
 
+def _record_parts(name: str) -> tuple[str, ...] | None:
+    """A run record's file name as path parts inside its folder, or None for a name that would
+    leave the folder (absolute, ``..``) or is not a plain relative path."""
+    path = PurePosixPath(name)
+    if path.is_absolute() or not path.parts or any(p in (".", "..") for p in path.parts):
+        return None
+    if "\\" in name or "\0" in name:
+        return None
+    return path.parts
+
+
+def read_run_record(folder: str | os.PathLike[str], name: str) -> dict[str, str]:
+    """The files a previous run listed in its run record ``folder/name``, with their sha256.
+
+    Empty when there is no record, or it is not a regular file, not JSON of the form
+    :func:`staged_dir` writes, or unreadable: a record we cannot trust lists nothing, so
+    nothing is removed on its word. Names that would leave ``folder`` are dropped.
+    """
+    path = Path(folder) / name
+    try:
+        if not stat.S_ISREG(os.lstat(path).st_mode):
+            return {}
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    files = doc.get("files") if isinstance(doc, dict) else None
+    if not isinstance(files, dict):
+        return {}
+    return {
+        k: v
+        for k, v in files.items()
+        if isinstance(k, str) and isinstance(v, str) and k != name and _record_parts(k)
+    }
+
+
+def _check_destination(target: Path, name: str) -> None:
+    """Refuse to move a staged file to ``target/name`` when something there is not ours to
+    replace: a path component under ``target`` that is not a real folder (a symbolic link
+    would carry the file elsewhere), or a destination that is not a regular file."""
+    parts = PurePosixPath(name).parts
+    here = target
+    for part in parts[:-1]:
+        here = here / part
+        try:
+            mode = os.lstat(here).st_mode
+        except OSError:
+            break
+        if not stat.S_ISDIR(mode):
+            kind = _KINDS.get(stat.S_IFMT(mode), "a file")
+            raise TurnbenchError(
+                f"is {kind}, not a folder: refusing to write {name} through it",
+                file=str(here),
+                hint="remove it, or choose another --out-dir",
+            )
+    check_output_path(target / name, option="--out-dir")
+
+
+def _still_ours(target: Path, name: str, digest: str) -> bool:
+    """Whether ``target/name`` is a regular file, reached through real folders, that still
+    holds what a run wrote (``digest``, its sha256 then)."""
+    here = target
+    parts = PurePosixPath(name).parts
+    try:
+        for part in parts[:-1]:
+            here = here / part
+            if not stat.S_ISDIR(os.lstat(here).st_mode):
+                return False
+        path = here / parts[-1]
+        return stat.S_ISREG(os.lstat(path).st_mode) and sha256_file(path) == digest
+    except OSError:
+        return False
+
+
+def _move_in(tmp: Path, target: Path, record: str | None) -> tuple[set[str], dict[str, str]]:
+    """Move the staged files of ``tmp`` into ``target``, the run record last; return their
+    names (relative, ``/``-separated) and the previous run's record."""
+    staged = [src for src in sorted(tmp.rglob("*")) if not src.is_dir()]
+    names = [src.relative_to(tmp).as_posix() for src in staged]
+    for name in [*names, *([record] if record else [])]:
+        _check_destination(target, name)
+    previous = read_run_record(target, record) if record else {}
+    if record:
+        files = {name: sha256_file(src) for name, src in zip(names, staged, strict=True)}
+        doc = {"written_by": f"turnbench {__version__}", "files": files}
+        staged.append(tmp.joinpath(*PurePosixPath(record).parts))
+        staged[-1].write_text(to_json_text(doc), encoding="utf-8", newline="\n")
+        names.append(record)
+    for src, name in zip(staged, names, strict=True):
+        dst = target.joinpath(*PurePosixPath(name).parts)
+        dst.parent.mkdir(parents=True, exist_ok=True)
+        os.chmod(src, 0o666 & ~_umask())
+        check_output_path(dst, option="--out-dir")  # again: it may have appeared meanwhile
+        os.replace(src, dst)
+    return set(names), previous
+
+
 @contextlib.contextmanager
 def staged_dir(
     out_dir: str | os.PathLike[str],
     *,
-    owns: Iterable[str] = (),
+    record: str | None = None,
     removed: list[Path] | None = None,
+    kept: list[Path] | None = None,
 ) -> Iterator[Path]:
     """Yield a temporary folder; on success move everything in it into ``out_dir``.
 
-    Files the block wrote replace their old versions. ``owns`` names the files (glob
-    patterns relative to ``out_dir``) that the command writes in some runs but not in others
-    (figures, review copies): an old one that this run did not write is removed, so the
-    folder holds exactly one run; the removed paths are appended to ``removed``. Any other
-    file in ``out_dir`` is left alone. On failure nothing in ``out_dir`` changes, and errors
-    name ``out_dir``'s files, not the temporary folder.
+    Files the block wrote replace their old versions; a destination that is not a regular
+    file, or lies behind a path component that is not a real folder, is refused before
+    anything moves (:func:`check_output_path`). With ``record`` (a file name such as
+    ``scores.manifest.json``), the run is recorded in ``out_dir/record``: every file it wrote
+    and its sha256. A file the previous run's record lists and this run did not write is
+    removed (appended to ``removed``) when it still holds what that run wrote, and kept
+    otherwise (appended to ``kept``: the user has changed it). Nothing else in ``out_dir`` is
+    ever removed: no file is removed for matching a pattern. On failure nothing in
+    ``out_dir`` changes, and errors name ``out_dir``'s files, not the temporary folder.
     """
     target = Path(out_dir)
     if target.exists() and not target.is_dir():
@@ -132,21 +299,17 @@ def staged_dir(
     try:
         yield tmp
         target.mkdir(parents=True, exist_ok=True)
-        written: set[Path] = set()
-        for src in sorted(tmp.rglob("*")):
-            if src.is_dir():
+        written, previous = _move_in(tmp, target, record)
+        for name, digest in sorted(previous.items()):
+            if name in written:
                 continue
-            dst = target / src.relative_to(tmp)
-            dst.parent.mkdir(parents=True, exist_ok=True)
-            os.chmod(src, 0o666 & ~_umask())
-            os.replace(src, dst)
-            written.add(dst)
-        for pattern in owns:
-            for stale in sorted(target.glob(pattern)):
-                if stale.is_file() and stale not in written:
-                    stale.unlink()
-                    if removed is not None:
-                        removed.append(stale)
+            stale = target.joinpath(*PurePosixPath(name).parts)
+            if _still_ours(target, name, digest):
+                stale.unlink()
+                if removed is not None:
+                    removed.append(stale)
+            elif os.path.lexists(stale) and kept is not None:
+                kept.append(stale)
     except BaseException as exc:
         shutil.rmtree(tmp, ignore_errors=True)
         if created and target.is_dir() and not any(target.iterdir()):
@@ -247,8 +410,10 @@ def check_not_input(
     *,
     option: str = "--out",
 ) -> None:
-    """Refuse to write over one of the command's own inputs (``option``: the command's
-    output option, named in the message)."""
+    """Refuse an output path that is one of the command's own inputs, or that exists and is
+    not a regular file (:func:`check_output_path`); ``option``, the command's output option,
+    is named in the message. Commands call it before any work."""
+    check_output_path(out, option=option)
     out_path = Path(out).resolve()
     for item in inputs:
         p = Path(item)
@@ -256,6 +421,50 @@ def check_not_input(
             raise TurnbenchError(
                 f"{out} would overwrite this input; choose another {option}", file=str(item)
             )
+
+
+def check_owned(
+    out_dir: str | os.PathLike[str],
+    inputs: Iterable[str | os.PathLike[str]],
+    *,
+    names: Iterable[str] = (),
+    folders: Iterable[str] = (),
+    record: str | None = None,
+    option: str = "--out-dir",
+) -> None:
+    """Refuse an input that lies among what the output folder ``out_dir`` owns.
+
+    The folder owns ``names`` (the files a run writes there), its run record ``record`` and
+    every file the previous run's record lists (:func:`read_run_record`), and everything in
+    ``folders`` (subfolders a run fills: review copies, one figure per session). Such an
+    input would be replaced or removed by the run, or read again as the next run's input.
+    Paths are compared after resolving symbolic links.
+    """
+    target = Path(out_dir)
+    files = set(names)
+    if record is not None:
+        files.add(record)
+        files.update(read_run_record(target, record))
+    owned = {target.joinpath(*PurePosixPath(f).parts).resolve(): f for f in files}
+    owned_dirs = {(target / d).resolve(): d for d in folders}
+    for item in inputs:
+        p = Path(item)
+        if not os.path.lexists(p):
+            continue
+        real = p.resolve()
+        if real in owned:
+            raise TurnbenchError(
+                f"is {owned[real]} of {option} {target}, which a run overwrites or removes; "
+                f"choose another {option}",
+                file=str(item),
+            )
+        for folder, name in owned_dirs.items():
+            if real == folder or folder in real.parents:
+                raise TurnbenchError(
+                    f"lies in {target / name}, whose files a run of {option} {target} "
+                    f"overwrites or removes; choose another {option}",
+                    file=str(item),
+                )
 
 
 def walk_files(

@@ -51,6 +51,8 @@ OUT_FILES = (
     "by_rater_pair.csv",
 )
 REVIEW_DIR = "review"
+#: The run record of --out-dir: the next run removes only the review copies listed there.
+AGREEMENT_RECORD = "agreement.manifest.json"
 
 
 @remap.command("agreement", context_settings=CONTEXT_SETTINGS)
@@ -126,6 +128,12 @@ def agreement(
         raise click.UsageError("--review-eaf writes into --out-dir; give one")
     schema = load_schema(schema_path)
     paths = expand_eaf_paths(inputs)
+    if out_dir is not None:
+        # Before any reading: no input may lie among what the folder owns (its review copies
+        # are replaced or removed by the run).
+        check_out_dir(
+            out_dir, OUT_FILES, [*inputs, *paths], folders=(REVIEW_DIR,), record=AGREEMENT_RECORD
+        )
     annotations = read_annotations(
         list(progress(paths, label="reading ELAN files")), schema=schema, warn=warn
     )
@@ -199,9 +207,11 @@ def _write_outputs(
     sessions_to_review = sorted(audit.disagreements["session"].unique()) if review_eaf else []
     files = dict(zip(audit.items["session"], audit.items["file"], strict=True))
     review_names = [f"{REVIEW_DIR}/{s}.eaf" for s in sessions_to_review]
-    check_out_dir(out_dir, [*OUT_FILES, *review_names], paths)
+    check_out_dir(
+        out_dir, [*OUT_FILES, *review_names], paths, folders=(REVIEW_DIR,), record=AGREEMENT_RECORD
+    )
     # The folder holds one run: review copies of sessions that agree now are removed.
-    with one_run(out_dir, what="the agreement report", owns=(f"{REVIEW_DIR}/*.eaf",)) as stage:
+    with one_run(out_dir, what="the agreement report", record=AGREEMENT_RECORD) as stage:
         tables = {
             "agreement.json": document,
             "agreement.md": markdown,

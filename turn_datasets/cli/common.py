@@ -21,7 +21,7 @@ import click
 
 from turn_datasets import limits
 from turn_datasets.errors import GateFailed, TurnbenchError
-from turn_datasets.fileio import check_not_input, staged_dir
+from turn_datasets.fileio import check_not_input, check_owned, staged_dir
 from turn_datasets.params import param_fields
 from turn_datasets.render.numbers import counted
 from turn_datasets.skeleton import LAYOUTS, UP_AXIS_CHOICES
@@ -299,28 +299,50 @@ def writing(what: str, path: str | Path) -> Iterator[None]:
         raise TurnbenchError(f"cannot write {what}: {detail}", file=str(path)) from None
 
 
-def check_out_dir(out_dir: Path, names: Iterable[str], inputs: Iterable[Path]) -> None:
-    """Refuse an ``--out-dir`` that is a file, or whose ``names`` would overwrite an input."""
+def check_out_dir(
+    out_dir: Path,
+    names: Iterable[str],
+    inputs: Iterable[Path],
+    *,
+    folders: Iterable[str] = (),
+    record: str | None = None,
+) -> None:
+    """Refuse an ``--out-dir`` that is a file, whose ``names`` would overwrite an input or
+    exist and are not regular files, or that owns an input (:func:`check_owned`: ``folders``
+    it fills, its run ``record`` and what the previous run's record lists). Called before
+    any work."""
     inputs = list(inputs)
-    for name in names:
-        check_not_input(out_dir / name, inputs, option="--out-dir")
     if out_dir.exists() and not out_dir.is_dir():
         raise TurnbenchError("--out-dir is a file, not a folder", file=str(out_dir))
+    for name in names:
+        check_not_input(out_dir / name, inputs, option="--out-dir")
+    check_owned(out_dir, inputs, names=names, folders=folders, record=record, option="--out-dir")
 
 
 @contextlib.contextmanager
-def one_run(out_dir: Path, *, what: str, owns: Iterable[str] = ()) -> Iterator[Path]:
+def one_run(out_dir: Path, *, what: str, record: str | None = None) -> Iterator[Path]:
     """Yield a staging folder whose files replace ``out_dir``'s together, or none at all.
 
-    The folder holds one run: a file matching ``owns`` (glob patterns) that an earlier run
-    wrote and this one did not is removed, and said on stderr. A folder that cannot be
-    written is one line and exit 2 (:func:`writing`).
+    With ``record`` (a command that writes some files in one run and not in another), the
+    folder holds one run: the run is recorded in ``out_dir/record`` and a file the previous
+    run's record lists that this run did not write is removed, and said on stderr; one the
+    user has changed since is kept, and said too (:func:`staged_dir`). Without, nothing is
+    removed. A folder that cannot be written is one line and exit 2 (:func:`writing`).
     """
     removed: list[Path] = []
-    with writing(what, out_dir), staged_dir(out_dir, owns=owns, removed=removed) as stage:
+    kept: list[Path] = []
+    with (
+        writing(what, out_dir),
+        staged_dir(out_dir, record=record, removed=removed, kept=kept) as stage,
+    ):
         yield stage
     if removed:
         info(f"removed {len(removed)} file(s) of the previous run: " + ", ".join(map(str, removed)))
+    if kept:
+        warn(
+            f"kept {len(kept)} file(s) of the previous run that were changed since it wrote "
+            "them: " + ", ".join(map(str, kept))
+        )
 
 
 #: A path the user names that must be a file, never a folder (an input or an --out).

@@ -95,7 +95,8 @@ def open_command(root: Path, out_dir: Path, up_axis: str, allow_missing: bool) -
         outputs=OPEN_FILES,
         created_utc=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
     )
-    with one_run(out_dir, what="the REMAP Open outputs", owns=OPEN_FILES) as stage:
+    # every run writes all of OPEN_FILES: nothing of an earlier run is left to remove
+    with one_run(out_dir, what="the REMAP Open outputs") as stage:
         write_csv(release.labels, stage / "labels.csv")
         write_csv(release.participants, stage / "participants.csv")
         write_npz(stage / "skeletons.npz", release.skeletons)

@@ -130,7 +130,11 @@ def detect_command(
         # the rule's low-pass at this frame rate, refused before any file is read
         check_position_cutoff(miner.position_cutoff_hz, fps_hz)
     detector = MinerRule(params) if detector_spec is None else load_detector(detector_spec)
-    files = stream_files(skeletons)  # first: an AlphaPose JSON is refused with its reason
+    passed_over: list[tuple[Path, str]] = []
+    # first: an AlphaPose JSON is refused with its reason
+    files = stream_files(skeletons, skipped=passed_over)
+    for path, why in passed_over:
+        info(f"skipped {path}: {why}")
     layout = source.layout()
     check_not_input(out, files)
     mpath = manifest_path(out)

@@ -24,14 +24,15 @@ from turn_datasets.cli.common import (
 )
 from turn_datasets.fileio import to_json_text, write_files
 from turn_eval.cli import cli
-from turn_eval.profile.plots import HEATMAP_DIR, PROFILE_PLOT_FILES
+from turn_eval.profile.plots import HEATMAP_DIR
 from turn_eval.profile.render import contrasts_markdown
 from turn_eval.profile.run import ProfileParams, turning_profile
 
 #: The tables ``--out-dir`` receives.
 PROFILE_FILES = ("profile.csv", "by_hour.csv", "contrasts.csv", "contrasts.json")
-#: What a run may or may not write: an old one this run did not write is removed.
-OWNED = (*PROFILE_FILES, *PROFILE_PLOT_FILES, f"{HEATMAP_DIR}/*.png")
+#: The run record in --out-dir: what a run wrote, so the next removes what it does not write
+#: (the plots and heat maps of an earlier --plots run).
+PROFILE_RECORD = "profile.manifest.json"
 
 _path = click.Path(dir_okay=False, path_type=Path)
 
@@ -117,7 +118,7 @@ def profile_cmd(
         warn=warn,
         progress=bootstrap_progress,
     )
-    with one_run(out_dir, what="the profile", owns=OWNED) as stage:
+    with one_run(out_dir, what="the profile", record=PROFILE_RECORD) as stage:
         files = {
             "profile.csv": result.profile,
             "by_hour.csv": result.by_hour,

@@ -37,6 +37,8 @@ SCORE_FILES = ("scores.json", "scores.md", "scores.csv")
 #: The figures ``--plots`` adds (as :data:`turn_eval.clips.plots.PLOT_FILES`; matplotlib is only
 #: imported when they are drawn).
 PLOT_FILES = ("confusion_matrix.png", "predicted_by_bin.png", "abs_error.png", "bland_altman.png")
+#: The run record of ``--out-dir``: a run without ``--plots`` removes the figures listed there.
+SCORE_RECORD = "scores.manifest.json"
 
 
 @cli.command("score", context_settings=CONTEXT_SETTINGS)
@@ -116,7 +118,9 @@ def score(
     if plots and out_dir is None:
         raise click.UsageError("--plots needs --out-dir (the figures are files)")
     if out_dir is not None:
-        check_out_dir(out_dir, (*SCORE_FILES, *PLOT_FILES), [predictions, reference])
+        check_out_dir(
+            out_dir, (*SCORE_FILES, *PLOT_FILES), [predictions, reference], record=SCORE_RECORD
+        )
     ref = read_reference(reference, bin_width_deg=bin_width_deg)
     joined = read_predictions(
         predictions, ref, allow_missing=allow_missing, abs_angles=abs_angles, warn=warn
@@ -134,7 +138,7 @@ def score(
     frame = scores_frame(scores)
     if out_dir is not None:
         # Figures of an earlier --plots run go when this run has none.
-        with one_run(out_dir, what="the scores", owns=PLOT_FILES) as stage:
+        with one_run(out_dir, what="the scores", record=SCORE_RECORD) as stage:
             write_files(
                 stage,
                 {"scores.json": scores, "scores.md": texts["md"], "scores.csv": scores_csv(frame)},

@@ -34,8 +34,9 @@ from turn_eval.events.tables import events_frame, events_markdown
 #: The files ``--out-dir`` receives (``turn_rates.csv`` only with ``--sessions``).
 EVENT_FILES = ("event_scores.json", "event_scores.md", "event_scores.csv", "events.csv")
 RATES_FILE = "turn_rates.csv"
-#: What a run may or may not write: an old one this run did not write is removed.
-OWNED = (RATES_FILE, *EVENT_PLOT_FILES, f"{TIMELINE_DIR}/*.png")
+#: The run record of ``--out-dir``: what a run wrote, so the next removes only those of them
+#: it does not write again (figures without ``--plots``, turn rates without ``--sessions``).
+EVENT_RECORD = "event_scores.manifest.json"
 
 
 def _split_by(values: tuple[str, ...]) -> list[str]:
@@ -140,7 +141,13 @@ def score_events_cmd(
         raise click.UsageError("--plots needs --out-dir (the figures are files)")
     inputs = [p for p in (detections, reference, context_path, sessions_path) if p is not None]
     if out_dir is not None:
-        check_out_dir(out_dir, (*EVENT_FILES, RATES_FILE), inputs)
+        check_out_dir(
+            out_dir,
+            (*EVENT_FILES, RATES_FILE, *EVENT_PLOT_FILES),
+            inputs,
+            folders=(TIMELINE_DIR,),
+            record=EVENT_RECORD,
+        )
     scores = score_events(
         detections,
         reference,
@@ -167,7 +174,7 @@ def score_events_cmd(
 def _write_out_dir(scores, markdown: str, frame, out_dir: Path, *, plots: bool) -> None:
     """Every table (and with ``plots`` the figures) into ``out_dir``, together or not at all;
     files an earlier run wrote and this one does not are removed (one run per folder)."""
-    with one_run(out_dir, what="the scores", owns=OWNED) as stage:
+    with one_run(out_dir, what="the scores", record=EVENT_RECORD) as stage:
         files = {
             "event_scores.json": scores.doc,
             "event_scores.md": markdown,
@@ -181,7 +188,7 @@ def _write_out_dir(scores, markdown: str, frame, out_dir: Path, *, plots: bool) 
         if plots:
             from turn_eval.events.plots import write_event_plots
 
-            figures = write_event_plots(scores, stage)
+            figures = write_event_plots(scores, stage, warn=warn)
             names += [str(p.relative_to(stage)) for p in figures]
     written = [out_dir / name for name in names]
     n_timelines = sum(1 for p in written if p.parent.name == TIMELINE_DIR)

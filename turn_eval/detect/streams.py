@@ -90,8 +90,17 @@ class Stream:
         return int(self.positions.shape[0])
 
 
-def stream_files(paths: Iterable[str | os.PathLike[str]]) -> list[Path]:
+def stream_files(
+    paths: Iterable[str | os.PathLike[str]],
+    *,
+    skipped: list[tuple[Path, str]] | None = None,
+) -> list[Path]:
     """The files to read: files as given, folders walked; sorted by path, each once.
+
+    A file reached by several names (a symbolic link beside its target, ``alias.npz ->
+    pair01_day1.npz``) is read once, under the real file's name, since its stem names the
+    session; a link to a file that does not exist is passed over. Each path passed over is
+    appended to ``skipped`` with the reason, for the caller to say.
 
     Raises
     ------
@@ -99,12 +108,17 @@ def stream_files(paths: Iterable[str | os.PathLike[str]]) -> list[Path]:
         A path that does not exist, a file with another suffix, or a folder without any.
     """
     out: list[Path] = []
+    passed: list[tuple[Path, str]] = []
     for raw in paths:
         path = Path(raw)
         if path.is_dir():
             # the one folder walk (links followed once, hidden skipped, unreadable named)
-            found = [
-                p for p in walk_files(path) if p.suffix.lower() in STREAM_SUFFIXES and p.is_file()
+            listed = [p for p in walk_files(path) if p.suffix.lower() in STREAM_SUFFIXES]
+            found = [p for p in listed if p.is_file()]
+            passed += [
+                (p, f"a symbolic link to {os.readlink(p)}, which does not exist")
+                for p in listed
+                if p.is_symlink() and not p.exists()
             ]
             if not found:
                 raise TurnbenchError(
@@ -124,10 +138,20 @@ def stream_files(paths: Iterable[str | os.PathLike[str]]) -> list[Path]:
             out.append(path)
         else:
             raise TurnbenchError("no such file or folder", file=path)
-    unique: dict[Path, Path] = {}
+    names: dict[Path, list[Path]] = {}
     for p in sorted(out, key=lambda q: natural_key(str(q))):
-        unique.setdefault(p.resolve(), p)
-    return list(unique.values())
+        names.setdefault(p.resolve(), []).append(p)
+    chosen = []
+    for real, given in names.items():
+        # the real file's own name, else the first link to it
+        keep = next((p for p in given if not p.is_symlink()), given[0])
+        chosen.append(keep)
+        passed += [
+            (p, f"the same file as {keep}: read once, as {real.name}") for p in given if p != keep
+        ]
+    if skipped is not None:
+        skipped += passed
+    return sorted(chosen, key=lambda q: natural_key(str(q)))
 
 
 def stream_names(path: str | os.PathLike[str], key: str) -> tuple[str, str]:

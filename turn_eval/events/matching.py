@@ -15,15 +15,15 @@ How it is computed. Eligible pairs are found by a sweep (both sides sorted by un
 detections of one unit do not overlap, nor do reference turns, so each detection's
 overlapping turns are one contiguous run). The eligible pairs form a bipartite graph; each
 connected component is matched on its own. A component of one pair is that pair. A larger
-one is solved with ``scipy.optimize.linear_sum_assignment`` maximising the weight
-``M + IoU`` of eligible pairs (0 for the others) with ``M = min(rows, columns) + 1``: a
+one is solved with ``scipy.sparse.csgraph.min_weight_full_bipartite_matching`` (LAPJVsp, on
+the eligible pairs alone, so memory grows linearly with them) maximising the weight
+``M + IoU`` of eligible pairs with ``M = min(rows, columns) + 1``: a
 matching of ``k`` eligible pairs weighs between ``k M`` and ``k M + k``, and
 ``(k + 1) M > k M + k`` because ``M > k``, so a heaviest matching has the most pairs, and
 among those the largest total IoU (lexicographic, not a plain maximum of total IoU, which
-can prefer one pair of IoU 0.9 to two of 0.5). The solver assigns every row or column of the
-smaller side; pairs of weight 0 (ineligible) are dropped, which leaves the weight unchanged.
-Ties between equally good matchings are broken by the solver on the component's rows and
-columns in time order: deterministic for the same input. Total IoUs closer than about
+can prefer one pair of IoU 0.9 to two of 0.5). Ties between equally good matchings are
+broken by the solver on the component's rows and columns in row order: deterministic for
+the same input. Total IoUs closer than about
 ``1e-13`` of each other count as equal (floating point).
 
 The functions return DataFrames (mobgap's ``categorize_intervals`` /
@@ -34,9 +34,8 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-from scipy.optimize import linear_sum_assignment
-from scipy.sparse import coo_array
-from scipy.sparse.csgraph import connected_components
+from scipy.sparse import coo_array, csr_array
+from scipy.sparse.csgraph import connected_components, min_weight_full_bipartite_matching
 
 from turn_eval.events._order import lexsort, unit_time_guess
 
@@ -152,17 +151,33 @@ def _components(det: np.ndarray, ref: np.ndarray) -> np.ndarray:
 
 
 def _solve(rows: np.ndarray, cols: np.ndarray, iou: np.ndarray) -> np.ndarray:
-    """Indices of the pairs of one component in its best matching (module docstring)."""
+    """Indices of the pairs of one component in its best matching (module docstring).
+
+    Sparse: memory grows with the number of pairs, not with rows x columns (a dense matrix
+    of a component of 24,000 overlapping intervals needs several GB). Each row also gets a
+    column of its own, of weight 1, so that a matching covering every row exists (the
+    solver needs one); the eligible pairs weigh ``M + IoU + 1``. That adds 1 per row to
+    every candidate matching, which leaves the best one unchanged.
+    """
     r_ids, r = np.unique(rows, return_inverse=True)
     c_ids, c = np.unique(cols, return_inverse=True)
-    big = min(r_ids.shape[0], c_ids.shape[0]) + 1.0
-    weight = np.zeros((r_ids.shape[0], c_ids.shape[0]))
-    weight[r, c] = big + iou
-    pair = np.full(weight.shape, -1, dtype=np.int64)
-    pair[r, c] = np.arange(rows.shape[0])
-    a, b = linear_sum_assignment(weight, maximize=True)
-    chosen = pair[a, b]
-    return chosen[chosen >= 0]
+    n_r, n_c = r_ids.shape[0], c_ids.shape[0]
+    r, c = r.reshape(-1), c.reshape(-1)
+    big = min(n_r, n_c) + 1.0
+    weight = csr_array(
+        (
+            np.concatenate([big + 1.0 + iou, np.ones(n_r)]),
+            (np.concatenate([r, np.arange(n_r)]), np.concatenate([c, n_c + np.arange(n_r)])),
+        ),
+        shape=(n_r, n_c + n_r),
+    )
+    a, b = min_weight_full_bipartite_matching(weight, maximize=True)
+    real = b < n_c
+    # Each (row, column) is one pair: find the chosen ones among the pairs' sorted keys.
+    key = r.astype(np.int64) * n_c + c
+    order = np.argsort(key, kind="stable")
+    found = np.searchsorted(key[order], a[real].astype(np.int64) * n_c + b[real])
+    return np.sort(order[found])
 
 
 def match_pairs(pairs: pd.DataFrame) -> pd.DataFrame:

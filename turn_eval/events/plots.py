@@ -1,6 +1,7 @@
 """The figures of ``turn-eval score-events --plots``, as PNG.
 
-- ``timelines/NNNN_<session>_<subject>.png``, one per (session, subject): the reference turns
+- ``timelines/NNNN_<session>_<subject>.png`` (:func:`timeline_name`), one per (session,
+  subject): the reference turns
   above the time axis, the detections below, true positives green (a line joins the two
   sides of a pair), false positives orange, false negatives red; each turn's angle written
   on it.
@@ -16,8 +17,10 @@ figure is drawn: the command line takes the file names from here without it.
 
 from __future__ import annotations
 
+import hashlib
 import re
-from collections.abc import Mapping
+import warnings
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -25,7 +28,7 @@ import numpy as np
 
 from turn_eval.scoring.figures import save_figure
 
-__all__ = ["EVENT_PLOT_FILES", "TIMELINE_DIR", "write_event_plots"]
+__all__ = ["EVENT_PLOT_FILES", "TIMELINE_DIR", "timeline_name", "write_event_plots"]
 
 #: The summary figures, in the order :func:`write_event_plots` writes them.
 EVENT_PLOT_FILES = ("f1_by_group.png", "pr_curve.png")
@@ -36,8 +39,29 @@ _MAX_INCHES = 24.0
 _UNSAFE = re.compile(r"[^A-Za-z0-9._-]+")
 
 
+#: The longest timeline file name stem (characters, ASCII): far below the 255 bytes most
+#: file systems allow, so a long session name still gives a file that can be written.
+_MAX_STEM = 120
+#: Characters of the sha256 that keep a shortened name unique.
+_HASH_CHARS = 12
+#: matplotlib's warning for a character its font cannot draw ("Glyph 20250 (...) missing
+#: from font(s) DejaVu Sans."), one per character and figure.
+_MISSING_GLYPH = re.compile(r"Glyph (\d+) .*missing from font\(s\) (.+?)\.?$")
+
+
 def _safe(name: str) -> str:
     return _UNSAFE.sub("-", name).strip("-") or "x"
+
+
+def timeline_name(unit: int, session: str, subject: str) -> str:
+    """The timeline's file name: ``NNNN_<session>_<subject>.png``, the names reduced to
+    letters, digits, ``.``, ``_`` and ``-``; a stem longer than :data:`_MAX_STEM` is cut and
+    ends in the first hex digits of the sha256 of both names, so it stays unique."""
+    stem = f"{unit:04d}_{_safe(session)}_{_safe(subject)}"
+    if len(stem) > _MAX_STEM:
+        digest = hashlib.sha256(f"{session}\0{subject}".encode()).hexdigest()[:_HASH_CHARS]
+        stem = f"{stem[: _MAX_STEM - _HASH_CHARS - 1]}-{digest}"
+    return stem + ".png"
 
 
 def _figure(**kwargs):
@@ -141,8 +165,14 @@ def _pr_curve(curves: Mapping[str, Mapping[str, np.ndarray]], ap: Mapping, path:
     return save_figure(fig, path)
 
 
-def write_event_plots(scores, out_dir: str | Path) -> list[Path]:
+def write_event_plots(
+    scores, out_dir: str | Path, *, warn: Callable[[str], None] | None = None
+) -> list[Path]:
     """Write the figures of an :class:`turn_eval.events.EventScores` into ``out_dir``.
+
+    matplotlib's warnings of characters its font cannot draw (names in a script the font
+    lacks) are gathered into one line for ``warn``, instead of one raw warning per
+    character and figure with matplotlib's source path.
 
     Returns the paths written: the timelines, ``f1_by_group.png`` and, with scores,
     ``pr_curve.png``.
@@ -150,15 +180,37 @@ def write_event_plots(scores, out_dir: str | Path) -> list[Path]:
     out = Path(out_dir)
     written: list[Path] = []
     events = scores.events
-    if events.shape[0]:
-        (out / TIMELINE_DIR).mkdir(parents=True, exist_ok=True)
-        for unit, group in events.groupby("unit", sort=True):
-            session, subject = str(group["session"].iat[0]), str(group["subject"].iat[0])
-            name = f"{int(unit):04d}_{_safe(session)}_{_safe(subject)}.png"
-            written.append(_timeline(group, out / TIMELINE_DIR / name, session, subject))
-    written.append(_f1_by_group(scores.doc, out / EVENT_PLOT_FILES[0]))
-    if scores.pr_curves is not None:
-        written.append(
-            _pr_curve(scores.pr_curves, scores.doc["overall"]["ap"], out / "pr_curve.png")
-        )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        if events.shape[0]:
+            (out / TIMELINE_DIR).mkdir(parents=True, exist_ok=True)
+            for unit, group in events.groupby("unit", sort=True):
+                session, subject = str(group["session"].iat[0]), str(group["subject"].iat[0])
+                path = out / TIMELINE_DIR / timeline_name(int(unit), session, subject)
+                written.append(_timeline(group, path, session, subject))
+        written.append(_f1_by_group(scores.doc, out / EVENT_PLOT_FILES[0]))
+        if scores.pr_curves is not None:
+            written.append(
+                _pr_curve(scores.pr_curves, scores.doc["overall"]["ap"], out / "pr_curve.png")
+            )
+    _report_warnings(caught, warn)
     return written
+
+
+def _report_warnings(caught: list[warnings.WarningMessage], warn) -> None:
+    """Missing glyphs as one line for ``warn``; any other warning shown as it came."""
+    missing: dict[str, None] = {}
+    fonts: dict[str, None] = {}
+    for w in caught:
+        match = _MISSING_GLYPH.search(str(w.message))
+        if match is None:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+            continue
+        missing[chr(int(match.group(1)))] = None
+        fonts[match.group(2)] = None
+    if missing and warn is not None:
+        shown = "".join(list(missing)[:10]) + ("..." if len(missing) > 10 else "")
+        warn(
+            f"the figures' font ({', '.join(fonts)}) cannot draw {len(missing)} character(s) "
+            f"of the names ({shown}): they show as empty boxes"
+        )

@@ -54,6 +54,7 @@ __all__ = [
     "check_event_reference",
     "check_context",
     "check_sessions",
+    "check_within_durations",
     "Units",
     "known_units",
     "units_of",
@@ -61,6 +62,9 @@ __all__ = [
 ]
 
 _UNIT = ("session", "subject")
+#: The detections' required and optional numeric columns; an optional one may be empty.
+_DETECTION_NUMBERS = tuple(c for c, t in DETECTION_REQUIRED.items() if t == "float64")
+_OPTIONAL_NUMBERS = tuple(c for c, t in DETECTION_OPTIONAL.items() if t != "str")
 
 
 def _texts(frame: pd.DataFrame, col: str) -> np.ndarray:
@@ -351,8 +355,7 @@ def _checked_detections(
     _set_texts(out, _UNIT)
     pairs = _Pairs.of(out)
     _check_unit_names(out, what, pairs)
-    optional_numbers = ("speed_deg_s", "peak_speed_deg_s", "steps", "score")
-    _set_floats(out, ("start_s", "end_s", "angle_deg", *(c for c in optional_numbers if c in out)))
+    _set_floats(out, (*_DETECTION_NUMBERS, *(c for c in _OPTIONAL_NUMBERS if c in out)))
     _check_number(out, what, "start_s")
     _check_number(out, what, "end_s")
     hint = "; angles are magnitudes in degrees, with the sense in direction"
@@ -365,11 +368,36 @@ def _checked_detections(
     if "turn_type" in out:
         _check_turn_type(out, what)
     if "score" in out:
-        _check_number(out, what, "score", allow_negative=True)
+        out = _scores_given_or_none(out, what)
     if "direction" in out:
         _check_direction(out, what)
     _check_intervals(out, what, _UNIT, "detection", pairs.code)
     return out.reset_index(drop=True).pipe(_keep_attrs, frame), pairs
+
+
+def _scores_given_or_none(out: pd.DataFrame, what: str) -> pd.DataFrame:
+    """The frame with its ``score`` column checked, or without it when every cell is empty.
+
+    ``score`` is optional: a detector without confidences leaves the column empty, which is
+    the same as not having it (no average precision). A score on some rows but not on
+    others cannot rank the detections, so it is refused, naming the first empty row.
+    """
+    score = out["score"].to_numpy(dtype=np.float64)
+    empty = np.isnan(score)
+    if empty.all():
+        return out.drop(columns="score").pipe(_keep_attrs, out)
+    if empty.any():
+        i, count = _first(empty)
+        raise _fail(
+            "score is empty here but given on other rows: give every detection a score "
+            "(to rank them for average precision) or none",
+            out,
+            what,
+            i,
+            count,
+        )
+    _check_number(out, what, "score", allow_negative=True)
+    return out
 
 
 def _keep_attrs(out: pd.DataFrame, source: pd.DataFrame) -> pd.DataFrame:
@@ -426,10 +454,12 @@ def read_detections(path: str | os.PathLike[str]) -> pd.DataFrame:
 
 def _read_detections(path: str | os.PathLike[str]) -> tuple[pd.DataFrame, _Pairs]:
     """:func:`read_detections`, and the rows' (session, subject) pairs."""
-    numeric = ("start_s", "end_s", "angle_deg", "speed_deg_s", "peak_speed_deg_s", "steps", "score")
-    table = read_table(path, what="detections", numeric_columns=numeric)
+    numeric = (*_DETECTION_NUMBERS, *_OPTIONAL_NUMBERS)
+    # A detector that finds no turn (a still person, a video with nobody in it) writes the
+    # header alone: zero detections, scored as such.
+    table = read_table(path, what="detections", numeric_columns=numeric, allow_no_rows=True)
     require(table, list(DETECTION_REQUIRED), what="the detections file")
-    frame = _frame_of(table, numeric, allow_empty=("speed_deg_s", "peak_speed_deg_s", "steps"))
+    frame = _frame_of(table, numeric, allow_empty=_OPTIONAL_NUMBERS)
     return _checked_detections(frame, what=table.path)
 
 
@@ -556,6 +586,56 @@ def read_sessions(path: str | os.PathLike[str]) -> pd.DataFrame:
     """Read and validate a ``sessions.csv`` (:func:`check_sessions`)."""
     table = read_table(path, what="sessions", numeric_columns=("duration_s",))
     return check_sessions(_frame_of(table, ("duration_s",)), what=table.path)
+
+
+#: How much longer than its session's annotated duration the turns of a (session, subject)
+#: may last in all (seconds): ELAN's time resolution, a millisecond, so turns that fill the
+#: whole annotated time are not refused for rounding.
+DURATION_TOLERANCE_S = 1e-3
+
+
+def check_within_durations(
+    frame: pd.DataFrame, unit: np.ndarray, duration: np.ndarray, *, what: str, sessions: str
+) -> None:
+    """Refuse turns (or detections) of a unit that last longer in all than its annotated
+    duration.
+
+    ``unit`` is each row's unit number, ``duration`` each unit's ``duration_s`` (from
+    ``sessions``, the file named in the message). ``duration_s`` is how long the unit was
+    annotated, not where its time line ends (the annotated span may start after 0), so the
+    test is the one that holds either way: the turns of a unit do not overlap, so together
+    they fit in its annotated time. Turns per hour divide by the duration: a session of 1 s
+    holding a 480 s turn gave thousands of turns per hour. The error names the row, in time
+    order, at which the running total first exceeds the duration.
+    """
+    if frame.shape[0] == 0:
+        return
+    start = frame["start_s"].to_numpy(dtype=np.float64)
+    length = frame["end_s"].to_numpy(dtype=np.float64) - start
+    unit = np.asarray(unit, dtype=np.int64)
+    order = np.lexsort((start, unit))
+    total = np.cumsum(length[order])
+    # the running total within each unit: subtract the total before the unit's first row
+    first = np.r_[True, unit[order][1:] != unit[order][:-1]]
+    offset = np.maximum.accumulate(np.where(first, np.arange(order.size), 0))
+    before = np.where(offset > 0, total[offset - 1], 0.0)
+    running = np.empty_like(total)
+    running[order] = total - before
+    over = running > duration[unit] + DURATION_TOLERANCE_S
+    if over.any():
+        # the first row in time order of the first unit that overflows
+        k = int(order[np.flatnonzero(over[order])[0]])
+        count = int(over.sum())
+        u = int(unit[k])
+        raise _fail(
+            f"the turns of session {frame['session'].iat[k]!r}, subject "
+            f"{frame['subject'].iat[k]!r} up to this one last {running[k]:g} s, longer than "
+            f"its annotated duration_s in {sessions}, {duration[u]:g} s",
+            frame,
+            what,
+            k,
+            count,
+        )
 
 
 @dataclass(frozen=True)

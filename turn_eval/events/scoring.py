@@ -62,6 +62,7 @@ from turn_eval.events.reading import (
     _units_of_pairs,
     check_context,
     check_sessions,
+    check_within_durations,
     drop_unknown,
     pair_codes,
     read_context,
@@ -95,6 +96,13 @@ MATCHED_METRICS = (
 
 Progress = Callable[[Iterable[np.ndarray], int], Iterable[np.ndarray]]
 Frame: TypeAlias = pd.DataFrame | str | os.PathLike[str]
+
+
+#: What a run without detections says (in the Markdown and on stderr): "–" is not a zero.
+NO_DETECTIONS = (
+    "No detections: recall is 0 and precision is undefined (no detection to count as right "
+    "or wrong), shown as – and null."
+)
 
 
 @dataclass(frozen=True)
@@ -466,13 +474,9 @@ def _matched_by_group(
     return matched, pair_stats
 
 
-def _rates(
-    units: Units,
-    ref_unit: np.ndarray,
-    det_unit: np.ndarray,
-    sessions: pd.DataFrame,
-) -> tuple[pd.DataFrame, dict[str, Any]]:
-    """Turns per hour per (session, subject), reference and detected, and their summary."""
+def _unit_durations(units: Units, sessions: pd.DataFrame) -> np.ndarray:
+    """Each unit's annotated duration (seconds) from ``sessions``; a unit the reference
+    annotates without one is an error naming the sessions file."""
     duration = np.full(len(units), np.nan)
     codes = units.codes(sessions)
     known = codes >= 0
@@ -486,6 +490,35 @@ def _rates(
             + (f" ({lacking.size - 1} more like it)" if lacking.size > 1 else ""),
             file=sessions.attrs.get("path", "sessions"),
         )
+    return duration
+
+
+def _checked_durations(
+    units: Units,
+    sessions: pd.DataFrame,
+    ref: pd.DataFrame,
+    ref_unit: np.ndarray,
+    det: pd.DataFrame,
+    det_unit: np.ndarray,
+) -> np.ndarray:
+    """Each unit's duration (:func:`_unit_durations`), checked before any work: turns that do
+    not fit in their session's annotated time mean the durations (or the times) are wrong,
+    and every rate would be too (:func:`check_within_durations`)."""
+    duration = _unit_durations(units, sessions)
+    where = str(sessions.attrs.get("path", "sessions"))
+    check_within_durations(ref, ref_unit, duration, what="reference", sessions=where)
+    check_within_durations(det, det_unit, duration, what="detections", sessions=where)
+    return duration
+
+
+def _rates(
+    units: Units,
+    ref_unit: np.ndarray,
+    det_unit: np.ndarray,
+    duration: np.ndarray,
+) -> tuple[pd.DataFrame, dict[str, Any]]:
+    """Turns per hour per (session, subject), reference and detected, and their summary
+    (``duration``: each unit's, :func:`_unit_durations`)."""
     n_ref = np.bincount(ref_unit, minlength=len(units))
     n_det = np.bincount(det_unit, minlength=len(units))
     hours = duration / 3600.0
@@ -711,6 +744,9 @@ def score_events(
     det, det_unit, n_dropped = drop_unknown(
         det, units, ignore_unknown=ignore_unknown, warn=warn, pairs=det_pairs
     )
+    if det.shape[0] == 0 and warn is not None:
+        warn(NO_DETECTIONS[0].lower() + NO_DETECTIONS[1:])
+    duration = None if ses is None else _checked_durations(units, ses, ref, ref_unit, det, det_unit)
 
     overlaps = overlapping_pairs(det, det_unit, ref, ref_unit)
     events = categorize_events(det, det_unit, ref, ref_unit, iou=iou, overlaps=overlaps)
@@ -732,8 +768,8 @@ def score_events(
     entry = _Entries(partitions, sums, matched, pair_stats, distributions)
     overall = entry(0, 0)
     rates = None
-    if ses is not None:
-        rates, overall["turns_per_hour"] = _rates(units, ref_unit, det_unit, ses)
+    if duration is not None:
+        rates, overall["turns_per_hour"] = _rates(units, ref_unit, det_unit, duration)
     curves: dict[str, dict[str, np.ndarray]] | None = None
     if "score" in det:
         ap = average_precision(det, det_unit, ref, ref_unit, ious=AP_IOUS, overlaps=overlaps)

@@ -15,7 +15,7 @@ from turn_datasets.render.labels import METRIC_LABELS
 from turn_datasets.render.markdown import metric_table
 from turn_datasets.render.numbers import MISSING, fixed, is_missing, one_decimal
 from turn_eval.events.bootstrap import CI_METRICS
-from turn_eval.events.scoring import MATCHED_METRICS, UNKNOWN_GROUP
+from turn_eval.events.scoring import MATCHED_METRICS, NO_DETECTIONS, UNKNOWN_GROUP
 
 __all__ = ["EVENT_LABELS", "EVENTS_CSV_COLUMNS", "events_markdown", "events_frame"]
 
@@ -159,6 +159,8 @@ def events_markdown(doc: Mapping[str, Any]) -> str:
                 + "; they lower that group's precision only."
             )
     counts = doc.get("counts", {})
+    if counts.get("detections", 1) == 0:
+        notes.append(NO_DETECTIONS)
     summary = (
         f"Matching: {settings['matching']}. "
         f"{counts.get('units', 0)} (session, subject) units, {counts.get('reference_turns', 0)} "

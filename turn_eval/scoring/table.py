@@ -26,7 +26,7 @@ import csv
 import io
 import os
 import re
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -145,18 +145,42 @@ def _stripped(values) -> np.ndarray:
     return stripped_objects(values)
 
 
+def _records(text: str, name: str, delimiter: str) -> Iterator[tuple[int, list[str]]]:
+    """Each record of the csv module's reader and the line it starts on.
+
+    A record the module cannot read is one error naming the line where it starts: above
+    all a stray quote, which opens a field that runs on until the module's field limit
+    (131,072 characters) stops it with a ``_csv.Error``.
+    """
+    reader = csv.reader(io.StringIO(text), delimiter=delimiter)
+    start = 0
+    while True:
+        try:
+            record = next(reader)
+        except StopIteration:
+            return
+        except csv.Error as exc:
+            if "field limit" in str(exc):
+                message = (
+                    f"a field runs on past {csv.field_size_limit():,} characters from this "
+                    'line: a quote (") that is never closed?'
+                )
+            else:
+                message = f"not a readable CSV: {exc}"
+            raise TurnbenchError(message, file=name, row=start + 1) from None
+        # reader.line_num is the line a record ends on; it starts after the previous one.
+        line = start + 1
+        start = reader.line_num
+        yield line, record
+
+
 def _read_quoted(text: str, name: str, delimiter: str) -> Table:
     """The exact reader: the csv module, for files with quoted fields (which may span lines)."""
-    reader = csv.reader(io.StringIO(text), delimiter=delimiter)
     header: list[str] | None = None
     header_line = 0
     rows: list[list[str]] = []
     lines: list[int] = []
-    start = 0
-    for record in reader:
-        # reader.line_num is the line a record ends on; it starts after the previous one.
-        line = start + 1
-        start = reader.line_num
+    for line, record in _records(text, name, delimiter):
         if not record or all(not cell.strip() for cell in record):
             continue
         if header is None:
@@ -363,10 +387,16 @@ def _read_plain(
 
 
 def read_table(
-    path: str | os.PathLike[str], *, what: str, numeric_columns: Sequence[str] = NUMERIC
+    path: str | os.PathLike[str],
+    *,
+    what: str,
+    numeric_columns: Sequence[str] = NUMERIC,
+    allow_no_rows: bool = False,
 ) -> Table:
     """Read a CSV as :class:`Table`; ``numeric_columns`` are parsed as numbers by the C
-    parser when every cell of them is a finite number (else :func:`numbers` parses them)."""
+    parser when every cell of them is a finite number (else :func:`numbers` parses them).
+    A header without rows is refused unless ``allow_no_rows`` (a detector that found no
+    turns writes one)."""
     name = os.fspath(path)
     text = _one_newline(_read_text(name, what=what), name, what=what)
     if not text or text.isspace():  # blank (strip would copy the whole text to say so)
@@ -385,7 +415,7 @@ def read_table(
         else _read_plain(text, name, delimiter, numeric_columns)
     )
     table.ascii = text.isascii()
-    if table.lines.size == 0:
+    if table.lines.size == 0 and not allow_no_rows:
         raise TurnbenchError(
             f"empty {what} file: a header on line {table.header_line} and no rows", file=name
         )
