@@ -140,6 +140,10 @@ def test_report_is_one_self_contained_page_with_everything(ran) -> None:
     assert timeline is not None
     pngs += [timeline]
     pngs += [events / "f1_by_group.png", events / "pr_curve.png"]
+    # and the turning profile's (issue 22): the forest plot, the distributions, a heat map
+    profile = out / "untrimmed" / "profile"
+    pngs += [profile / "forest.png", profile / "distributions.png"]
+    pngs += [sorted((profile / "heatmaps").glob("*.png"))[0]]
     assert len(sources) == len(pngs)
     embedded = set()
     for src in sources:

@@ -126,7 +126,15 @@ def test_table_columns_dtypes_and_order():
     assert list(table["direction"]) == ["left", "right"]
 
     with_speed = predict_angles(clips, layout="h36m32", fps_hz=20.0)
-    assert list(with_speed.columns) == ["clip_id", "angle_deg", "direction", "speed_deg_s"]
+    assert list(with_speed.columns) == [
+        "clip_id",
+        "angle_deg",
+        "direction",
+        "speed_deg_s",
+        "peak_speed_deg_s",
+        "steps",
+        "turn_type",
+    ]
     # 20 frames at 20 Hz = 1 s -> 45 °/s; 40 frames = 2 s -> 90 °/s
     assert with_speed["speed_deg_s"].tolist() == pytest.approx([45.0, 90.0])
     pd.testing.assert_frame_equal(with_speed.iloc[:, :3], table)

@@ -4,6 +4,7 @@ module states, every artefact where planted.csv says, same seed same bytes."""
 from __future__ import annotations
 
 from dataclasses import replace
+from datetime import datetime, timedelta
 from pathlib import Path
 
 import numpy as np
@@ -97,6 +98,11 @@ def test_context_and_sessions_cover_each_session(corpus: Path) -> None:
         np.testing.assert_allclose(c.start_s.iloc[1:], c.end_s.iloc[:-1])
         assert list(dict.fromkeys(c.scenario)) == ["scripted", "clinical", "free-living"]
     sessions = pd.read_csv(corpus / "sessions.csv")
+    # each session's start: ISO 8601 with its offset, on day i of March 2024, 07:00-19:59
+    starts = [datetime.fromisoformat(t) for t in sessions.pop("start_time")]
+    assert [t.utcoffset() for t in starts] == [timedelta(hours=1)] * 4
+    assert [t.day for t in starts] == [1, 1, 2, 2] and all(7 <= t.hour < 20 for t in starts)
+    assert starts[0] == starts[1] and starts[2] == starts[3]
     assert sessions.values.tolist() == [
         ["home01", "P01", 120.0],
         ["home01", "C01", 120.0],

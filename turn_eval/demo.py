@@ -64,6 +64,7 @@ from turn_eval.demo_remap_open import (
     remap_open_section,
     run_remap_open_stage,
 )
+from turn_eval.detect.demo_stage import FPS_HZ as UNTRIMMED_FPS_HZ
 from turn_eval.detect.demo_stage import (
     UNTRIMMED_DIR,
     UntrimmedResults,
@@ -71,6 +72,7 @@ from turn_eval.detect.demo_stage import (
     run_untrimmed_stage,
     untrimmed_section,
 )
+from turn_eval.profile.demo_stage import PROFILE_DIR, profile_section, run_profile_stage
 from turn_eval.report import Report, load_json
 
 __all__ = [
@@ -520,7 +522,7 @@ def _audit_results(audit_dir: Path) -> dict[str, Any]:
 
 
 def _untrimmed_step(
-    out: Path, labels_path: Path, *, seed: int, quick: bool, bootstrap: int
+    out: Path, labels_path: Path, participants: Path, *, seed: int, quick: bool, bootstrap: int
 ) -> UntrimmedResults:
     _say("\n# 7. Untrimmed sessions: every turn found in long skeleton streams, and scored")
     results = run_untrimmed_stage(
@@ -541,6 +543,17 @@ def _untrimmed_step(
         f"{fixed(100 * o['recall'], 1)}%, F1 {fixed(100 * o['f1'], 1)}%; "
         f"matched accuracy {format_metric('accuracy', m.get('accuracy'))}%, "
         f"MAE {format_metric('mae_deg', m.get('mae_deg'))}°"
+    )
+    _say("\n# 7b. Turning profiles: per participant, and PD against controls")
+    run_profile_stage(
+        results.folder,
+        detections=results.detections,
+        streams=results.streams,
+        sessions=labels_path.with_name("sessions.csv"),
+        participants=participants,
+        fps_hz=UNTRIMMED_FPS_HZ,
+        run_eval=_eval,
+        bootstrap=bootstrap,
     )
     return results
 
@@ -584,7 +597,9 @@ def run_demo(
     _predict_step(out, references, seed=seed, paths=paths)
     sets = _score_step(out, references, bootstrap=bootstrap, paths=paths)
     _compare_step(out, references, sets, bootstrap=bootstrap, paths=paths)
-    untrimmed = _untrimmed_step(out, labels_path, seed=seed, quick=quick, bootstrap=bootstrap)
+    untrimmed = _untrimmed_step(
+        out, labels_path, remap.participants_path, seed=seed, quick=quick, bootstrap=bootstrap
+    )
     paths["Untrimmed streams, detections, event scores"] = untrimmed.folder
     remap_open = _remap_open_step(out, seed=seed, quick=quick, bootstrap=bootstrap)
     paths["REMAP Open: release, read data, predictions, scores"] = remap_open.folder
@@ -746,6 +761,8 @@ _FILES = {
     "miner check": "h36m/miner-check.md, h36m/miner-check.csv",
     "untrimmed sessions": "untrimmed/streams/ (one .npz per session), untrimmed/detections.csv "
     "(and its manifest), untrimmed/events/ (event scores, timelines, PR curve)",
+    "turning profiles": "untrimmed/profile/ (profile.csv, by_hour.csv, contrasts.csv and "
+    ".json, heat maps, distributions, forest plot)",
     "Turn-REMAP as released": "remap-open/release/ (the REMAP-Open-shaped tree), remap-open/data/ "
     "(labels, participants, skeletons, manifest), remap-open/predictions.csv, remap-open/scores/",
 }
@@ -793,6 +810,7 @@ def write_report(results: DemoResults, path: str | Path) -> Path:
         _scores_section(report, scored)
     if results.untrimmed is not None:
         untrimmed_section(report, results.untrimmed)
+        profile_section(report, results.untrimmed.folder / PROFILE_DIR)
     if results.remap_open is not None:
         remap_open_section(report, results.remap_open)
 

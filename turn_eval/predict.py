@@ -26,6 +26,7 @@ from turn_datasets.mocap.arrays import iter_arrays
 from turn_datasets.mocap.checks import check_magnitude
 from turn_datasets.skeleton import AUTO, UP_AXIS_CHOICES, Layout, get_layout, to_z_up
 from turn_datasets.up_axis import AxesFound, resolve_up_axis, z_up_arrays
+from turn_eval.steps import STEP_COLUMNS, turn_steps
 
 __all__ = [
     "PREDICTION_DTYPES",
@@ -42,8 +43,9 @@ PREDICTION_DTYPES: dict[str, str] = {
     "angle_deg": "float64",
     "direction": "str",
 }
-#: Columns and dtypes of :func:`predict_angles` with ``fps_hz``.
-SPEED_DTYPES: dict[str, str] = {**PREDICTION_DTYPES, "speed_deg_s": "float64"}
+#: Columns and dtypes of :func:`predict_angles` with ``fps_hz``: the speed, and the clip's
+#: peak speed, steps and turn type (:func:`turn_eval.steps.turn_steps`, which needs time).
+SPEED_DTYPES: dict[str, str] = {**PREDICTION_DTYPES, "speed_deg_s": "float64", **STEP_COLUMNS}
 
 
 def _resolve_layout(layout: str | Layout) -> Layout:
@@ -79,23 +81,26 @@ def predict_angle(
     fps_hz
         Frame rate of the skeletons. When given, ``speed_deg_s`` is the angle over the
         clip's duration ``n_frames / fps_hz``: the same duration the clip index records
-        (``(end_frame - start_frame) / fps``), so a predicted speed compares like with like.
+        (``(end_frame - start_frame) / fps``), so a predicted speed compares like with like;
+        and the clip, taken as one turn, gets ``peak_speed_deg_s``, ``steps`` and
+        ``turn_type`` (:func:`turn_eval.steps.turn_steps`; empty without ankles).
 
     Returns
     -------
     dict
         ``angle_deg``, ``direction`` (``left``, ``right`` or ``none``) and, with ``fps_hz``,
-        ``speed_deg_s``.
+        ``speed_deg_s``, ``peak_speed_deg_s``, ``steps`` and ``turn_type``.
     """
     lay = _resolve_layout(layout)
     p = np.asarray(positions, dtype=float)
-    result = turning_angle(
-        to_z_up(p, resolve_up_axis(p, lay, up_axis)), lay, joints=joints, method=method
-    )
+    z_up = to_z_up(p, resolve_up_axis(p, lay, up_axis))
+    result = turning_angle(z_up, lay, joints=joints, method=method)
     out: dict[str, float | str] = {"angle_deg": result.angle_deg, "direction": result.direction}
     if fps_hz is not None:
         duration_s = result.n_frames / fps_hz
         out["speed_deg_s"] = float(angular_speed_deg_s(result.angle_deg, duration_s))
+        whole = turn_steps(z_up, lay, fps_hz, np.array([0]), np.array([z_up.shape[0]]))
+        out.update({c: whole[c].iat[0] for c in STEP_COLUMNS})
     return out
 
 

@@ -17,7 +17,10 @@ read from ``context.csv``. Turns per hour need how long each participant was ann
 ``sessions.csv`` (:data:`SESSIONS_COLUMNS`)
     Per session and participant with turn annotations, the annotated duration in seconds:
     from the first start to the last end of the context annotations that apply to the
-    participant, or, without any, from 0 to the file's last time slot.
+    participant, or, without any, from 0 to the file's last time slot; and, when any file
+    records it (its header's ``start_time`` property:
+    :data:`turn_datasets.remap.eaf.START_TIME_PROPERTY`), ``start_time`` (empty for files
+    that do not).
 """
 
 from __future__ import annotations
@@ -34,7 +37,13 @@ from turn_datasets.fileio import typed_frame
 if TYPE_CHECKING:  # the ELAN reader (pympi) is not needed to read the contracts
     from turn_datasets.remap.eaf import FileContext
 
-__all__ = ["CONTEXT_COLUMNS", "SESSIONS_COLUMNS", "context_table", "sessions_table"]
+__all__ = [
+    "CONTEXT_COLUMNS",
+    "SESSIONS_COLUMNS",
+    "SESSIONS_OPTIONAL",
+    "context_table",
+    "sessions_table",
+]
 
 #: ``context.csv``: the context tiers' intervals, per session and participant.
 CONTEXT_COLUMNS: Mapping[str, str] = MappingProxyType(
@@ -51,6 +60,10 @@ CONTEXT_COLUMNS: Mapping[str, str] = MappingProxyType(
 SESSIONS_COLUMNS: Mapping[str, str] = MappingProxyType(
     {"session": "str", "subject": "str", "duration_s": "float64"}
 )
+#: ``sessions.csv``'s optional column: when the session started, ISO 8601 with its UTC offset
+#: (``2024-03-05T09:30:00+00:00``), written where the source knows it; hour-of-day profiles
+#: (``turn-eval profile``) read the local time from it.
+SESSIONS_OPTIONAL: Mapping[str, str] = MappingProxyType({"start_time": "str"})
 _ROLES = ("scenario", "location")
 
 
@@ -139,8 +152,16 @@ def sessions_table(files: Iterable[FileContext]) -> pd.DataFrame:
             else:
                 duration_ms = file.last_time_ms
             rows.append(
-                {"session": file.session, "subject": participant, "duration_s": duration_ms / 1000}
+                {
+                    "session": file.session,
+                    "subject": participant,
+                    "duration_s": duration_ms / 1000,
+                    "start_time": file.start_time,
+                }
             )
-    frame = pd.DataFrame(rows, columns=list(SESSIONS_COLUMNS))
+    columns = dict(SESSIONS_COLUMNS)
+    if any(row["start_time"] for row in rows):
+        columns.update(SESSIONS_OPTIONAL)
+    frame = pd.DataFrame(rows, columns=[*SESSIONS_COLUMNS, *SESSIONS_OPTIONAL])
     frame = frame.sort_values(["session", "subject"], kind="mergesort")
-    return typed_frame(frame, SESSIONS_COLUMNS)
+    return typed_frame(frame, columns)

@@ -502,6 +502,12 @@ def _context_value(contexts: list[_Context], participant: str, start_ms: int, en
     return ""
 
 
+#: The ELAN header property (``<PROPERTY NAME="start_time">``) that records when a session's
+#: recording started: ISO 8601 with its UTC offset. ELAN keeps header properties as they are;
+#: ``remap labels`` copies it into ``sessions.csv``'s ``start_time`` for hour-of-day profiles.
+START_TIME_PROPERTY = "start_time"
+
+
 @dataclass(frozen=True)
 class FileContext:
     """What one session's file says about its context, for untrimmed scoring.
@@ -517,12 +523,16 @@ class FileContext:
         ``""`` for a tier shared by everyone), in time order.
     last_time_ms
         The file's last aligned time slot (ms), 0 when it has none.
+    start_time
+        When the recording started, from the header's :data:`START_TIME_PROPERTY` property
+        (ISO 8601 with its UTC offset, as written), empty when the file does not say.
     """
 
     session: str
     participants: tuple[str, ...]
     contexts: dict[str, list[_Context]]
     last_time_ms: int
+    start_time: str = ""
 
 
 def _file_contexts(
@@ -622,6 +632,9 @@ def _file_rows(doc: Document, schema: Schema) -> tuple[list[dict[str, Any]], Fil
         participants=participants,
         contexts=contexts,
         last_time_ms=int(max(slots)) if slots else 0,
+        start_time=next(
+            (str(v or "").strip() for k, v in eaf.properties if k == START_TIME_PROPERTY), ""
+        ),
     )
 
 

@@ -331,7 +331,7 @@ def write_remap_corpus(
     """
     out = Path(out_dir)
     eaf_dir = out / "eaf"
-    synth = write_sessions(eaf_dir, seed=seed, n_pairs=n_pairs)
+    synth = write_sessions(eaf_dir, seed=seed, n_pairs=n_pairs, start_times=True)
     participants_path = out / "participants.csv"
     os.replace(synth.participants_path, participants_path)
     return SyntheticRemap(

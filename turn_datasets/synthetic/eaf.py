@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import os
 import xml.etree.ElementTree as ET
+import zlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -43,7 +44,7 @@ import pympi.Elan as pympi_elan
 
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import atomic_path, typed_frame, write_csv
-from turn_datasets.remap.eaf import ANNOTATION_COLUMNS
+from turn_datasets.remap.eaf import ANNOTATION_COLUMNS, START_TIME_PROPERTY
 
 __all__ = [
     "ANGLES_DEG",
@@ -56,6 +57,7 @@ __all__ = [
     "Raters",
     "SyntheticRemap",
     "write_sessions",
+    "session_start_time",
 ]
 
 #: The paper's angle vocabulary (Section 3.2): 90° to 360° in 45° steps.
@@ -131,6 +133,16 @@ _MIN_MATCH_RATIO = 0.7
 _SHIFTED_RATIO_RANGE = (0.30, 0.50)
 _MIN_GAP_S = 2.0
 _MAX_GAP_S = 20.0
+
+
+def session_start_time(seed: int, session: str, day: int) -> str:
+    """When a synthetic session's recording started, ISO 8601 with its UTC offset: on ``day``
+    (1, 2, ...) of March 2024 between 08:00 and 17:59, +01:00, drawn from ``seed`` and the
+    session's name alone (so the other draws do not change)."""
+    code = zlib.crc32(f"{seed}/{session}/start_time".encode())
+    return f"2024-03-{day:02d}T{8 + code % 10:02d}:{code // 10 % 60:02d}:00+01:00"
+
+
 # A fixed document date: pympi would stamp the current time, breaking byte-identity.
 _DOC_DATE = "2024-01-01T00:00:00+00:00"
 
@@ -224,9 +236,11 @@ def _participants(rng: np.random.Generator, n_pairs: int) -> pd.DataFrame:
     return typed_frame(pd.DataFrame(rows), PARTICIPANT_COLUMNS)
 
 
-def _new_eaf(session: str) -> pympi_elan.Eaf:
+def _new_eaf(session: str, start_time: str = "") -> pympi_elan.Eaf:
     eaf = pympi_elan.Eaf(author="turnbench synth_eaf")
     eaf.adocument["DATE"] = _DOC_DATE
+    if start_time:
+        eaf.add_property(START_TIME_PROPERTY, start_time)
     eaf.remove_tier("default")
     # A media path like a clinician's, so privacy handling downstream has something to drop.
     eaf.add_linked_file(
@@ -516,11 +530,12 @@ def _write_session(
     mixes: tuple[Mapping, Mapping, Mapping],
     truth_rows: list[dict],
     written_rows: list[dict],
+    start_time: str = "",
 ) -> Path:
     """Plant, lay out and annotate one session's turns, and write its ``.eaf``."""
     file_name = f"{session}.eaf"
     angle_mix, scenario_mix, location_mix = mixes
-    eaf = _new_eaf(session)
+    eaf = _new_eaf(session, start_time)
     names, consensus = raters.names, raters.consensus
     tier_raters = names if is_double else (single_rater,)
     tier_names: dict[tuple[str, str], str] = {}
@@ -612,6 +627,7 @@ def write_sessions(
     angle_mix: Mapping[int, float] = ANGLE_MIX,
     scenario_mix: Mapping[str, float] = SCENARIO_MIX,
     location_mix: Mapping[str, float] = LOCATION_MIX,
+    start_times: bool = False,
 ) -> SyntheticRemap:
     """Write synthetic Turn-REMAP ELAN sessions and ``participants.csv`` into ``out_dir``.
 
@@ -634,6 +650,10 @@ def write_sessions(
         Who annotates and how they err (:class:`Raters`).
     angle_mix, scenario_mix, location_mix
         Shares of the planted angles, scenarios and rooms.
+    start_times
+        Record each session's start in its header (:data:`START_TIME_PROPERTY`,
+        :func:`session_start_time`), as a recording tool would; ``remap labels`` copies it
+        into ``sessions.csv``.
 
     Returns
     -------
@@ -672,6 +692,7 @@ def write_sessions(
                 mixes=(angle_mix, scenario_mix, location_mix),
                 truth_rows=truth_rows,
                 written_rows=written_rows,
+                start_time=session_start_time(seed, session, k + 1) if start_times else "",
             )
         )
 

@@ -45,6 +45,7 @@ from scipy.ndimage import uniform_filter1d
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import typed_frame
 from turn_datasets.skeleton import H36M32, MocapSequence
+from turn_datasets.synthetic import footsteps
 
 __all__ = [
     "SEGMENT_KINDS",
@@ -71,6 +72,8 @@ PLANTED_DTYPES = {
     "heading_deg": "float64",
     "duration_s": "float64",
 }
+#: The planted table's columns with ``footsteps=True``, after :data:`PLANTED_DTYPES`.
+FOOTSTEP_DTYPES = {"steps": "int64", "turn_type": "str"}
 SEGMENT_DTYPES = {
     "start_frame": "int64",
     "end_frame": "int64",
@@ -134,6 +137,10 @@ class Segment:
         zero for ``stand`` and ``walk``.
     speed_m_s
         Walking speed for ``walk`` and ``walking_turn``; zero for the others.
+    steps
+        The steps of a turn when the sequence plants footsteps
+        (:mod:`turn_datasets.synthetic.footsteps`): 0 takes
+        :func:`~turn_datasets.synthetic.footsteps.default_steps`.
     ramp_s
         A turn's yaw rate by default rises and falls as one sine over the whole segment;
         given, it rises over ``ramp_s`` seconds, stays level, and falls over the last
@@ -144,6 +151,7 @@ class Segment:
     duration_s: float
     heading_deg: float = 0.0
     speed_m_s: float = 0.0
+    steps: int = 0
     ramp_s: float | None = None
 
     def __post_init__(self) -> None:
@@ -161,6 +169,10 @@ class Segment:
             raise TurnbenchError(f"a {self.kind} segment needs a positive speed_m_s")
         if self.kind in ("stand", "pivot_turn") and self.speed_m_s != 0:
             raise TurnbenchError(f"a {self.kind} segment does not move: speed_m_s must be 0")
+        if self.steps < 0 or (self.steps and self.kind not in TURN_KINDS):
+            raise TurnbenchError(
+                f"only a turn takes steps (>= 0), got {self.steps} for a {self.kind}"
+            )
 
     @classmethod
     def stand(cls, duration_s: float) -> Segment:
@@ -171,12 +183,16 @@ class Segment:
         return cls("walk", duration_s, speed_m_s=speed_m_s)
 
     @classmethod
-    def pivot_turn(cls, heading_deg: float, duration_s: float) -> Segment:
-        return cls("pivot_turn", duration_s, heading_deg=heading_deg)
+    def pivot_turn(cls, heading_deg: float, duration_s: float, steps: int = 0) -> Segment:
+        return cls("pivot_turn", duration_s, heading_deg=heading_deg, steps=steps)
 
     @classmethod
-    def walking_turn(cls, heading_deg: float, duration_s: float, speed_m_s: float = 1.1) -> Segment:
-        return cls("walking_turn", duration_s, heading_deg=heading_deg, speed_m_s=speed_m_s)
+    def walking_turn(
+        cls, heading_deg: float, duration_s: float, speed_m_s: float = 1.1, steps: int = 0
+    ) -> Segment:
+        return cls(
+            "walking_turn", duration_s, heading_deg=heading_deg, speed_m_s=speed_m_s, steps=steps
+        )
 
     @property
     def ramp_fraction(self) -> float:
@@ -306,6 +322,7 @@ def generate_sequence(
     dropouts: Sequence[Dropout] = (),
     wander_deg: float = POSTURAL_WANDER_DEG,
     start_heading_deg: float | None = None,
+    footsteps: bool = False,
 ) -> SyntheticSequence:
     """Build a Human3.6M-like 32-joint sequence from segments, with its planted turns.
 
@@ -335,6 +352,10 @@ def generate_sequence(
         over one second), in degrees; 0 for none.
     start_heading_deg
         The walking direction at the first frame (degrees from +x); drawn when None.
+    footsteps
+        Plant the feet (:mod:`turn_datasets.synthetic.footsteps`), each turn its ``steps``;
+        the planted table then has ``steps`` and ``turn_type`` (pivot below three, else step). Off, the legs swing from the pelvis as before and the same seed gives the
+        same array as before.
 
     Returns
     -------
@@ -391,6 +412,9 @@ def generate_sequence(
         phase=phase,
         gait_amp=gait_amp,
     )
+    swings = (
+        _footsteps(segments, bounds, positions, heading, pelvis_yaw, fps_hz) if footsteps else None
+    )
     if noise_mm > 0:
         positions += rng.normal(scale=noise_mm, size=positions.shape)
 
@@ -399,6 +423,8 @@ def generate_sequence(
     planted, seg_rows, drops = _sequence_tables(
         segments, bounds, is_turn, true_yaw_deg, dropout_rows, fps_hz
     )
+    if swings is not None:
+        planted = _with_steps(planted, segments, swings)
     return SyntheticSequence(
         positions=positions,
         fps=float(fps_hz),
@@ -407,6 +433,58 @@ def generate_sequence(
         dropouts=drops,
         true_yaw_deg=true_yaw_deg,
     )
+
+
+def _footsteps(
+    segments: Sequence[Segment],
+    bounds: np.ndarray,
+    positions: np.ndarray,
+    heading: np.ndarray,
+    pelvis_yaw: np.ndarray,
+    fps_hz: float,
+) -> list[footsteps.Swing]:
+    """Rebuild the legs from planted feet (:mod:`turn_datasets.synthetic.footsteps`)."""
+    steps = [
+        (s.steps or footsteps.default_steps(s.kind, s.heading_deg)) if s.is_turn else 0
+        for s in segments
+    ]
+    stride = [float(stride_frequency_hz(max(s.speed_m_s, 1e-9))) for s in segments]
+    swings = footsteps.schedule_swings(
+        [s.kind for s in segments],
+        bounds,
+        steps,
+        [s.speed_m_s for s in segments],
+        stride,
+        positions[:, [1, 6], :2],
+        heading,
+        fps_hz,
+    )
+    footsteps.plant_feet(
+        positions,
+        swings,
+        pelvis_yaw,
+        thigh_mm=THIGH_MM,
+        shank_mm=SHANK_MM,
+        foot_mm=FOOT_MM,
+        toe_mm=TOE_MM,
+    )
+    return swings
+
+
+def _with_steps(
+    planted: pd.DataFrame, segments: Sequence[Segment], swings: Sequence[footsteps.Swing]
+) -> pd.DataFrame:
+    """The planted turns with their landings (``steps``) and REMAP's ``turn_type`` (by the
+    steps asked for: :func:`~turn_datasets.synthetic.footsteps.turn_type_of`)."""
+    out = planted.copy()
+    start = out["start_frame"].to_numpy()
+    end = out["end_frame"].to_numpy()
+    out["steps"] = footsteps.turn_steps(swings, start, end).astype(np.int64)
+    kinds = [
+        s.steps or footsteps.default_steps(s.kind, s.heading_deg) for s in segments if s.is_turn
+    ]
+    out["turn_type"] = [footsteps.turn_type_of(k) for k in kinds]
+    return typed_frame(out, {**PLANTED_DTYPES, **FOOTSTEP_DTYPES})
 
 
 def _gait(

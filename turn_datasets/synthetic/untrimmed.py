@@ -69,7 +69,7 @@ import math
 import os
 import zlib
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from types import MappingProxyType
 
@@ -77,7 +77,7 @@ import numpy as np
 import pandas as pd
 
 from turn_datasets.fileio import typed_frame, write_csv, write_npz
-from turn_datasets.remap.context import CONTEXT_COLUMNS, SESSIONS_COLUMNS
+from turn_datasets.remap.context import CONTEXT_COLUMNS, SESSIONS_COLUMNS, SESSIONS_OPTIONAL
 from turn_datasets.remap.labels import LABEL_COLUMNS, clip_id_for
 from turn_datasets.skeleton import H36M17, H36M17_FROM_32
 from turn_datasets.synthetic.degrade import degrade_skeleton
@@ -95,6 +95,9 @@ __all__ = [
     "PLAIN_MOVEMENT",
     "UntrimmedStream",
     "draw_turn_labels",
+    "draw_steps",
+    "session_start_time",
+    "STEP_LABEL_COLUMNS",
     "timeline_segments",
     "synthesize_stream",
     "write_untrimmed_corpus",
@@ -338,7 +341,9 @@ class _Builder:
         n = int(n)
         duration = n / self.fps
         if ramp_s is not None:
-            seg = Segment("walking_turn", duration, heading_deg, speed or self.walk_m_s, ramp_s)
+            seg = Segment(
+                "walking_turn", duration, heading_deg, speed or self.walk_m_s, ramp_s=ramp_s
+            )
         elif kind == "stand":
             seg = Segment.stand(duration)
         elif kind == "walk":
@@ -531,6 +536,32 @@ def timeline_segments(
     return b.segments, events, heading0
 
 
+#: Share of pivot turns (1-2 steps) per cohort; the rest are step turns (3-7 steps).
+REMAP_PIVOT_SHARE: Mapping[str, float] = MappingProxyType({"PD": 0.3, "HC": 0.5})
+#: At most this many steps a second in a synthetic turn.
+_MAX_CADENCE_STEPS_S = 3.0
+
+
+def draw_steps(rng: np.random.Generator, segment: Segment, cohort: str) -> int:
+    """The steps of one planted turn (PD more: Mancini et al. 2015, El-Gohary et al. 2014).
+
+    A pivot turn (share :data:`REMAP_PIVOT_SHARE`) has 1 or 2 steps (PD mostly 2); a step
+    turn, on the spot or walking, one step per 45° plus one in PD (and one more half the
+    time: people with PD turn in many small steps), one per 90° plus two in controls, between
+    3 and 7 and no faster than :data:`_MAX_CADENCE_STEPS_S` steps a second (at least 3).
+    """
+    pd_like = cohort == "PD"
+    magnitude = abs(segment.heading_deg)
+    if rng.random() < REMAP_PIVOT_SHARE[cohort]:
+        return 2 if rng.random() < (0.7 if pd_like else 0.4) else 1
+    if pd_like:
+        k = int(round(magnitude / 45.0)) + 1 + int(rng.random() < 0.5)
+    else:
+        k = int(round(magnitude / 90.0)) + 2
+    most = max(3, int(_MAX_CADENCE_STEPS_S * segment.duration_s))
+    return int(np.clip(k, 3, min(7, most)))
+
+
 def plant_sitting(positions: np.ndarray, a: int, b: int, fps: float) -> None:
     """Sit down at the start of frames ``[a, b)`` and stand up at their end, in place.
 
@@ -639,6 +670,7 @@ def synthesize_stream(
     artefacts: ArtefactParams = ArtefactParams(),
     root_relative: bool = False,
     movement: MovementMix = REAL_MOVEMENT,
+    footsteps: np.random.Generator | None = None,
 ) -> UntrimmedStream:
     """One participant's estimator-like stream around its labelled turns (module docstring).
 
@@ -660,10 +692,19 @@ def synthesize_stream(
         Swaps, jitter, dropout length, absence and identity-break lengths.
     root_relative
         Subtract the pelvis from every joint (as lifting networks output).
+    footsteps
+        Plant footsteps (:mod:`turn_datasets.synthetic.footsteps`), each turn's steps drawn
+        from this generator (:func:`draw_steps`; a generator of its own, so that the rest of
+        the stream is drawn as without footsteps); the labels then carry ``steps`` and
+        ``turn_type``.
     """
     segs, events, heading0 = timeline_segments(
         rng, labels, duration_s=duration_s, cohort=cohort, fps_hz=fps_hz, movement=movement
     )
+    if footsteps is not None:
+        segs = [
+            replace(s, steps=draw_steps(footsteps, s, cohort)) if s.is_turn else s for s in segs
+        ]
     seq = generate_sequence(
         seed=int(rng.integers(2**31)),
         segments=segs,
@@ -671,6 +712,7 @@ def synthesize_stream(
         noise_mm=0.0,  # the estimator's errors come below
         sway_deg=float(rng.uniform(3.0, 7.0)),
         start_heading_deg=heading0,
+        footsteps=footsteps is not None,
     )
     body = seq.positions
     for ev in events.itertuples(index=False):
@@ -726,6 +768,11 @@ def synthesize_stream(
             "angle_deg": turns["label_deg"].to_numpy(),
         }
     )
+    if footsteps is not None:
+        planted = seq.planted.set_index("start_frame")
+        first = turns["start_frame"].to_numpy()
+        labelled["steps"] = planted.loc[first, "steps"].to_numpy()
+        labelled["turn_type"] = planted.loc[first, "turn_type"].to_numpy()
     seen = camera_frame_m(out, camera_mm)
     if root_relative:
         seen = seen - seen[:, :1, :]
@@ -787,6 +834,7 @@ def write_untrimmed_corpus(
     root_relative_every: int = 4,
     artefacts: ArtefactParams = ArtefactParams(),
     movement: MovementMix = REAL_MOVEMENT,
+    footsteps: bool = False,
 ) -> dict[str, Path]:
     """Write a synthetic untrimmed corpus: sessions of a PD participant and a control.
 
@@ -795,9 +843,10 @@ def write_untrimmed_corpus(
     Each of ``n_pairs`` sessions (``home01``, ...) holds two people, ``P01`` (PD) and
     ``C01`` (control), each with their own timeline (:func:`draw_turn_labels`) in one
     ``streams/<session>.npz``; every ``root_relative_every``-th session is written
-    root-relative. Beside ``streams/``: ``labels.csv`` (the ``remap labels`` columns),
-    ``context.csv``, ``sessions.csv``, ``participants.csv`` (``subject, cohort``) and
-    ``planted.csv`` (:data:`EVENT_DTYPES`).
+    root-relative. Beside ``streams/``: ``labels.csv`` (the ``remap labels`` columns, and
+    with ``footsteps`` each turn's planted ``steps`` and ``turn_type``), ``context.csv``,
+    ``sessions.csv`` (with each session's ``start_time``: :func:`session_start_time`),
+    ``participants.csv`` (``subject, cohort``) and ``planted.csv`` (:data:`EVENT_DTYPES`).
 
     Returns
     -------
@@ -827,23 +876,25 @@ def write_untrimmed_corpus(
                 artefacts=artefacts,
                 root_relative=root_relative_every > 0 and i % root_relative_every == 0,
                 movement=movement,
+                footsteps=_seed(seed, session, subject, "steps") if footsteps else None,
             )
             arrays[subject] = stream.positions
             labels.append(
                 _label_rows(stream.labels, session, subject, cohort, context, f"{session}.npz")
             )
             events.append(stream.events.assign(session=session, subject=subject))
-            sessions.append((session, subject, duration_s))
+            sessions.append((session, subject, duration_s, session_start_time(seed, session, i)))
             people.append((subject, cohort))
             contexts.append(context.assign(subject=subject))
         write_npz(out / "streams" / f"{session}.npz", arrays)
     paths = {"streams": out / "streams"}
     tables = {
-        "labels.csv": typed_frame(pd.concat(labels, ignore_index=True), LABEL_COLUMNS),
-        "context.csv": typed_frame(pd.concat(contexts, ignore_index=True), CONTEXT_COLUMNS),
-        "sessions.csv": typed_frame(
-            pd.DataFrame(sessions, columns=list(SESSIONS_COLUMNS)), SESSIONS_COLUMNS
+        "labels.csv": typed_frame(
+            pd.concat(labels, ignore_index=True),
+            {**LABEL_COLUMNS, **(STEP_LABEL_COLUMNS if footsteps else {})},
         ),
+        "context.csv": typed_frame(pd.concat(contexts, ignore_index=True), CONTEXT_COLUMNS),
+        "sessions.csv": typed_frame(pd.DataFrame(sessions, columns=list(_SESSIONS)), _SESSIONS),
         "participants.csv": pd.DataFrame(people, columns=["subject", "cohort"]),
         "planted.csv": typed_frame(
             pd.concat(events, ignore_index=True)[list(EVENT_DTYPES)], EVENT_DTYPES
@@ -852,6 +903,21 @@ def write_untrimmed_corpus(
     for name, table in tables.items():
         paths[name] = write_csv(table, out / name)
     return paths
+
+
+#: ``sessions.csv`` as the untrimmed corpus writes it: with each session's start.
+_SESSIONS = {**SESSIONS_COLUMNS, **SESSIONS_OPTIONAL}
+#: The labels' columns with planted footsteps, after the ``remap labels`` ones.
+STEP_LABEL_COLUMNS = {"steps": "int64", "turn_type": "str"}
+
+
+def session_start_time(seed: int, session: str, day: int) -> str:
+    """When a synthetic session started: ISO 8601 with its UTC offset. Session ``day`` (1, 2,
+    ...) is recorded on that day of March 2024, starting between 07:00 and 19:59 local time
+    in a +01:00 zone (drawn from ``seed`` and the session's name alone)."""
+    rng = _seed(seed, session, "start_time")
+    hour, minute = int(rng.integers(7, 20)), int(rng.integers(0, 60))
+    return f"2024-03-{day:02d}T{hour:02d}:{minute:02d}:00+01:00"
 
 
 def _label_rows(
@@ -863,6 +929,7 @@ def _label_rows(
     ctx = context.iloc[np.clip(idx, 0, len(context) - 1)]
     start = turns["start_s"].round(3).to_numpy()
     end = turns["end_s"].round(3).to_numpy()
+    steps = {c: turns[c].to_numpy() for c in STEP_LABEL_COLUMNS if c in turns}
     return pd.DataFrame(
         {
             "clip_id": [
@@ -881,6 +948,7 @@ def _label_rows(
             "location": ctx["location"].to_numpy(),
             "double_annotated": False,
             "source": source,
+            **steps,
         }
     )
 
@@ -894,6 +962,7 @@ def write_streams_for_labels(
     sessions: pd.DataFrame | None = None,
     fps_hz: float = 30.0,
     artefacts: ArtefactParams = ArtefactParams(),
+    footsteps: bool = False,
 ) -> list[Path]:
     """Untrimmed streams around the turns of a ``remap labels`` table (the demo's sessions).
 
@@ -914,6 +983,9 @@ def write_streams_for_labels(
         See :func:`synthesize_stream`.
     context, sessions
         ``context.csv`` and ``sessions.csv`` as ``remap labels`` writes them, or None.
+    footsteps
+        Plant footsteps, each turn's steps drawn by :func:`draw_steps` from a generator
+        seeded by ``seed`` and the names (see :func:`synthesize_stream`).
 
     Returns
     -------
@@ -942,6 +1014,7 @@ def write_streams_for_labels(
                 camera_mm=camera,
                 fps_hz=fps_hz,
                 artefacts=artefacts,
+                footsteps=_seed(seed, str(session), str(subject), "steps") if footsteps else None,
             )
             arrays[str(subject)] = stream.positions
         written.append(write_npz(out / f"{session}.npz", arrays))

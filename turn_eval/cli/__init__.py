@@ -24,6 +24,7 @@ from turn_datasets.cli.common import lazy_group, run_group
         "detect": "turn_eval.cli.detect",
         "server": "turn_eval.cli.server",
         "serve": "turn_eval.cli.serve",
+        "profile": "turn_eval.cli.profile",
     }
 )
 @click.version_option(__version__, prog_name="turn-eval")
@@ -40,6 +41,7 @@ def cli() -> None:
       turn-eval score-events detections.csv --reference labels.csv
       turn-eval server init challenge/ -r labels.csv --name NAME  (needs the server extra)
       turn-eval serve challenge/ --port 8000
+      turn-eval profile detections.csv --sessions sessions.csv --participants p.csv --out-dir prof
     """
 
 

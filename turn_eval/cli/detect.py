@@ -31,6 +31,7 @@ from turn_eval.detect.rate import stream_rate
 from turn_eval.detect.rule import DETECT_MINER_DEFAULTS, DetectParams, MinerRule
 from turn_eval.detect.streams import axes_found, stream_files
 from turn_eval.mapping import check_scheduler_address
+from turn_eval.steps import StepParams
 
 
 @cli.command("detect", context_settings=CONTEXT_SETTINGS)
@@ -71,6 +72,7 @@ from turn_eval.mapping import check_scheduler_address
 )
 @params_options(DetectParams)
 @params_options(MinerParams, defaults=DETECT_MINER_DEFAULTS)
+@params_options(StepParams, prefix="steps_")
 @click.option(
     "--detector",
     "detector_spec",
@@ -115,7 +117,8 @@ def detect_command(
     per subject), .npy files (one person; SESSION__SUBJECT.npy) or folders of them; each array
     (frames, joints, 3), NaN where no one is seen, absolute or root-relative. The output is
     the detections contract of score-events: session, subject, start_s, end_s, angle_deg,
-    direction, speed_deg_s, score. For Turn-REMAP, whose smallest label is the 90° bin, use
+    direction, speed_deg_s, peak_speed_deg_s, steps (foot contacts), turn_type (pivot/step),
+    score. For Turn-REMAP, whose smallest label is the 90° bin, use
     --min-turn-deg 67.5.
 
     \b
@@ -128,8 +131,12 @@ def detect_command(
       turn-eval score-events detections.csv --reference labels.csv --context context.csv
     """
     miner = params_from(MinerParams, values)
+    steps = params_from(StepParams, values, prefix="steps_")
     params = replace(
-        params_from(DetectParams, values), joints=tuple(joints.split(",")), miner=miner
+        params_from(DetectParams, values),
+        joints=tuple(joints.split(",")),
+        miner=miner,
+        steps=steps,
     )
     if scheduler:
         check_scheduler_address(scheduler)

@@ -63,7 +63,8 @@ from turn_eval.predict import clip_arrays, implausible_clips, predict_angles
     "fps_hz",
     type=FPS_HZ,
     default=None,
-    help="Frame rate in Hz; adds speed_deg_s = angle / (frames / fps) (equation 4).",
+    help="Frame rate in Hz; adds speed_deg_s = angle / (frames / fps) (equation 4), and the "
+    "peak speed, steps (foot contacts) and turn type (pivot/step) of each clip.",
 )
 def predict_command(
     skeletons: tuple[Path, ...],

@@ -32,6 +32,7 @@ from turn_eval.cli import cli
 from turn_eval.cli.common import by_option
 from turn_eval.clips.submission import read_predictions, read_reference
 from turn_eval.clips.tables import build_scores, scores_csv, scores_frame, scores_markdown
+from turn_eval.steps.scoring import step_scores, steps_markdown
 
 #: The files ``--out-dir`` receives besides the figures.
 SCORE_FILES = ("scores.json", "scores.md", "scores.csv")
@@ -97,6 +98,8 @@ def score(
     second); other columns are ignored. Metrics: accuracy of the 45° bin, MAE (degrees),
     weighted precision, MAE of angular speed (with reference durations), with seeded
     percentile bootstrap 95% intervals; per group and the groups' unweighted average.
+    Where the reference and the predictions both carry steps or turn_type (REMAP Open's
+    labels, predict --fps): steps MAE and exact share, turn-type accuracy and Cohen's kappa.
 
     \b
     Example:
@@ -117,9 +120,12 @@ def score(
     scores = build_scores(
         joined, by=list(by), n_resamples=n_resamples, seed=seed, progress=bootstrap_progress
     )
+    steps = step_scores(reference, predictions, joined.table, list(scores["by"]))
+    if steps is not None:
+        scores["steps"] = steps
     texts = {
         "json": to_json_text(scores),
-        "md": scores_markdown(scores),
+        "md": scores_markdown(scores) + ("" if steps is None else "\n" + steps_markdown(steps)),
     }
     frame = scores_frame(scores)
     if out_dir is not None:

@@ -118,6 +118,7 @@ def run_untrimmed_stage(
         context=ctx,
         sessions=_table(sessions),
         fps_hz=FPS_HZ,
+        footsteps=True,  # feet that rest between steps: the profile counts them
     )
     detections = folder / "detections.csv"
     run_eval(

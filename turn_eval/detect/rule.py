@@ -29,6 +29,8 @@ detector. It is not a second algorithm; what an estimator's stream needs on top
 
 Each turn's ``score`` is ``observed * angle / (angle + min_turn_deg)``, with ``observed``
 the share of its frames that were seen (not bridged): larger and fully seen turns are surer.
+Its ``steps``, ``turn_type`` and ``peak_speed_deg_s`` are :func:`turn_eval.steps.turn_steps`'
+on the stream with its left/right swaps undone.
 """
 
 from __future__ import annotations
@@ -46,6 +48,7 @@ from turn_datasets.params import check_params, describe_params, param
 from turn_datasets.skeleton import JOINT_PAIRS, Layout
 from turn_eval.detect.preprocess import SIZE_JOINTS, identity_pieces, repair_swaps
 from turn_eval.detect.protocol import TURN_DTYPES, empty_turns
+from turn_eval.steps import STEP_COLUMNS, STEP_JOINTS, StepParams, turn_steps
 
 __all__ = ["DetectParams", "MinerRule", "DETECT_MINER_DEFAULTS", "split_overlaps"]
 
@@ -73,7 +76,8 @@ class DetectParams:
     ``joints`` names the joint pairs whose frontal vectors are combined (any of ``hip``,
     ``knee``, ``shoulder``); ``miner`` holds the miner's rule
     (:class:`turn_datasets.h36m.miner.MinerParams`), by default
-    :data:`DETECT_MINER_DEFAULTS`.
+    :data:`DETECT_MINER_DEFAULTS`; ``steps`` the step counter's
+    (:class:`turn_eval.steps.StepParams`).
     """
 
     identity_jump_sizes: float = param(
@@ -102,6 +106,7 @@ class DetectParams:
     )
     joints: tuple[str, ...] = ("hip", "shoulder")
     miner: MinerParams = field(default_factory=lambda: DETECT_MINER_DEFAULTS)
+    steps: StepParams = field(default_factory=StepParams)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "joints", parse_joints(self.joints))
@@ -109,9 +114,12 @@ class DetectParams:
 
     def as_dict(self) -> dict[str, object]:
         """Flat, JSON-ready: the detector's own fields and the miner's, by name."""
-        out: dict[str, object] = {k: v for k, v in asdict(self).items() if k != "miner"}
+        out: dict[str, object] = {
+            k: v for k, v in asdict(self).items() if k not in ("miner", "steps")
+        }
         out["joints"] = ",".join(self.joints)
         out.update(self.miner.as_dict())
+        out.update({f"steps_{k}": v for k, v in asdict(self.steps).items()})
         return out
 
 
@@ -146,10 +154,10 @@ def _paired_joints(positions: np.ndarray, layout: Layout) -> tuple[np.ndarray, L
 
 
 def _joints_read(positions: np.ndarray, layout: Layout) -> tuple[np.ndarray, Layout]:
-    """The joints the rule reads (the pairs and the body-size bones), gathered into one
-    float64 ``(frames, joints, 3)`` array, and the layout that names them: the stream itself
-    (often float32, all joints) is never widened whole."""
-    wanted = [*(n for pair in JOINT_PAIRS.values() for n in pair), *SIZE_JOINTS]
+    """The joints the rule reads (the pairs, the body-size bones and the step counter's
+    ankles), gathered into one float64 ``(frames, joints, 3)`` array, and the layout that
+    names them: the stream itself (often float32, all joints) is never widened whole."""
+    wanted = [*(n for pair in JOINT_PAIRS.values() for n in pair), *SIZE_JOINTS, *STEP_JOINTS]
     names = [n for n in dict.fromkeys(wanted) if n in layout.joints]
     sub = Layout(f"{layout.name}-read", len(names), {n: i for i, n in enumerate(names)})
     p = np.asarray(positions)
@@ -206,6 +214,10 @@ class MinerRule:
         angle = np.concatenate(cols["angle"])
         duration = (end - start) / fps_hz
         min_deg = prm.miner.min_turn_deg
+        # Steps, turn type and peak speed from the whole stream, its swaps undone (a swap
+        # would move both ankles by the stance width and back: two false steps).
+        unswapped, _ = repair_swaps(p, layout, fps_hz=fps_hz, max_gap_s=prm.miner.max_gap_s)
+        steps = turn_steps(unswapped, layout, fps_hz, start, end, prm.steps)
         table = pd.DataFrame(
             {
                 "start_s": start / fps_hz,
@@ -213,6 +225,7 @@ class MinerRule:
                 "angle_deg": angle,
                 "direction": np.concatenate(cols["dir"]),
                 "speed_deg_s": angular_speed_deg_s(angle, duration),
+                **{c: steps[c].to_numpy() for c in STEP_COLUMNS},
                 "score": np.concatenate(observed) * angle / (angle + min_deg),
             }
         )

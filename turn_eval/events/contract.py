@@ -2,8 +2,10 @@
 ``turn-eval score-events``. Declared once here; readers and writers take the columns from it.
 
 One row per detected turn: ``session, subject, start_s, end_s, angle_deg`` and, optionally,
-``direction`` (``left``/``right``), ``speed_deg_s`` and ``score`` (a confidence, higher =
-surer). Detections of one (session, subject) do not overlap.
+``direction`` (``left``/``right``), ``speed_deg_s``, ``peak_speed_deg_s`` (the largest heading
+rate during the turn), ``steps`` (foot contacts during the turn), ``turn_type`` (``pivot`` or
+``step``, REMAP's raters' classes) and ``score`` (a confidence, higher = surer). Detections of one
+(session, subject) do not overlap.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ from types import MappingProxyType
 
 from turn_datasets import limits
 from turn_datasets.remap import context as remap_context
+from turn_datasets.remap import open_sheet
 
 #: Columns every detections file has, in this order, with these dtypes.
 DETECTION_REQUIRED = MappingProxyType(
@@ -28,6 +31,9 @@ DETECTION_OPTIONAL = MappingProxyType(
     {
         "direction": "str",
         "speed_deg_s": "float64",
+        "peak_speed_deg_s": "float64",
+        "steps": "float64",
+        "turn_type": "str",
         "score": "float64",
     }
 )
@@ -50,9 +56,17 @@ CONTEXT_COLUMNS = remap_context.CONTEXT_COLUMNS
 CONTEXT_GROUPS = ("scenario", "location")
 
 SESSIONS_COLUMNS = remap_context.SESSIONS_COLUMNS
+SESSIONS_OPTIONAL = remap_context.SESSIONS_OPTIONAL
 
 #: The plausible bounds of an angle and a speed are the harness's (one place for all readers).
 MAX_ANGLE_DEG = limits.MAX_ANGLE_DEG
 MAX_SPEED_DEG_S = limits.MAX_SPEED_DEG_S
+#: The most foot contacts one turn of at most 10 s can plausibly hold (a step every 0.25 s:
+#: faster than the fastest cadence reported in gait, about 3.5 steps/s).
+MAX_STEPS = 40.0
 #: The two directions (DESIGN.md: ``left`` = counter-clockwise seen from above).
 DIRECTIONS = ("left", "right")
+#: The two turn types REMAP's raters use, in turnbench's words: a pivot turn (one or both feet
+#: swivel in place) and a step turn (three steps or more without pivoting); declared where the
+#: release's spreadsheet is read (:data:`turn_datasets.remap.open_sheet.TURN_TYPES`).
+TURN_TYPES = tuple(v for v in open_sheet.TURN_TYPES.values() if v)

@@ -22,6 +22,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -38,8 +39,11 @@ from turn_eval.events.contract import (
     DIRECTIONS,
     MAX_ANGLE_DEG,
     MAX_SPEED_DEG_S,
+    MAX_STEPS,
     REFERENCE_REQUIRED,
     SESSIONS_COLUMNS,
+    SESSIONS_OPTIONAL,
+    TURN_TYPES,
 )
 
 __all__ = [
@@ -301,6 +305,36 @@ def _check_direction(frame: pd.DataFrame, what: str) -> None:
         frame["direction"] = _text_series(np.array(lowered, dtype=object)[codes], frame)
 
 
+def _check_steps(frame: pd.DataFrame, what: str) -> None:
+    """A step count is empty or a whole number in ``[0, MAX_STEPS]``."""
+    _check_number(frame, what, "steps", high=MAX_STEPS, allow_nan=True)
+    values = frame["steps"].to_numpy(dtype=np.float64)
+    fractional = np.isfinite(values) & (values != np.round(values))
+    if fractional.any():
+        i, count = _first(fractional)
+        raise _fail(f"steps {values[i]:g} is not a whole number", frame, what, i, count)
+
+
+def _check_turn_type(frame: pd.DataFrame, what: str) -> None:
+    """A turn type is empty or one of :data:`TURN_TYPES` (any case; lower-cased here)."""
+    texts = _texts(frame, "turn_type")
+    codes, uniq = pd.factorize(texts)
+    lowered = [str(u).lower() for u in uniq]
+    allowed = ("", *TURN_TYPES)
+    if not all(u in allowed for u in lowered):
+        bad = np.array([u not in allowed for u in lowered])[codes]
+        i, count = _first(bad)
+        raise _fail(
+            f"turn_type {frame['turn_type'].iat[i]!r} is not one of {', '.join(TURN_TYPES)} "
+            "(or empty)",
+            frame,
+            what,
+            i,
+            count,
+        )
+    frame["turn_type"] = _text_series(np.array(lowered, dtype=object)[codes], frame)
+
+
 def _missing(frame: pd.DataFrame, required: Sequence[str], what: str) -> None:
     require_columns(frame.columns, required, what=what, file=_path_of(frame, what))
 
@@ -335,10 +369,15 @@ def check_detections_pairs(
     times_ok &= problems.run(lambda: _check_number(out, what, "end_s"))
     hint = "; angles are magnitudes in degrees, with the sense in direction"
     problems.run(lambda: _check_number(out, what, "angle_deg", high=MAX_ANGLE_DEG, hint=hint))
-    if "speed_deg_s" in out:
-        problems.run(
-            lambda: _check_number(out, what, "speed_deg_s", high=MAX_SPEED_DEG_S, allow_nan=True)
-        )
+    for col in ("speed_deg_s", "peak_speed_deg_s"):
+        if col in out:
+            problems.run(
+                partial(_check_number, out, what, col, high=MAX_SPEED_DEG_S, allow_nan=True)
+            )
+    if "steps" in out:
+        problems.run(lambda: _check_steps(out, what))
+    if "turn_type" in out:
+        problems.run(lambda: _check_turn_type(out, what))
     if "score" in out:
         try:
             out = _scores_given_or_none(out, what)
@@ -532,7 +571,8 @@ def read_context(path: str | os.PathLike[str]) -> pd.DataFrame:
 
 def check_sessions(frame: pd.DataFrame, *, what: str = "sessions") -> pd.DataFrame:
     """Validate a sessions frame (:data:`SESSIONS_COLUMNS`): positive finite durations, one row
-    per (session, subject)."""
+    per (session, subject). The optional ``start_time`` (ISO 8601 with its UTC offset) is kept
+    as text when the frame has it (``turn-eval profile`` parses it)."""
     _missing(frame, list(SESSIONS_COLUMNS), what)
     out = frame.copy(deep=False)
     _set_texts(out, _UNIT)
@@ -553,7 +593,9 @@ def check_sessions(frame: pd.DataFrame, *, what: str = "sessions") -> pd.DataFra
             i,
             count,
         )
-    return out.loc[:, list(SESSIONS_COLUMNS)].reset_index(drop=True).pipe(_keep_attrs, frame)
+    cols = [*SESSIONS_COLUMNS, *(c for c in SESSIONS_OPTIONAL if c in out.columns)]
+    _set_texts(out, [c for c in SESSIONS_OPTIONAL if c in out.columns])
+    return out.loc[:, cols].reset_index(drop=True).pipe(_keep_attrs, frame)
 
 
 def read_sessions(path: str | os.PathLike[str]) -> pd.DataFrame:
