@@ -28,8 +28,8 @@ from turn_datasets.errors import TurnbenchError
 from turn_datasets.render.markdown import metric_table
 from turn_datasets.render.numbers import MISSING, fixed
 from turn_datasets.render.order import natural_key
+from turn_datasets.usertable import numbers, read_table
 from turn_eval.events.contract import MAX_STEPS, TURN_TYPES
-from turn_eval.scoring.table import numbers, read_table
 
 __all__ = ["STEP_METRICS", "step_scores", "steps_markdown"]
 
