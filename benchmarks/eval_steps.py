@@ -25,7 +25,12 @@ import pandas as pd
 
 from turn_datasets.render.markdown import markdown_table
 from turn_datasets.skeleton import H36M17
-from turn_datasets.synthetic.untrimmed import write_untrimmed_corpus
+from turn_datasets.synthetic.untrimmed import (
+    REAL_MOVEMENT,
+    ArtefactParams,
+    MovementMix,
+    write_untrimmed_corpus,
+)
 from turn_eval.detect import DetectParams, MinerRule, detect_files, stream_files
 from turn_eval.detect.rule import DETECT_MINER_DEFAULTS
 
@@ -72,10 +77,24 @@ def figures(pairs: pd.DataFrame, seed: int, group: str) -> dict:
     }
 
 
-def evaluate(seed: int, root: Path, *, n_pairs: int = 8, duration_s: float = 600.0) -> list[dict]:
+def evaluate(
+    seed: int,
+    root: Path,
+    *,
+    n_pairs: int = 8,
+    duration_s: float = 600.0,
+    movement: MovementMix = REAL_MOVEMENT,
+    artefacts: ArtefactParams | None = None,
+) -> list[dict]:
     corpus = root / f"seed{seed}"
     write_untrimmed_corpus(
-        corpus, seed=seed, n_pairs=n_pairs, duration_s=duration_s, footsteps=True
+        corpus,
+        seed=seed,
+        n_pairs=n_pairs,
+        duration_s=duration_s,
+        footsteps=True,
+        movement=movement,
+        artefacts=artefacts or ArtefactParams(),
     )
     files = stream_files([corpus / "streams"])
     rule = MinerRule(DetectParams(miner=replace(DETECT_MINER_DEFAULTS, min_turn_deg=MIN_TURN_DEG)))

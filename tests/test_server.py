@@ -103,8 +103,11 @@ def test_whole_flow(challenge, capsys):
         with httpx.Client(timeout=60) as c:
             url = served.url
             # a malformed upload: 422 with turn-eval score's own line, and nothing counted
+            # (every clip given, one angle not a number: the one problem, said alike)
             bad = tmp / "bad.csv"
-            bad.write_text("clip_id,angle_deg\nclip0000,12\nclip0001,abc\n")
+            rows = pd.read_csv(good).astype({"angle_deg": object})
+            rows.loc[1, "angle_deg"] = "abc"
+            rows.to_csv(bad, index=False)
             r = keep(
                 c.post(
                     f"{url}/api/submissions",

@@ -149,6 +149,7 @@ __all__ = [
     "MinedSequence",
     "rejection_reasons",
     "mine_heading",
+    "mine_heading_report",
     "knee_gait",
     "measure_clip",
     "mine_clips",
@@ -986,6 +987,22 @@ def _report(
 
 
 def mine_heading(
+    frontal: np.ndarray,
+    *,
+    fps_hz: float,
+    valid: np.ndarray | None = None,
+    gait: np.ndarray | None = None,
+    params: MinerParams | None = None,
+    **overrides: float,
+) -> pd.DataFrame:
+    """:func:`mine_heading_report`'s turns (as :func:`mine_sequence` is
+    :func:`mine_sequence_report`'s)."""
+    return mine_heading_report(
+        frontal, fps_hz=fps_hz, valid=valid, gait=gait, params=params, **overrides
+    ).turns
+
+
+def mine_heading_report(
     frontal: np.ndarray,
     *,
     fps_hz: float,

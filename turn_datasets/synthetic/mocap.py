@@ -303,6 +303,16 @@ def _turn_profile(u: np.ndarray, ramp: np.ndarray | float = 0.5) -> np.ndarray:
     return np.where(r >= 0.5, sine, done / (1 - r))
 
 
+def _heading_changes(
+    segments: Sequence[Segment], change: np.ndarray, seg_of: np.ndarray, u: np.ndarray
+) -> np.ndarray:
+    """The heading per frame less the start's: the turns' heading changes, each completed
+    exactly on its segment's last frame (``u``: each frame's place in its segment, 0 to 1)."""
+    before = np.concatenate([[0.0], np.cumsum(change)[:-1]])
+    ramp = np.array([s.ramp_fraction for s in segments])[seg_of]
+    return before[seg_of] + change[seg_of] * _turn_profile(u, ramp)
+
+
 def _smooth(x: np.ndarray, n: int) -> np.ndarray:
     return uniform_filter1d(x, size=max(int(n), 1), mode="nearest") if n > 1 else x
 
@@ -376,14 +386,12 @@ def generate_sequence(
     speed = np.array([s.speed_m_s for s in segments])
     is_turn = np.isin(kinds, TURN_KINDS)
 
-    # Heading: the turns' heading changes, each completed exactly on its segment's last frame.
-    heading_before = np.concatenate([[0.0], np.cumsum(heading_change)[:-1]])
-    u = local / (seg_frames[seg_of] - 1)
     heading0 = np.radians(
         rng.uniform(-180, 180) if start_heading_deg is None else start_heading_deg
     )
-    ramp = np.array([s.ramp_fraction for s in segments])[seg_of]
-    heading = heading0 + heading_before[seg_of] + heading_change[seg_of] * _turn_profile(u, ramp)
+    heading = heading0 + _heading_changes(
+        segments, heading_change, seg_of, local / (seg_frames[seg_of] - 1)
+    )
 
     speed_f, gait_amp, phase = _gait(rng, kinds, speed, seg_of, fps_hz)
     # the pelvis rotates with every step, walking or stepping round in a turn in place

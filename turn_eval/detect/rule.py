@@ -43,7 +43,7 @@ import pandas as pd
 
 from turn_datasets.fileio import typed_frame
 from turn_datasets.geometry import angular_speed_deg_s, frontal_vectors, parse_joints, usable_frames
-from turn_datasets.h36m.miner import MinerParams, knee_gait, mine_heading
+from turn_datasets.h36m.miner import MinerParams, knee_gait, mine_heading_report
 from turn_datasets.params import check_params, describe_params, param
 from turn_datasets.skeleton import JOINT_PAIRS, Layout
 from turn_eval.detect.preprocess import SIZE_JOINTS, identity_pieces, repair_swaps
@@ -259,7 +259,7 @@ class MinerRule:
         frontal[seen] = (width * total / np.hypot(total[:, 0], total[:, 1])[:, None])[seen]
         knees = fixed[:, [layout.index("left_knee"), layout.index("right_knee")], :2]
         gait = knee_gait(frontal, knees[:, 0].astype(float), knees[:, 1].astype(float))
-        clips, rejected = mine_heading(frontal, fps_hz=fps_hz, gait=gait, params=prm.miner)
+        clips, rejected = mine_heading_report(frontal, fps_hz=fps_hz, gait=gait, params=prm.miner)
         self.rejected_.extend(rejected["reason"].tolist())
         seen_sum = np.concatenate(([0], np.cumsum(seen)))
         s = clips["start_frame"].to_numpy()

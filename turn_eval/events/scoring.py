@@ -487,16 +487,20 @@ def _unit_durations(units: Units, sessions: pd.DataFrame) -> np.ndarray:
 
 def _checked_durations(
     units: Units,
-    sessions: pd.DataFrame,
+    sessions: pd.DataFrame | None,
     ref: pd.DataFrame,
     ref_unit: np.ndarray,
     det: pd.DataFrame,
     det_unit: np.ndarray,
     warn: Callable[[str], None] | None = None,
-) -> np.ndarray:
-    """Each unit's duration (:func:`_unit_durations`), checked before any work: turns that do
+) -> np.ndarray | None:
+    """Each unit's duration (:func:`_unit_durations`; None without sessions, when only the
+    detections' time unit is checked), checked before any work: turns that do
     not fit in their session's annotated time mean the durations (or the times) are wrong,
     and every rate would be too (:func:`check_within_durations`)."""
+    if sessions is None:
+        check_time_unit(det, det_unit, ref, units, None, warn=warn)
+        return None
     duration = _unit_durations(units, sessions)
     where = str(sessions.attrs.get("path", "sessions"))
     check_within_durations(ref, ref_unit, duration, what="reference", sessions=where)
@@ -735,11 +739,7 @@ def score_events(
     )
     if det.shape[0] == 0 and warn is not None:
         warn(NO_DETECTIONS[0].lower() + NO_DETECTIONS[1:])
-    if ses is None:
-        check_time_unit(det, det_unit, ref, units, ses, warn=warn)
-        duration = None
-    else:
-        duration = _checked_durations(units, ses, ref, ref_unit, det, det_unit, warn)
+    duration = _checked_durations(units, ses, ref, ref_unit, det, det_unit, warn)
 
     overlaps = overlapping_pairs(det, det_unit, ref, ref_unit)
     events = categorize_events(det, det_unit, ref, ref_unit, iou=iou, overlaps=overlaps)
