@@ -21,10 +21,12 @@ from turn_datasets.h36m.miner import (
     _moving_mean,
     _zero_phase_lowpass,
     find_turns,
+    heading_runs,
     knee_gait,
     measure_clip,
     mine,
     mine_heading,
+    mine_heading_report,
     mine_sequence,
     mine_sequence_report,
     rejection_reasons,
@@ -268,6 +270,23 @@ def test_mine_heading_is_mine_sequence_on_the_hips_it_stands_for() -> None:
     pd.testing.assert_frame_equal(masked, expected, check_exact=True)
     with pytest.raises(TurnbenchError, match="shape"):
         mine_heading(frontal[:, :1], fps_hz=FPS)
+
+
+def test_heading_runs_are_the_reports_rows_without_the_tables() -> None:
+    # A 90 deg pivot (a turn) and 14 s of circling at 40 deg/s (longer than the 10 s bound):
+    # the arrays name both, in time order, with the reason of the one that is not a turn.
+    yaw = yaw_from_rates([(2.0, 0.0), (1.0, 90.0), (3.0, 0.0), (14.0, 40.0), (2.0, 0.0)])
+    frontal = 0.3 * np.column_stack((np.cos(np.radians(yaw)), np.sin(np.radians(yaw))))
+    runs = heading_runs(frontal, fps_hz=FPS)
+    assert runs.reason.tolist() == ["", "circling"]
+    assert runs.net_deg[0] == pytest.approx(90.0, abs=3.0)
+    assert runs.net_deg[1] == pytest.approx(14.0 * 40.0, abs=20.0)
+    assert runs.start[0] == pytest.approx(2.0 * FPS, abs=0.3 * FPS)
+    assert runs.start[1] == pytest.approx(6.0 * FPS, abs=0.3 * FPS)
+    report = mine_heading_report(frontal, fps_hz=FPS)
+    assert report.turns["start_frame"].tolist() == runs.start[:1].tolist()
+    assert report.rejected["end_frame"].tolist() == runs.end[1:].tolist()
+    assert report.turns["angle_deg"].tolist() == np.abs(runs.net_deg[:1]).tolist()
 
 
 def test_sequences_without_usable_hips_are_refused() -> None:

@@ -150,6 +150,8 @@ __all__ = [
     "rejection_reasons",
     "mine_heading",
     "mine_heading_report",
+    "heading_runs",
+    "HeadingRuns",
     "knee_gait",
     "measure_clip",
     "mine_clips",
@@ -967,22 +969,42 @@ def mine_sequence_report(
     """:func:`mine_sequence`, with the circling episodes and impossible turns it left out."""
     p = replace(params or MinerParams(), **overrides)
     hips, gait = _hips_and_gait(positions, layout)
-    return _report(*_mine_hips(hips, gait, fps_hz, p), fps_hz, p)
+    return _report(_with_reasons(*_mine_hips(hips, gait, fps_hz, p), fps_hz, p))
 
 
-def _report(
+class HeadingRuns(NamedTuple):
+    """The rule's runs of turning as arrays (:func:`heading_runs`), in time order: what
+    :class:`MinedSequence` tabulates, for a caller that mines many pieces and wants one table."""
+
+    #: First frame of each run.
+    start: np.ndarray
+    #: One past its last frame.
+    end: np.ndarray
+    #: Its net heading change, degrees (positive: left).
+    net_deg: np.ndarray
+    #: The frontal vector's own net rotation over it, degrees (signed).
+    hip_deg: np.ndarray
+    #: Why it is not a turn (:func:`rejection_reasons`), or ``""`` where it is one.
+    reason: np.ndarray
+
+
+def _with_reasons(
     start: np.ndarray,
     end: np.ndarray,
     net: np.ndarray,
     hip: np.ndarray,
     fps_hz: float,
     p: MinerParams,
-) -> MinedSequence:
+) -> HeadingRuns:
+    return HeadingRuns(start, end, net, hip, rejection_reasons(start, end, net, fps_hz, p))
+
+
+def _report(runs: HeadingRuns) -> MinedSequence:
     """The mined runs split into turns and what step 9 rejects (:func:`rejection_reasons`)."""
-    reason = rejection_reasons(start, end, net, fps_hz, p)
-    ok = reason == ""
+    ok = runs.reason == ""
+    start, end, net, hip = runs.start, runs.end, runs.net_deg, runs.hip_deg
     rejected = _sequence_frame(start[~ok], end[~ok], net[~ok], hip[~ok])
-    rejected["reason"] = pd.Series(reason[~ok], index=rejected.index, dtype=object)
+    rejected["reason"] = pd.Series(runs.reason[~ok], index=rejected.index, dtype=object)
     return MinedSequence(_sequence_frame(start[ok], end[ok], net[ok], hip[ok]), rejected)
 
 
@@ -1038,6 +1060,22 @@ def mine_heading_report(
         As :func:`mine_sequence_report`; ``hip_rotation_deg`` is the frontal vector's own
         net rotation over each clip.
     """
+    return _report(
+        heading_runs(frontal, fps_hz=fps_hz, valid=valid, gait=gait, params=params, **overrides)
+    )
+
+
+def heading_runs(
+    frontal: np.ndarray,
+    *,
+    fps_hz: float,
+    valid: np.ndarray | None = None,
+    gait: np.ndarray | None = None,
+    params: MinerParams | None = None,
+    **overrides: float,
+) -> HeadingRuns:
+    """:func:`mine_heading_report` as arrays, the rejected runs among them (same arguments):
+    no table is built, for a caller that mines a stream piece by piece."""
     p = replace(params or MinerParams(), **overrides)
     v = np.asarray(frontal, dtype=float)
     if v.ndim != 2 or v.shape[1] != 2:
@@ -1048,7 +1086,7 @@ def mine_heading_report(
     hips[:, 0, :2] = v
     if valid is not None:
         hips[~np.asarray(valid, dtype=bool), 0, :] = np.nan
-    return _report(*_mine_hips(hips, gait, fps_hz, p), fps_hz, p)
+    return _with_reasons(*_mine_hips(hips, gait, fps_hz, p), fps_hz, p)
 
 
 def _sequence_frame(

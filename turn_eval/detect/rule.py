@@ -42,8 +42,14 @@ import numpy as np
 import pandas as pd
 
 from turn_datasets.fileio import typed_frame
-from turn_datasets.geometry import angular_speed_deg_s, frontal_vectors, parse_joints, usable_frames
-from turn_datasets.h36m.miner import MinerParams, knee_gait, mine_heading_report
+from turn_datasets.geometry import (
+    angular_speed_deg_s,
+    direction_of,
+    frontal_vectors,
+    parse_joints,
+    usable_frames,
+)
+from turn_datasets.h36m.miner import HeadingRuns, MinerParams, heading_runs, knee_gait
 from turn_datasets.params import check_params, describe_params, param
 from turn_datasets.skeleton import JOINT_PAIRS, Layout
 from turn_eval.detect.preprocess import SIZE_JOINTS, identity_pieces, repair_swaps
@@ -197,21 +203,24 @@ class MinerRule:
         # gather into a compact array makes every later pass (swap repair's copy, frontal
         # vectors) walk 6 joints' memory instead of the whole skeleton's; same numbers.
         pairs, pair_layout = _paired_joints(p, layout)
-        # the pieces' clips gathered as columns (one frame of all of them, not one per piece)
-        cols: dict[str, list[np.ndarray]] = {"start": [], "end": [], "angle": [], "dir": []}
-        observed = []
+        # the pieces' clips gathered as columns (one table for the stream, not one per piece)
+        cols: dict[str, list[np.ndarray]] = {"start": [], "end": [], "net": [], "seen": []}
         for a, b in pieces:
             found = self._mine_piece(pairs[a:b], fps_hz, pair_layout)
-            if len(found):
-                cols["start"].append(found["start_frame"].to_numpy() + a)
-                cols["end"].append(found["end_frame"].to_numpy() + a)
-                cols["angle"].append(found["angle_deg"].to_numpy())
-                cols["dir"].append(found["direction"].to_numpy())
-                observed.append(found["observed"].to_numpy())
-        if not observed:
+            if found is None:
+                continue
+            runs, observed = found
+            ok = runs.reason == ""
+            self.rejected_.extend(runs.reason[~ok].tolist())
+            cols["start"].append(runs.start[ok] + a)
+            cols["end"].append(runs.end[ok] + a)
+            cols["net"].append(runs.net_deg[ok])
+            cols["seen"].append(observed[ok])
+        if not sum(len(c) for c in cols["start"]):
             return empty_turns()
         start, end = split_overlaps(np.concatenate(cols["start"]), np.concatenate(cols["end"]))
-        angle = np.concatenate(cols["angle"])
+        net = np.concatenate(cols["net"])
+        angle = np.abs(net)
         duration = (end - start) / fps_hz
         min_deg = prm.miner.min_turn_deg
         # Steps, turn type and peak speed from the whole stream, its swaps undone (a swap
@@ -223,17 +232,19 @@ class MinerRule:
                 "start_s": start / fps_hz,
                 "end_s": end / fps_hz,
                 "angle_deg": angle,
-                "direction": np.concatenate(cols["dir"]),
+                "direction": [direction_of(v) for v in net],
                 "speed_deg_s": angular_speed_deg_s(angle, duration),
                 **{c: steps[c].to_numpy() for c in STEP_COLUMNS},
-                "score": np.concatenate(observed) * angle / (angle + min_deg),
+                "score": np.concatenate(cols["seen"]) * angle / (angle + min_deg),
             }
         )
         return typed_frame(table, TURN_DTYPES)
 
-    def _mine_piece(self, piece: np.ndarray, fps_hz: float, layout: Layout) -> pd.DataFrame:
-        """Swaps undone, frontal vectors combined, the miner's rule: its clips, with the
-        share of each clip's frames that were seen (``observed``)."""
+    def _mine_piece(
+        self, piece: np.ndarray, fps_hz: float, layout: Layout
+    ) -> tuple[HeadingRuns, np.ndarray] | None:
+        """Swaps undone, frontal vectors combined, the miner's rule: its runs, with the share
+        of each run's frames that were seen; None where too little of the piece was seen."""
         prm = self.params
         fixed, _ = repair_swaps(piece, layout, fps_hz=fps_hz, max_gap_s=prm.miner.max_gap_s)
         total = np.zeros((fixed.shape[0], 2))
@@ -247,7 +258,7 @@ class MinerRule:
                 total += widths[joint] ** 2 * v / length[:, None]
         seen = usable_frames(fixed, layout, prm.joints) & np.isfinite(total).all(axis=1)
         if int(seen.sum()) < 2:
-            return pd.DataFrame()
+            return None
         # The combined unit vector at the hips' own width, and the knees as they are: the
         # miner reads the stride from the knees' fore-aft swing in hip widths.
         if "hip" in widths:
@@ -259,10 +270,7 @@ class MinerRule:
         frontal[seen] = (width * total / np.hypot(total[:, 0], total[:, 1])[:, None])[seen]
         knees = fixed[:, [layout.index("left_knee"), layout.index("right_knee")], :2]
         gait = knee_gait(frontal, knees[:, 0].astype(float), knees[:, 1].astype(float))
-        clips, rejected = mine_heading_report(frontal, fps_hz=fps_hz, gait=gait, params=prm.miner)
-        self.rejected_.extend(rejected["reason"].tolist())
+        runs = heading_runs(frontal, fps_hz=fps_hz, gait=gait, params=prm.miner)
         seen_sum = np.concatenate(([0], np.cumsum(seen)))
-        s = clips["start_frame"].to_numpy()
-        e = clips["end_frame"].to_numpy()
-        clips["observed"] = (seen_sum[e] - seen_sum[s]) / np.maximum(e - s, 1)
-        return clips
+        s, e = runs.start, runs.end
+        return runs, (seen_sum[e] - seen_sum[s]) / np.maximum(e - s, 1)

@@ -186,26 +186,30 @@ def foot_swings(
         if not pinned:
             moving |= speed > prm.move_legs_s * leg
         edges = np.flatnonzero(np.diff(np.concatenate([[0], moving.astype(np.int8), [0]])))
-        for a, b in zip(edges[::2], edges[1::2], strict=True):
-            travel = np.hypot(*(xyz[b - 1, :2] - xyz[max(a - 1, 0), :2]))
-            stepped = travel >= prm.min_step_legs * leg and not pinned
-            if stepped or lift[a:b].max() >= prm.min_lift_legs * leg:
-                out.append((foot, int(a), int(b - 1)))
+        first, stop = edges[::2], edges[1::2]
+        # each run's travel (from the frame before it to its last) and highest lift, for all
+        # runs at once: a day's stream has thousands of swings
+        moved = xyz[stop - 1, :2] - xyz[np.maximum(first - 1, 0), :2]
+        stepped = (np.hypot(moved[:, 0], moved[:, 1]) >= prm.min_step_legs * leg) & (not pinned)
+        # the runs and the gaps between them alternate in ``edges``: every other maximum
+        highest = np.maximum.reduceat(np.append(lift, 0.0), edges)[::2] if first.size else lift[:0]
+        keep = stepped | (highest >= prm.min_lift_legs * leg)
+        out += [(foot, int(a), int(b - 1)) for a, b in zip(first[keep], stop[keep], strict=True)]
     return sorted(out, key=lambda s: (s[2], s[0]))
 
 
-def _stance_share(swings: list[tuple[int, int, int]], yaw: np.ndarray, a: int, b: int) -> float:
-    """The largest share of the turn's rotation over one planted foot (steps < 3 aside)."""
+def _stance_share(swings: np.ndarray, yaw: np.ndarray, a: int, b: int) -> float:
+    """The largest share of the turn's rotation over one planted foot (steps < 3 aside);
+    ``swings`` is :func:`foot_swings`' list as an ``(n, 3)`` integer array."""
     total = abs(yaw[b] - yaw[a])
     if not np.isfinite(total) or total == 0:
         return float("nan")
     best = 0.0
+    near = swings[(swings[:, 2] >= a) & (swings[:, 1] <= b)]
     for foot in (0, 1):
-        cuts = [a]
-        for f, s, e in swings:
-            if f == foot and e >= a and s <= b:
-                cuts += [max(s, a), min(e, b)]
-        cuts.append(b)
+        mine = near[near[:, 0] == foot]
+        stance = np.column_stack((np.maximum(mine[:, 1], a), np.minimum(mine[:, 2], b)))
+        cuts = [a, *stance.ravel().tolist(), b]
         for lo, hi in zip(cuts[::2], cuts[1::2], strict=True):
             if hi > lo:
                 best = max(best, abs(yaw[hi] - yaw[lo]) / total)
@@ -250,7 +254,8 @@ def turn_steps(
     swings = (
         foot_swings(p, layout, fps_hz, prm) if all(j in layout.joints for j in _ANKLES) else None
     )
-    landings = np.array([s[2] for s in swings or []], dtype=np.int64)
+    swung = np.array(swings or [], dtype=np.int64).reshape(-1, 3)
+    landings = swung[:, 2]
     margin = int(round(prm.landing_margin_s * fps_hz))
     half = max(int(round(prm.peak_window_s * fps_hz / 2)), 1)
     last = p.shape[0] - 1
@@ -265,6 +270,6 @@ def turn_steps(
             continue
         steps = int(((landings >= a) & (landings <= b + margin)).sum())
         out["steps"][i] = steps
-        share = _stance_share(swings, yaw, a, b)
+        share = _stance_share(swung, yaw, a, b)
         kinds[i] = _STEP if steps >= 3 and not share >= prm.pivot_share else _PIVOT
     return pd.DataFrame({**out, "turn_type": kinds})
