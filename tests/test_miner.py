@@ -5,6 +5,8 @@ and the turns CMU's descriptions name in real captures.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -645,15 +647,40 @@ def test_a_turn_faster_than_a_person_turns_is_rejected_as_too_fast() -> None:
 
 def test_rejection_reasons_by_hand() -> None:
     p = MinerParams()
+    # in time order, each 2 s or more after the one before (turns far apart are judged alone)
     reasons = rejection_reasons(
-        np.array([0, 0, 0, 0]),
-        np.array([50, 50 * 11, 10, 50 * 11]),
+        np.array([0, 150, 800, 1000]),
+        np.array([50, 150 + 50 * 11, 810, 1000 + 50 * 11]),
         np.array([90.0, -500.0, 90.0, 4000.0]),
         50.0,
         p,
     )
     # 1 s at 90 °/s; 11 s; 0.2 s at 450 °/s; 11 s at 364 °/s (circling first)
     assert reasons.tolist() == ["", "circling", "too_fast", "circling"]
+
+
+def test_a_circle_halted_for_a_moment_is_one_circling_episode() -> None:
+    # At 50 fps: 6 s left, 0.4 s apart another 5 s left (11.4 s of one episode: circling);
+    # then 3.2 s later (more than circling_gap_s) a 3 s turn left, judged alone; then at once
+    # a 6 s turn right and 0.2 s after it 5 s more right (11.2 s: circling again); the
+    # right turns do not join the 3 s left turn before them.
+    p = MinerParams()
+    start = np.array([0, 320, 730, 880, 1190])
+    end = np.array([300, 570, 880, 1180, 1440])
+    net = np.array([240.0, 200.0, 120.0, -240.0, -200.0])
+    assert rejection_reasons(start, end, net, 50.0, p).tolist() == [
+        "circling",
+        "circling",
+        "",
+        "circling",
+        "circling",
+    ]
+    # in any order of the rows; and with circling_gap_s 0 every turn is judged alone
+    shuffled = np.array([4, 2, 0, 3, 1])
+    got = rejection_reasons(start[shuffled], end[shuffled], net[shuffled], 50.0, p)
+    assert got.tolist() == ["circling", "", "circling", "circling", "circling"]
+    alone = rejection_reasons(start, end, net, 50.0, replace(p, circling_gap_s=0.0))
+    assert alone.tolist() == ["", "", "", "", ""]
 
 
 def test_two_walking_turns_in_quick_succession_are_two_turns() -> None:

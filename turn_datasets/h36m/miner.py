@@ -308,6 +308,14 @@ class MinerParams:
         min_open=True,
         max=limits.MAX_DURATION_S,
     )
+    circling_gap_s: float = param(
+        0.5,
+        "Turns the same way less than this far apart (seconds) are one episode for "
+        "max_turn_s: a moment's wobble of an estimator's heading does not cut a circle into "
+        "turns.",
+        min=0,
+        max=limits.MAX_DURATION_S,
+    )
     max_turn_speed_deg_s: float = param(
         limits.MAX_TURN_MEAN_SPEED_DEG_S,
         "A turn faster than this on average (degrees per second) is an artefact (a left/right "
@@ -1138,18 +1146,44 @@ def rejection_reasons(
 
     ``circling``: longer than ``max_turn_s`` after continuous turning was split at its
     pauses (walking round a loop at 40 °/s for half a minute is not one 1000° turn;
-    El-Gohary et al. 2014 and mobgap's ``TdElGohary`` keep turns of 0.5-10 s).
+    El-Gohary et al. 2014 and mobgap's ``TdElGohary`` keep turns of 0.5-10 s), counted
+    over the whole episode: turns the same way less than ``circling_gap_s`` apart (an
+    estimator's heading that wobbles back for a moment with the back to the camera cut a
+    16 s circle of the demo's sessions into two "turns" of 7 s).
     ``too_fast``: a mean speed above ``max_turn_speed_deg_s``
     (:data:`turn_datasets.limits.MAX_TURN_MEAN_SPEED_DEG_S`), which only a left/right swap,
     an identity break or a noise flip of the hip line reaches.
     """
-    duration = (np.asarray(end) - np.asarray(start)) / fps_hz
-    speed = np.abs(net_deg) / np.maximum(duration, 1.0 / fps_hz)
+    start = np.asarray(start, dtype=np.int64)
+    end = np.asarray(end, dtype=np.int64)
+    net = np.asarray(net_deg, dtype=float)
+    duration = (end - start) / fps_hz
+    speed = np.abs(net) / np.maximum(duration, 1.0 / fps_hz)
     return np.where(
-        duration > p.max_turn_s,
+        _episode_s(start, end, net, fps_hz, p) > p.max_turn_s,
         "circling",
         np.where(speed > p.max_turn_speed_deg_s, "too_fast", ""),
     ).astype(object)
+
+
+def _episode_s(
+    start: np.ndarray, end: np.ndarray, net: np.ndarray, fps_hz: float, p: MinerParams
+) -> np.ndarray:
+    """Each turn's episode length, seconds: from the first to the last of its neighbours
+    (in time order) that turn its way with gaps below ``circling_gap_s``."""
+    if start.size == 0:
+        return np.zeros(0)
+    order = np.argsort(start, kind="stable")
+    s, e, g = start[order], end[order], np.sign(net[order])
+    joined = (g[1:] == g[:-1]) & (s[1:] - e[:-1] < p.circling_gap_s * fps_hz)
+    episode = np.concatenate(([0], np.cumsum(~joined)))
+    first = np.full(episode[-1] + 1, np.iinfo(np.int64).max)
+    last = np.zeros(episode[-1] + 1, dtype=np.int64)
+    np.minimum.at(first, episode, s)
+    np.maximum.at(last, episode, e)
+    out = np.empty(start.shape[0])
+    out[order] = (last[episode] - first[episode]) / fps_hz
+    return out
 
 
 @dataclass(frozen=True)
