@@ -4,15 +4,18 @@ The full demo (``make demo``'s corpus and settings) runs once here, so the suite
 what the README claims: the scores table, the untrimmed stage's detections and the
 agreement audit, as :mod:`turn_eval.demo_results` writes them. ``make test`` runs this in
 ``.venv`` (NumPy 2.x) and in ``.venv-video`` (NumPy 1.26): both must give the README's
-block, so the two environments give the same detections (they did not: 1358 turns against
-1359, a tie in the synthetic streams broken by the last bit of NumPy's trigonometry).
+block, so the two environments give the same detections. They did not: 1358 turns against
+1359, a tie in the synthetic streams broken by the last bit of NumPy's trigonometry; then 6
+of 1390 turns with other boundaries, a stride's valid-pair count of exactly its threshold
+that the two versions' FFTs put on either side of it, and the last digits of most angles,
+from the two versions' vectorised ``arctan2`` (``test_miner`` and ``test_geometry`` pin
+both causes).
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from turn_datasets.errors import TurnbenchError
@@ -34,13 +37,6 @@ def full_demo(tmp_path_factory) -> Path:
     return out
 
 
-@pytest.mark.xfail(
-    int(np.__version__.split(".")[0]) < 2,
-    strict=True,
-    reason="known regression, open in issue 24 (item 5): since this stop's merges, 6 of the "
-    "untrimmed stage's 1390 detections end one frame apart on NumPy 1.26 and 2.x (matched "
-    "accuracy 96.2% against 96.1%); the README shows NumPy 2.x's figures",
-)
 def test_the_readme_shows_what_the_full_demo_prints(full_demo: Path) -> None:
     block = results_block(full_demo)
     assert readme_block(README.read_text(encoding="utf-8")) == block, (

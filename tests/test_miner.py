@@ -21,6 +21,7 @@ from turn_datasets.h36m.evaluation import KnownTurns, match_turns, score_sequenc
 from turn_datasets.h36m.miner import (
     MinerParams,
     _moving_mean,
+    _period,
     _zero_phase_lowpass,
     find_turns,
     heading_runs,
@@ -702,3 +703,26 @@ def test_two_walking_turns_in_quick_succession_are_two_turns() -> None:
     # without the walking split: one 180° turn
     merged = find_turns(yaw, fps_hz=FPS, walking_dip_deg_s=1e4)
     assert len(merged) == 1 and merged.net_deg[0] == pytest.approx(180.0, abs=2.0)
+
+
+def test_a_stride_lag_with_exactly_the_least_believed_pairs_is_found() -> None:
+    """A lag is believed from ``hi / 2`` valid pairs on: 57 valid frames of 96 have
+    57 - 33 = 24 pairs at lag 33, exactly 48 / 2. A sine of period 33 correlates best
+    there among the lags with enough pairs (24 to 33); its correlation is the mean product
+    over the 24 pairs over the mean square, and at half the lag (16) it is negative. The FFT
+    counts those pairs 3.6e-15 short of 24 (NumPy 1.26 and 2.x alike here; on the demo's
+    streams the two versions' FFTs erred in opposite directions, and a stride of 28 or 29
+    frames, 26 or 27, decided which turns were found); the counts are whole numbers."""
+    t = np.arange(96)
+    valid = t < 57
+    x = np.sin(2 * np.pi * t / 33)
+
+    def mean_product(lag: int) -> float:
+        both = valid[: t.size - lag] & valid[lag:]
+        return float(np.mean((x[: t.size - lag] * x[lag:])[both]))
+
+    lag, corr, half = _period(x, valid, 24, 48)
+    assert lag == 33
+    assert corr == pytest.approx(mean_product(33) / mean_product(0), rel=1e-12)
+    assert half == pytest.approx(mean_product(16) / mean_product(0), rel=1e-12)
+    assert half < 0

@@ -439,14 +439,21 @@ def _stride_rate(mean_yaw: np.ndarray, stride: int, fps_hz: float) -> np.ndarray
 def _period(signal_: np.ndarray, valid: np.ndarray, lo: int, hi: int) -> tuple[int, float, float]:
     """Lag in ``[lo, hi]`` of the highest autocorrelation of ``signal_`` over its ``valid``
     frames (normalised by the number of valid pairs at each lag), that correlation, and the
-    correlation at half that lag."""
+    correlation at half that lag.
+
+    The number of valid pairs at a lag is a whole number, and a lag with fewer than
+    ``hi / 2`` of them is not believed: the counts come out of the FFT with its rounding
+    error (about 1e-14, and not the same from one NumPy version to the next, whose FFTs
+    differ), so they are rounded to whole numbers before they are compared, or a count equal
+    to ``hi / 2`` would be kept or dropped by that error.
+    """
     n = signal_.shape[0]
     x = np.where(valid, signal_, 0.0)
     size = 1 << int(np.ceil(np.log2(2 * n)))
     spec = np.fft.rfft(x, size)
     ac = np.fft.irfft(spec * spec.conj(), size)[: hi + 1]
     vspec = np.fft.rfft(valid.astype(float), size)
-    pairs = np.fft.irfft(vspec * vspec.conj(), size)[: hi + 1]
+    pairs = np.rint(np.fft.irfft(vspec * vspec.conj(), size)[: hi + 1])
     if not ac[0] > 0:
         return lo, 0.0, 0.0
     corr = (ac / np.maximum(pairs, 1.0)) / (ac[0] / pairs[0])
