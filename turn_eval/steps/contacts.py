@@ -226,6 +226,35 @@ def _filled_yaw(positions: np.ndarray, layout: Layout) -> np.ndarray:
     return yaw
 
 
+#: The heading is read over each turn and this long on either side (beyond the peak
+#: speed's window), seconds: enough for a dropout at a turn's edge to be bridged as it is
+#: on the whole stream.
+_YAW_CONTEXT_S = 1.0
+
+
+def _turn_yaw(
+    p: np.ndarray, layout: Layout, start: np.ndarray, end: np.ndarray, pad: int
+) -> np.ndarray:
+    """:func:`_filled_yaw` over the turns ``[start, end)`` and ``pad`` frames either side
+    (overlapping stretches merged), NaN elsewhere: a day's stream is mostly not turning,
+    and the yaw's arctangents are most of the step counter's time."""
+    n = p.shape[0]
+    lo = np.clip(start - pad, 0, n)
+    hi = np.clip(end + pad, 0, n)
+    yaw = np.full(n, np.nan)
+    order = np.argsort(lo, kind="stable")
+    w0, w1 = int(lo[order[0]]), int(hi[order[0]])
+    for k in [*order[1:].tolist(), None]:
+        if k is not None and lo[k] <= w1:
+            w1 = max(w1, int(hi[k]))
+            continue
+        if w1 > w0:
+            yaw[w0:w1] = _filled_yaw(p[w0:w1], layout)
+        if k is not None:
+            w0, w1 = int(lo[k]), int(hi[k])
+    return yaw
+
+
 def turn_steps(
     positions: np.ndarray,
     layout: Layout,
@@ -250,7 +279,9 @@ def turn_steps(
     kinds = np.full(n, "", dtype=object)
     if n == 0 or p.shape[0] < 2:
         return pd.DataFrame({**out, "turn_type": kinds})
-    yaw = _filled_yaw(p, layout)
+    yaw = _turn_yaw(
+        p, layout, start, end, int(round(fps_hz * (_YAW_CONTEXT_S + prm.peak_window_s)))
+    )
     swings = (
         foot_swings(p, layout, fps_hz, prm) if all(j in layout.joints for j in _ANKLES) else None
     )
