@@ -176,25 +176,6 @@ def test_frame_yaw_of_several_pairs_stays_on_one_branch():
     np.testing.assert_allclose(yaw, [-5.0, -5.0, -5.0], atol=1e-9)
 
 
-def test_frame_yaw_is_the_c_librarys_atan2_bit_for_bit():
-    """The yaw is the C library's ``atan2`` (Python's ``math.atan2``), unwrapped: the same
-    bits under NumPy 1.26 and 2.x, whose vectorised ``arctan2`` each differ from it (and
-    from each other) in the last bit for hundreds of these 2,000 frames on an AVX-512
-    machine, which gave the demo's detections different angles under the two."""
-    rng = np.random.default_rng(7)
-    yaw_rad = np.cumsum(rng.normal(0.0, 0.05, 2000))  # a heading wandering over several turns
-    half = HIP_HALF_WIDTH * rng.uniform(0.8, 1.2, yaw_rad.size)  # depth error: widths vary
-    p = np.zeros((yaw_rad.size, H36M17.n_joints, 3))
-    for name, sign in (("left_hip", 1.0), ("right_hip", -1.0)):
-        p[:, H36M17.index(name), 0] = sign * half * np.cos(yaw_rad)
-        p[:, H36M17.index(name), 1] = sign * half * np.sin(yaw_rad)
-    v = p[:, H36M17.index("left_hip"), :2] - p[:, H36M17.index("right_hip"), :2]
-    want = np.degrees(np.unwrap([math.atan2(y, x) for x, y in v]))
-    got = frame_yaw_deg(p, H36M17)
-    assert got.dtype == np.float64
-    assert np.array_equal(got, want)
-
-
 def test_yaw_rate_speed_direction_and_bins():
     np.testing.assert_allclose(yaw_rate_deg_s(np.arange(5) * 2.0, fps=50), np.full(5, 100.0))
     # equation 4: 180 degrees in 1.5 s

@@ -38,7 +38,6 @@ Unusable frames
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -127,21 +126,8 @@ def usable_frames(
     return mask
 
 
-def _atan2_rad(y: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """``arctan2(y, x)`` of two 1-D float arrays, element by element, by the C library's
-    ``atan2`` (:func:`math.atan2`).
-
-    NumPy's own ``arctan2`` is vectorised differently by each NumPy version (and CPU), and
-    their results differ in the last bit (NumPy 1.26 and 2.x on an AVX-512 machine: in
-    about 3 of 10 frames). Every angle the miner and the detector report is a difference of
-    these yaws, so what they wrote depended on the NumPy installed; the C library's gives
-    the same bits under either, at about 0.15 µs a frame.
-    """
-    return np.fromiter(map(math.atan2, y.tolist(), x.tolist()), np.float64, count=len(y))
-
-
 def _unwrapped_yaw_rad(vectors: np.ndarray) -> np.ndarray:
-    return np.unwrap(_atan2_rad(vectors[:, 1], vectors[:, 0]))
+    return np.unwrap(np.arctan2(vectors[:, 1], vectors[:, 0]))
 
 
 def frame_yaw_deg(
