@@ -544,3 +544,119 @@ def test_detect_reads_estimate_and_other_estimators_files_by_name(tmp_path, caps
         cli, ["detect", alphapose, "--fps", "30", "--out", tmp_path / "x.csv"], capsys
     )
     assert code == EXIT_BAD_INPUT and "3D lifter" in err and not (tmp_path / "x.csv").exists()
+
+
+# --- the parameters' options (without MediaPipe: a stand-in pose model) --------------------
+
+
+class _NobodyPose:
+    """BlazePose's interface, finding nobody; records the settings it was built with."""
+
+    built: list = []
+    version = "stand-in"
+
+    def __init__(self, params) -> None:
+        type(self).built.append(params)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        pass
+
+    def process(self, rgb):
+        return np.full((33, 3), np.nan), np.full((33, 2), np.nan), np.full(33, np.nan)
+
+
+@pytest.fixture()
+def without_mediapipe(monkeypatch) -> list:
+    import turn_eval.cli.estimate as estimate_cli
+    import turn_eval.estimate.pipeline as pipeline
+
+    monkeypatch.setattr(estimate_cli, "load_mediapipe", lambda: None)
+    monkeypatch.setattr(pipeline, "BlazePose", _NobodyPose)
+    monkeypatch.setattr(_NobodyPose, "built", [])
+    return _NobodyPose.built
+
+
+def test_estimate_help_lists_the_parameters_with_units_and_defaults(capsys):
+    code, out, _ = run(cli, ["estimate", "--help"], capsys)
+    assert code == 0
+    text = " ".join(out.split())  # click wraps the help
+    for option, unit, default in (
+        ("--min-detection-confidence FLOAT", "0 to 1", "[default: 0.5]"),
+        ("--min-tracking-confidence FLOAT", "0 to 1", "[default: 0.5]"),
+        ("--min-jump-torso FLOAT", "trunk lengths", "[default: 1.5]"),
+        ("--max-speed-torso-per-s FLOAT", "trunk lengths per second", "[default: 10.0]"),
+        ("--max-scale-ratio FLOAT", "factor", "[default: 2.0]"),
+        ("--min-knee-angle-deg FLOAT", "degrees", "[default: 150.0]"),
+        ("--min-upright-frames INTEGER", "frames", "[default: 10]"),
+    ):
+        assert option in text, option
+        help_text = text.split(option, 1)[1].split(" --", 1)[0]
+        assert unit in help_text.lower() and help_text.endswith(default), (option, help_text)
+
+
+@pytest.mark.parametrize(
+    ("option", "value"),
+    [
+        ("--min-detection-confidence", "1.5"),
+        ("--min-tracking-confidence", "-0.1"),
+        ("--max-scale-ratio", "1"),  # a ratio above 1 (open bound)
+        ("--min-knee-angle-deg", "181"),
+        ("--min-upright-frames", "0"),
+        ("--min-jump-torso", "nan"),
+    ],
+)
+def test_estimate_parameter_bounds_are_one_line_naming_the_option(
+    tmp_path, capsys, without_mediapipe, option, value
+):
+    video = tmp_path / "v.mp4"
+    _write_numbered_video(video, 2)
+    code, out, err = run(
+        cli, ["estimate", video, "--out-dir", tmp_path / "o", option, value], capsys
+    )
+    assert code == EXIT_BAD_INPUT and out == "" and err.count("\n") == 1, err
+    assert f"Invalid value for '{option}': {value}" in err or (
+        value == "nan" and f"Invalid value for '{option}': must be a number" in err
+    ), err
+    assert not (tmp_path / "o").exists() and without_mediapipe == []
+
+
+def test_estimate_parameters_are_recorded_and_a_change_defeats_resume(
+    tmp_path, capsys, without_mediapipe
+):
+    video = tmp_path / "v.mp4"
+    _write_numbered_video(video, 4)
+    out = tmp_path / "o"
+
+    def estimate(*extra) -> tuple[str, dict, dict]:
+        code, _, err = run(cli, ["estimate", video, "--out-dir", out, *extra], capsys)
+        assert code == 0, err
+        manifest = json.loads((out / "estimate.manifest.json").read_text())
+        video_manifest = json.loads((out / "v.manifest.json").read_text())
+        return manifest["videos"][0]["status"], manifest["parameters"], video_manifest
+
+    status, params, _ = estimate()
+    assert status == "done"
+    assert params["pose"]["min_detection_confidence"] == 0.5
+    assert params["levelling"]["min_upright_frames"] == 10
+    assert estimate("--resume")[0] == "resumed"
+    assert len(without_mediapipe) == 1  # the resumed run built no pose model
+
+    status, params, per_video = estimate("--resume", "--min-detection-confidence", "0.7")
+    assert status == "done"
+    assert params["pose"]["min_detection_confidence"] == 0.7
+    assert per_video["parameters"]["pose"]["min_detection_confidence"] == 0.7
+    assert without_mediapipe[-1].min_detection_confidence == 0.7  # the model was told
+    assert estimate("--resume", "--min-detection-confidence", "0.7")[0] == "resumed"
+
+    for option, value, block, name in (
+        ("--max-speed-torso-per-s", "4", "guard", "max_speed_torso_per_s"),
+        ("--min-upright-frames", "5", "levelling", "min_upright_frames"),
+    ):
+        status, params, per_video = estimate(
+            "--resume", "--min-detection-confidence", "0.7", option, value
+        )
+        assert status == "done", option
+        assert params[block][name] == float(value) == per_video["parameters"][block][name]
