@@ -233,6 +233,7 @@ def _signature(joined: Joined, groupings: Sequence[str], *, n_resamples: int, se
             ("allow-missing", joined.allow_missing),
         ],
         {"reference": joined.reference_path, "predictions": joined.predictions_path},
+        {"reference": joined.reference_sha256, "predictions": joined.predictions_sha256},
     )
 
 
