@@ -590,6 +590,7 @@ def test_estimate_help_lists_the_parameters_with_units_and_defaults(capsys):
         ("--min-tracking-confidence", "-0.1"),
         ("--max-scale-ratio", "1"),  # a ratio above 1 (open bound)
         ("--min-knee-angle-deg", "181"),
+        ("--max-speed-torso-per-s", "1e6"),  # a unit mistake (trunk lengths per second)
         ("--min-upright-frames", "0"),
         ("--min-jump-torso", "nan"),
     ],
