@@ -76,6 +76,25 @@ def write_eaf(
     return path
 
 
+Annotation = tuple[int, int, str]
+
+
+def two_raters(
+    path: Path,
+    alice: Sequence[Annotation],
+    bob: Sequence[Annotation],
+    *more: Tier,
+    participant: str = "PD01",
+) -> Path:
+    """A session two raters labelled: tiers ``Turn alice`` and ``Turn bob`` (each its rater's
+    ``(start_ms, end_ms, value)`` turns of ``participant``), then ``more`` tiers."""
+    raters = [
+        Tier(f"Turn {name}", annotator=name, participant=participant, annotations=turns)
+        for name, turns in (("alice", alice), ("bob", bob))
+    ]
+    return write_eaf(path, [*raters, *more])
+
+
 def add_cve_refs(path: Path, refs: dict[str, str]) -> Path:
     """Give annotations whose text is a key of ``refs`` the attribute CVE_REF (ELAN 3.0)."""
     text = path.read_text(encoding="utf-8")

@@ -24,9 +24,6 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from turn_datasets.cli.common import run_group
-from turn_eval.cli import cli
-
 #: Planted in the reference's columns that no --by names: no response may contain them.
 MARKER = "ZQXMARKER7741"
 MARKER_COLUMN = "SITE_ONLY_COLUMN_9"
@@ -61,13 +58,6 @@ def write_predictions(path: Path, ref: pd.DataFrame, *, noise_deg: float, seed: 
     angle = (ref["angle_deg"].to_numpy() + rng.normal(0.0, noise_deg, len(ref))).clip(0.0)
     pd.DataFrame({"clip_id": ref["clip_id"], "angle_deg": angle.round(2)}).to_csv(path, index=False)
     return path
-
-
-def run(args: list[str], capsys) -> tuple[int, str, str]:
-    """``turn-eval ARGS`` in this process: exit code, stdout, stderr."""
-    code = run_group(cli, "turn-eval", [str(a) for a in args])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 @contextlib.contextmanager

@@ -13,9 +13,8 @@ import pandas as pd
 import pytest
 from conftest import run_turn_datasets
 
-from turn_datasets.cli import cli
 from turn_datasets.cli.agreement import OUT_FILES
-from turn_datasets.cli.common import EXIT_BAD_INPUT, EXIT_GATE, EXIT_OK, run_group
+from turn_datasets.cli.common import EXIT_BAD_INPUT, EXIT_GATE, EXIT_OK
 from turn_datasets.fileio import sha256_file
 from turn_datasets.remap.eaf import load_eaf, read_annotations
 from turn_datasets.synthetic.eaf import Raters, write_sessions
@@ -545,21 +544,11 @@ def test_no_header_field_reaches_any_output(synth, tmp_path, capsys):
     assert len(secrets) >= 3 and all(secrets)
     folder = synth.paths[0].parent
     labels = tmp_path / "release" / "labels.csv"
-    code = run_group(
-        cli,
-        "turn-datasets",
-        [
-            "remap",
-            "labels",
-            str(folder),
-            "--participants",
-            str(synth.participants_path),
-            "--out",
-            str(labels),
-        ],
+    code, printed, _ = run_turn_datasets(
+        ["remap", "labels", folder, "--participants", synth.participants_path, "--out", labels],
+        capsys,
     )
     assert code == EXIT_OK
-    printed = capsys.readouterr().out
     for fmt in ("md", "json"):
         code, out, err = run(
             [

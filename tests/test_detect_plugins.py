@@ -14,21 +14,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import run_turn_eval as run
 
 from turn_datasets import limits
-from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
+from turn_datasets.cli.common import EXIT_BAD_INPUT
 from turn_datasets.errors import TurnbenchError
-from turn_eval.cli import cli
 from turn_eval.detect.protocol import checked_turns
 
 BASE = ["--layout", "h36m17", "--up-axis", "z", "--fps", "30"]
 FRAMES = 300  # 10 s
-
-
-def run(args: list, capsys) -> tuple[int, str, str]:
-    code = run_group(cli, "turn-eval", [str(a) for a in args])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 def _still(n: int = FRAMES) -> np.ndarray:

@@ -12,17 +12,16 @@ import imageio_ffmpeg
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import run_cli
+from conftest import run_turn_datasets
+from conftest import run_turn_eval as run
 from scipy.spatial.transform import Rotation
 from test_predict import minus_y_up_copy, turning_skeleton
 
-from turn_datasets.cli import cli as datasets_cli
 from turn_datasets.cli.common import EXIT_BAD_INPUT
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.geometry import frame_yaw_deg
 from turn_datasets.skeleton import H36M17, H36M17_FROM_32, to_z_up
 from turn_datasets.synthetic.mocap import Segment, generate_sequence
-from turn_eval.cli import cli
 from turn_eval.estimate import (
     IdentityGuardParams,
     blazepose_to_h36m17,
@@ -37,11 +36,6 @@ from turn_eval.estimate import (
 )
 from turn_eval.estimate.blazepose import PoseParams
 from turn_eval.estimate.video import open_video
-
-
-def run(group, args, capsys):
-    return run_cli(group, "turn-eval", args, capsys)
-
 
 # --- joints --------------------------------------------------------------------------------
 
@@ -342,20 +336,18 @@ def test_estimate_files_feed_predict_and_mine_with_the_documented_options(tmp_pa
     npz, _ = write_estimate(result, tmp_path / "turn90.npz")
     out = tmp_path / "pred.csv"
     code, _, err = run(
-        cli, ["predict", npz, "--layout", "h36m17", "--up-axis", "-y", "--out", out], capsys
+        ["predict", npz, "--layout", "h36m17", "--up-axis", "-y", "--out", out], capsys
     )
     assert code == 0, err
     pred = pd.read_csv(out)
     assert pred["clip_id"].tolist() == ["turn90"]
     assert pred["angle_deg"].iloc[0] == pytest.approx(90.0, abs=0.5)
     assert pred["direction"].iloc[0] == "left"
-    code, _, err = run(cli, ["predict", npz, "--from", "turnbench", "--out", out], capsys)
+    code, _, err = run(["predict", npz, "--from", "turnbench", "--out", out], capsys)
     assert code == 0, err
     assert pd.read_csv(out)["angle_deg"].iloc[0] == pytest.approx(90.0, abs=0.5)
     index = tmp_path / "clips.csv"
-    code, _, err = run(
-        datasets_cli,
-        ["h36m", "mine", npz, "--layout", "h36m17", "--up-axis", "-y", "--fps", "30",
+    code, _, err = run_turn_datasets(["h36m", "mine", npz, "--layout", "h36m17", "--up-axis", "-y", "--fps", "30",
          "--units", "m", "--out", index],
         capsys,
     )  # fmt: skip
@@ -391,7 +383,7 @@ def test_each_named_format_reads_its_own_layout(tmp_path, capsys):
         (motionbert, "motionbert"),
     ):
         out = tmp_path / f"{fmt}.csv"
-        code, _, err = run(cli, ["predict", path, "--from", fmt, "--out", out], capsys)
+        code, _, err = run(["predict", path, "--from", fmt, "--out", out], capsys)
         assert code == 0, err
         row = pd.read_csv(out).iloc[0]
         angle, direction = expected[row["clip_id"]]
@@ -408,9 +400,7 @@ def test_two_d_files_and_alphapose_are_refused_with_the_lifter_advice(tmp_path, 
     np.savez_compressed(detectron, boxes=np.zeros(3), keypoints=np.zeros(3))
     for path, fmt in ((alphapose, "alphapose"), (alphapose, "arrays"), (keypoints2d, "strided-transformer"),
                       (detectron, "videopose3d")):  # fmt: skip
-        code, out, err = run(
-            cli, ["predict", path, "--from", fmt, "--out", tmp_path / "p.csv"], capsys
-        )
+        code, out, err = run(["predict", path, "--from", fmt, "--out", tmp_path / "p.csv"], capsys)
         assert code == EXIT_BAD_INPUT and out == ""
         last = err.strip().splitlines()[-1]  # after the progress label: one error line
         assert last.startswith("turn-eval: error:") and "Traceback" not in err
@@ -419,7 +409,7 @@ def test_two_d_files_and_alphapose_are_refused_with_the_lifter_advice(tmp_path, 
     wrong = tmp_path / "walk.npy"
     np.save(wrong, np.zeros((10, 32, 3)))
     code, _, err = run(
-        cli, ["predict", wrong, "--from", "motionbert", "--out", tmp_path / "p.csv"], capsys
+        ["predict", wrong, "--from", "motionbert", "--out", tmp_path / "p.csv"], capsys
     )
     assert code == EXIT_BAD_INPUT and "(frames, 17, 3)" in err
 
@@ -446,7 +436,7 @@ def test_damaged_estimator_files_are_one_line_each(tmp_path, capsys):
             ["detect", path.parent, "--from", "videopose3d", "--fps", "30",
              "--out", tmp_path / "d.csv"],
         ):  # fmt: skip
-            code, out, err = run(cli, args, capsys)
+            code, out, err = run(args, capsys)
             assert code == EXIT_BAD_INPUT and out == "" and "Traceback" not in err, err
             last = err.strip().splitlines()[-1]
             assert last.startswith("turn-eval: error:") and str(path) in last, err
@@ -456,7 +446,7 @@ def test_damaged_estimator_files_are_one_line_each(tmp_path, capsys):
     complex_npy = tmp_path / "X3D.npy"
     np.save(complex_npy, np.zeros((10, 17, 3), dtype=np.complex128))
     code, _, err = run(
-        cli, ["predict", complex_npy, "--from", "motionbert", "--out", tmp_path / "p.csv"], capsys
+        ["predict", complex_npy, "--from", "motionbert", "--out", tmp_path / "p.csv"], capsys
     )
     assert code == EXIT_BAD_INPUT and "dtype complex128, expected numbers" in err
 
@@ -468,14 +458,14 @@ def test_estimate_without_mediapipe_is_one_helpful_line(tmp_path, capsys, monkey
     monkeypatch.setitem(sys.modules, "mediapipe", None)  # import fails, as without the extra
     video = tmp_path / "v.mp4"
     _write_numbered_video(video, 3)
-    code, out, err = run(cli, ["estimate", video, "--out", tmp_path / "v.npz"], capsys)
+    code, out, err = run(["estimate", video, "--out", tmp_path / "v.npz"], capsys)
     assert code == EXIT_BAD_INPUT and out == ""
     assert err.count("\n") == 1 and "turnbench[video]" in err and "mediapipe==0.10.21" in err
     assert not (tmp_path / "v.npz").exists()
 
 
 def test_estimate_help_has_an_example(capsys):
-    code, out, _ = run(cli, ["estimate", "--help"], capsys)
+    code, out, _ = run(["estimate", "--help"], capsys)
     assert code == 0 and "Example:" in out and "turn-eval estimate" in out
 
 
@@ -494,7 +484,7 @@ def test_estimate_option_mistakes_are_one_line_before_any_work(tmp_path, capsys)
         ([a, "--out-dir", tmp_path / "o", "--fps", "nan"], "--fps"),
     ]
     for args, message in cases:
-        code, out, err = run(cli, ["estimate", *args], capsys)
+        code, out, err = run(["estimate", *args], capsys)
         assert code == EXIT_BAD_INPUT and out == "" and err.count("\n") == 1, err
         assert message in err, err
     assert not (tmp_path / "o").exists() and not (tmp_path / "x.npz").exists()
@@ -518,9 +508,7 @@ def test_detect_reads_estimate_and_other_estimators_files_by_name(tmp_path, caps
     own_axis = {"turnbench": "-y", "motionbert": "-y"}  # each format's documented axes
     for source, fmt in ((tmp_path / "est", "turnbench"), (tmp_path / "mb", "motionbert")):
         out = tmp_path / f"{fmt}.csv"
-        code, _, err = run(
-            cli, ["detect", source, "--from", fmt, "--fps", "30", "--out", out], capsys
-        )
+        code, _, err = run(["detect", source, "--from", fmt, "--fps", "30", "--out", out], capsys)
         assert code == 0, err
         found[fmt] = pd.read_csv(out)
         manifest = json.loads(out.with_name(f"{fmt}.manifest.json").read_text())
@@ -535,12 +523,125 @@ def test_detect_reads_estimate_and_other_estimators_files_by_name(tmp_path, caps
         assert abs(table["angle_deg"].iloc[0] - 90.0) < 6.0
     # generic arrays still need the layout (their axis is inferred); a JSON is AlphaPose's 2D
     code, _, err = run(
-        cli, ["detect", tmp_path / "est", "--fps", "30", "--out", tmp_path / "x.csv"], capsys
+        ["detect", tmp_path / "est", "--fps", "30", "--out", tmp_path / "x.csv"], capsys
     )
     assert code == EXIT_BAD_INPUT and "generic arrays need --layout" in err
     alphapose = tmp_path / "alphapose-results.json"
     alphapose.write_text("[]")
-    code, _, err = run(
-        cli, ["detect", alphapose, "--fps", "30", "--out", tmp_path / "x.csv"], capsys
-    )
+    code, _, err = run(["detect", alphapose, "--fps", "30", "--out", tmp_path / "x.csv"], capsys)
     assert code == EXIT_BAD_INPUT and "3D lifter" in err and not (tmp_path / "x.csv").exists()
+
+
+# --- the parameters' options (without MediaPipe: a stand-in pose model) --------------------
+
+
+class _NobodyPose:
+    """BlazePose's interface, finding nobody; records the settings it was built with."""
+
+    built: list = []
+    version = "stand-in"
+
+    def __init__(self, params) -> None:
+        type(self).built.append(params)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        pass
+
+    def process(self, rgb):
+        return np.full((33, 3), np.nan), np.full((33, 2), np.nan), np.full(33, np.nan)
+
+
+@pytest.fixture()
+def without_mediapipe(monkeypatch) -> list:
+    import turn_eval.cli.estimate as estimate_cli
+    import turn_eval.estimate.pipeline as pipeline
+
+    monkeypatch.setattr(estimate_cli, "load_mediapipe", lambda: None)
+    monkeypatch.setattr(pipeline, "BlazePose", _NobodyPose)
+    monkeypatch.setattr(_NobodyPose, "built", [])
+    return _NobodyPose.built
+
+
+def test_estimate_help_lists_the_parameters_with_units_and_defaults(capsys):
+    code, out, _ = run(["estimate", "--help"], capsys)
+    assert code == 0
+    text = " ".join(out.split())  # click wraps the help
+    for option, unit, default in (
+        ("--min-detection-confidence FLOAT", "0 to 1", "[default: 0.5]"),
+        ("--min-tracking-confidence FLOAT", "0 to 1", "[default: 0.5]"),
+        ("--min-jump-torso FLOAT", "trunk lengths", "[default: 1.5]"),
+        ("--max-speed-torso-per-s FLOAT", "trunk lengths per second", "[default: 10.0]"),
+        ("--max-scale-ratio FLOAT", "factor", "[default: 2.0]"),
+        ("--min-knee-angle-deg FLOAT", "degrees", "[default: 150.0]"),
+        ("--min-upright-frames INTEGER", "frames", "[default: 10]"),
+    ):
+        assert option in text, option
+        help_text = text.split(option, 1)[1].split(" --", 1)[0]
+        assert unit in help_text.lower() and help_text.endswith(default), (option, help_text)
+
+
+@pytest.mark.parametrize(
+    ("option", "value"),
+    [
+        ("--min-detection-confidence", "1.5"),
+        ("--min-tracking-confidence", "-0.1"),
+        ("--max-scale-ratio", "1"),  # a ratio above 1 (open bound)
+        ("--min-knee-angle-deg", "181"),
+        ("--max-speed-torso-per-s", "1e6"),  # a unit mistake (trunk lengths per second)
+        ("--min-upright-frames", "0"),
+        ("--min-jump-torso", "nan"),
+    ],
+)
+def test_estimate_parameter_bounds_are_one_line_naming_the_option(
+    tmp_path, capsys, without_mediapipe, option, value
+):
+    video = tmp_path / "v.mp4"
+    _write_numbered_video(video, 2)
+    code, out, err = run(["estimate", video, "--out-dir", tmp_path / "o", option, value], capsys)
+    assert code == EXIT_BAD_INPUT and out == "" and err.count("\n") == 1, err
+    assert f"Invalid value for '{option}': {value}" in err or (
+        value == "nan" and f"Invalid value for '{option}': must be a number" in err
+    ), err
+    assert not (tmp_path / "o").exists() and without_mediapipe == []
+
+
+def test_estimate_parameters_are_recorded_and_a_change_defeats_resume(
+    tmp_path, capsys, without_mediapipe
+):
+    video = tmp_path / "v.mp4"
+    _write_numbered_video(video, 4)
+    out = tmp_path / "o"
+
+    def estimate(*extra) -> tuple[str, dict, dict]:
+        code, _, err = run(["estimate", video, "--out-dir", out, *extra], capsys)
+        assert code == 0, err
+        manifest = json.loads((out / "estimate.manifest.json").read_text())
+        video_manifest = json.loads((out / "v.manifest.json").read_text())
+        return manifest["videos"][0]["status"], manifest["parameters"], video_manifest
+
+    status, params, _ = estimate()
+    assert status == "done"
+    assert params["pose"]["min_detection_confidence"] == 0.5
+    assert params["levelling"]["min_upright_frames"] == 10
+    assert estimate("--resume")[0] == "resumed"
+    assert len(without_mediapipe) == 1  # the resumed run built no pose model
+
+    status, params, per_video = estimate("--resume", "--min-detection-confidence", "0.7")
+    assert status == "done"
+    assert params["pose"]["min_detection_confidence"] == 0.7
+    assert per_video["parameters"]["pose"]["min_detection_confidence"] == 0.7
+    assert without_mediapipe[-1].min_detection_confidence == 0.7  # the model was told
+    assert estimate("--resume", "--min-detection-confidence", "0.7")[0] == "resumed"
+
+    for option, value, block, name in (
+        ("--max-speed-torso-per-s", "4", "guard", "max_speed_torso_per_s"),
+        ("--min-upright-frames", "5", "levelling", "min_upright_frames"),
+    ):
+        status, params, per_video = estimate(
+            "--resume", "--min-detection-confidence", "0.7", option, value
+        )
+        assert status == "done", option
+        assert params[block][name] == float(value) == per_video["parameters"][block][name]

@@ -18,18 +18,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import require_mediapipe
+from conftest import require_mediapipe, run_turn_eval
 from test_estimate import _write_numbered_video
 
-from turn_datasets.cli.common import run_group
 from turn_datasets.fileio import sha256_file
-from turn_eval.cli import cli
 
 
 def estimate(args: list, capfd) -> tuple[int, list[str]]:
+    """``turn-eval estimate args``, with MediaPipe's native stderr (file descriptor 2)."""
     capfd.readouterr()
-    code = run_group(cli, "turn-eval", ["estimate", *[str(a) for a in args]])
-    return code, capfd.readouterr().err.strip().splitlines()
+    code, _, err = run_turn_eval(["estimate", *args], capfd)
+    return code, err.strip().splitlines()
 
 
 def run_manifest(folder: Path) -> dict:

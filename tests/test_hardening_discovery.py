@@ -14,8 +14,9 @@ import numpy as np
 import pytest
 from _eaf_builder import Tier, write_eaf
 from conftest import run_turn_datasets as _run
+from conftest import run_turn_eval
 
-from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
+from turn_datasets.cli.common import EXIT_BAD_INPUT
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.mocap import readers
 from turn_datasets.remap.eaf import expand_eaf_paths
@@ -245,8 +246,6 @@ def test_pickle_is_never_called_on_a_walked_generic_array(tmp_path, monkeypatch)
 
 
 def test_a_text_file_named_npz_is_called_not_an_npz(tmp_path, capsys):
-    from turn_eval.cli import cli as eval_cli
-
     bad = tmp_path / "poses.npz"
     bad.write_text("clip_id,angle\n")
     arrays = ["--layout", "h36m17", "--fps", "50", "--up-axis", "z", "--units", "m"]
@@ -255,12 +254,9 @@ def test_a_text_file_named_npz_is_called_not_an_npz(tmp_path, capsys):
     )
     assert code == EXIT_BAD_INPUT
     assert "pickled" not in err and f"{bad}: cannot open this .npz: it is not an .npz" in err
-    code = run_group(
-        eval_cli,
-        "turn-eval",
-        ["predict", str(bad), "--layout", "h36m17", "--out", str(tmp_path / "p.csv")],
+    code, _, err = run_turn_eval(
+        ["predict", bad, "--layout", "h36m17", "--out", tmp_path / "p.csv"], capsys
     )
-    err = capsys.readouterr().err
     assert code == EXIT_BAD_INPUT
     assert "pickled" not in err and f"{bad}: cannot open this .npz: it is not an .npz" in err
 

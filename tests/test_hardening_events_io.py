@@ -12,11 +12,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import run_turn_eval as _run
 from test_detect import WALK_TURN_WALK, stream
 
-from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
+from turn_datasets.cli.common import EXIT_BAD_INPUT
 from turn_datasets.synthetic import mocap as sm
-from turn_eval.cli import cli
 from turn_eval.events.contract import DETECTION_DTYPES
 
 REF = """session,subject,start_s,end_s,angle_deg,cohort
@@ -24,12 +24,6 @@ s1,P1,0,2,90,PD
 s1,P1,10,12,180,PD
 s2,P2,0,3,135,HC
 """
-
-
-def _run(args: list, capsys) -> tuple[int, str, str]:
-    code = run_group(cli, "turn-eval", [str(a) for a in args])
-    cap = capsys.readouterr()
-    return code, cap.out, cap.err
 
 
 @pytest.fixture()

@@ -11,6 +11,8 @@ import tracemalloc
 
 import numpy as np
 import pandas as pd
+from _eaf_builder import Tier, two_raters
+from conftest import run_turn_datasets
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -111,32 +113,23 @@ def test_matching_ten_thousand_per_rater_takes_linear_memory():
 
 
 def _two_raters(tmp_path, consensus=()):
-    from _eaf_builder import Tier, write_eaf
-
-    tiers = [
-        Tier("Turn alice", annotator="alice", participant="PD01", annotations=[(1000, 2000, "90")]),
-        # overlaps alice's by 0.4 s of the longer 2 s: ratio 0.2, too little to be one turn
-        Tier("Turn bob", annotator="bob", participant="PD01", annotations=[(1600, 3600, "90")]),
-    ]
+    more = []
     if consensus:
-        tiers.append(
+        more.append(
             Tier("Turn consensus", annotator="consensus", participant="PD01", annotations=consensus)
         )
     eaf = tmp_path / "eaf"
     eaf.mkdir()
-    write_eaf(eaf / "S01.eaf", tiers)
+    # bob's overlaps alice's by 0.4 s of the longer 2 s: ratio 0.2, too little to be one turn
+    two_raters(eaf / "S01.eaf", [(1000, 2000, "90")], [(1600, 3600, "90")], *more)
     parts = tmp_path / "p.csv"
     parts.write_text("subject,cohort,pair,sex,age,years_since_diagnosis\nPD01,PD,a,F,60,4\n")
     return eaf, parts
 
 
 def _labels(args, capsys):
-    from turn_datasets.cli import cli
-    from turn_datasets.cli.common import run_group
-
-    code = run_group(cli, "turn-datasets", ["remap", "labels", *map(str, args)])
-    cap = capsys.readouterr()
-    return code, cap.err
+    code, _, err = run_turn_datasets(["remap", "labels", *args], capsys)
+    return code, err
 
 
 def test_two_raters_turns_overlapping_too_little_are_unresolved_not_two_labels(tmp_path, capsys):

@@ -17,7 +17,7 @@ import textwrap
 from pathlib import Path
 
 import pytest
-from _eaf_builder import Tier, write_eaf
+from _eaf_builder import two_raters
 from conftest import run_cli as _run
 
 from turn_datasets.cli import cli as datasets_cli
@@ -67,22 +67,10 @@ def test_score_without_plots_removes_the_previous_runs_figures(score_files, tmp_
 
 
 def _disagreeing_session(folder: Path, *, disagree: bool) -> None:
-    write_eaf(
+    two_raters(
         folder / "S01.eaf",
-        [
-            Tier(
-                "Turn alice",
-                annotator="alice",
-                participant="PD01",
-                annotations=[(1000, 2000, "90"), (5000, 6000, "180")],
-            ),
-            Tier(
-                "Turn bob",
-                annotator="bob",
-                participant="PD01",
-                annotations=[(1000, 2000, "90"), (5000, 6000, "135" if disagree else "180")],
-            ),
-        ],
+        [(1000, 2000, "90"), (5000, 6000, "180")],
+        [(1000, 2000, "90"), (5000, 6000, "135" if disagree else "180")],
     )
 
 

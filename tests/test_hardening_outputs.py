@@ -20,12 +20,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from _eaf_builder import Tier, write_eaf
+from _eaf_builder import two_raters
+from conftest import run_cli as _run
 from test_detect import WALK_TURN_WALK, stream
 from test_predict import turning_skeleton
 
 from turn_datasets.cli import cli as datasets_cli
-from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
+from turn_datasets.cli.common import EXIT_BAD_INPUT
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import (
     atomic_path,
@@ -40,12 +41,6 @@ REF = "session,subject,start_s,end_s,angle_deg\ns1,P1,0,2,90\ns1,P1,10,12,180\n"
 DET = "session,subject,start_s,end_s,angle_deg,score\ns1,P1,0,2,80,0.9\ns1,P1,10.5,12,200,0.8\n"
 CLIP_REF = "clip_id,angle_deg,duration_s\na,90,1.0\nb,180,2.0\n"
 CLIP_PRED = "clip_id,angle_deg\na,92.5\nb,170\n"
-
-
-def _run(group, prog: str, args: list, capsys) -> tuple[int, str, str]:
-    code = run_group(group, prog, [str(a) for a in args])
-    cap = capsys.readouterr()
-    return code, cap.out, cap.err
 
 
 def _fifo(path: Path) -> None:
@@ -263,20 +258,7 @@ def test_staged_folder_never_removes_what_a_forged_record_lists_outside_it(tmp_p
 
 
 def _session(path: Path, bob_deg: str) -> None:
-    write_eaf(
-        path,
-        [
-            Tier(
-                "Turn alice",
-                annotator="alice",
-                participant="PD01",
-                annotations=[(1000, 2000, "90")],
-            ),
-            Tier(
-                "Turn bob", annotator="bob", participant="PD01", annotations=[(1000, 2000, bob_deg)]
-            ),
-        ],
-    )
+    two_raters(path, [(1000, 2000, "90")], [(1000, 2000, bob_deg)])
 
 
 def test_agreement_refuses_inputs_inside_its_out_dirs_review_folder(tmp_path, capsys):

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
-from _eaf_builder import Tier, write_eaf
-from conftest import run_turn_datasets
+from _eaf_builder import Tier, two_raters, write_eaf
+from conftest import run_turn_datasets as run
 
 from turn_datasets.cli.common import EXIT_BAD_INPUT, EXIT_OK
 from turn_datasets.remap.eaf import ANNOTATION_COLUMNS
@@ -21,37 +21,21 @@ from turn_datasets.remap.labels import LABEL_COLUMNS
 HEADER = "subject,cohort,pair,sex,age,years_since_diagnosis\n"
 
 
-def run(capsys, *args) -> tuple[int, str, str]:
-    return run_turn_datasets(list(args), capsys)
-
-
 def _eaf_dir(tmp_path: Path, *, disagree: bool) -> Path:
     d = tmp_path / "eaf"
     d.mkdir()
-    write_eaf(
+    two_raters(
         d / "S01.eaf",
-        [
-            Tier(
-                "Turn alice",
-                annotator="alice",
-                participant="PD01",
-                annotations=[(1000, 2000, "90"), (5000, 6000, "180")],
-            ),
-            Tier(
-                "Turn bob",
-                annotator="bob",
-                participant="PD01",
-                annotations=[(1050, 2000, "90"), (5000, 6000, "135" if disagree else "180")],
-            ),
-            Tier(
-                "Turn alice HC",
-                annotator="alice",
-                participant="HC01",
-                annotations=[(3000, 4500, "270")],
-            ),
-            Tier("Scenario", annotations=[(0, 10000, "free living")]),
-            Tier("Location", annotations=[(0, 10000, "Lounge")]),
-        ],
+        [(1000, 2000, "90"), (5000, 6000, "180")],
+        [(1050, 2000, "90"), (5000, 6000, "135" if disagree else "180")],
+        Tier(
+            "Turn alice HC",
+            annotator="alice",
+            participant="HC01",
+            annotations=[(3000, 4500, "270")],
+        ),
+        Tier("Scenario", annotations=[(0, 10000, "free living")]),
+        Tier("Location", annotations=[(0, 10000, "Lounge")]),
     )
     write_eaf(
         d / "S02.eaf",
@@ -78,7 +62,7 @@ def _participants(tmp_path: Path, rows: str | None = None) -> Path:
 
 def test_inspect_every_real_file_markdown_and_json(capsys, real_eaf_dir: Path) -> None:
     files = sorted(real_eaf_dir.glob("*.eaf"))
-    code, out, err = run(capsys, "remap", "inspect", real_eaf_dir)
+    code, out, err = run(["remap", "inspect", real_eaf_dir], capsys)
     assert code == EXIT_OK, err
     for f in files:
         assert f"## {f.name}" in out
@@ -88,7 +72,7 @@ def test_inspect_every_real_file_markdown_and_json(capsys, real_eaf_dir: Path) -
     assert "| MarkerType | external: fables_cv.ecv |" in out
     assert "r03_v20_s5.wav" not in out and "elan-example1" not in out and "/home/" not in out
     small = [real_eaf_dir / "pygamma_MaureenMarvinRobin.eaf", real_eaf_dir / "speach_test.eaf"]
-    code, out, err = run(capsys, "remap", "inspect", *small, "--format", "json")
+    code, out, err = run(["remap", "inspect", *small, "--format", "json"], capsys)
     assert code == EXIT_OK, err
     doc = json.loads(out)
     assert [Path(f["file"]).name for f in doc["files"]] == [p.name for p in small]
@@ -103,16 +87,18 @@ def test_inspect_every_real_file_markdown_and_json(capsys, real_eaf_dir: Path) -
 
 def test_inspect_keep_media_paths(capsys, real_eaf_dir: Path) -> None:
     code, out, _ = run(
-        capsys, "remap", "inspect", real_eaf_dir / "pympi_sample_2.8.eaf", "--keep-media-paths"
+        ["remap", "inspect", real_eaf_dir / "pympi_sample_2.8.eaf", "--keep-media-paths"], capsys
     )
     assert code == EXIT_OK
     assert "file:///Users/Shared/MPI/DemoMaterial/yele/r03_v20_s5.wav" in out
     code, out, _ = run(
+        [
+            "remap",
+            "inspect",
+            real_eaf_dir / "speach_fables_01_03_aesop_64kb.eaf",
+            "--keep-media-paths",
+        ],
         capsys,
-        "remap",
-        "inspect",
-        real_eaf_dir / "speach_fables_01_03_aesop_64kb.eaf",
-        "--keep-media-paths",
     )
     assert code == EXIT_OK
     assert "external: file:/home/tuananh/Documents/ELAN/fables_cv.ecv" in out
@@ -120,7 +106,7 @@ def test_inspect_keep_media_paths(capsys, real_eaf_dir: Path) -> None:
 
 def test_inspect_turn_file_shows_roles(capsys, tmp_path: Path) -> None:
     d = _eaf_dir(tmp_path, disagree=False)
-    code, out, _ = run(capsys, "remap", "inspect", d / "S01.eaf", "--format", "json")
+    code, out, _ = run(["remap", "inspect", d / "S01.eaf", "--format", "json"], capsys)
     assert code == EXIT_OK
     doc = json.loads(out)["files"][0]
     assert [t["tier"] for t in doc["turn_tiers"]] == ["Turn alice", "Turn bob", "Turn alice HC"]
@@ -139,7 +125,7 @@ def test_inspect_refuses_billion_laughs(capsys, tmp_path: Path) -> None:
         "<ANNOTATION_DOCUMENT>&b;</ANNOTATION_DOCUMENT>\n",
         encoding="utf-8",
     )
-    code, out, err = run(capsys, "remap", "inspect", evil)
+    code, out, err = run(["remap", "inspect", evil], capsys)
     assert code == EXIT_BAD_INPUT
     assert out == ""
     errors = [line for line in err.splitlines() if "error" in line]
@@ -156,7 +142,7 @@ def test_labels_writes_both_files(capsys, tmp_path: Path) -> None:
     d = _eaf_dir(tmp_path, disagree=False)
     out = tmp_path / "release" / "labels.csv"
     code, stdout, err = run(
-        capsys, "remap", "labels", d, "--participants", _participants(tmp_path), "--out", out
+        ["remap", "labels", d, "--participants", _participants(tmp_path), "--out", out], capsys
     )
     assert code == EXIT_OK, err
     assert stdout == ""
@@ -189,7 +175,7 @@ def test_labels_byte_identical(capsys, tmp_path: Path) -> None:
     outs = []
     for name in ("a", "b"):
         out = tmp_path / name / "labels.csv"
-        assert run(capsys, "remap", "labels", d, "--participants", p, "--out", out)[0] == EXIT_OK
+        assert run(["remap", "labels", d, "--participants", p, "--out", out], capsys)[0] == EXIT_OK
         outs.append((out.read_bytes(), (out.parent / "annotations.csv").read_bytes()))
     assert outs[0] == outs[1]
 
@@ -202,7 +188,7 @@ def test_labels_unresolved_exit_2_lists_and_writes_nothing(capsys, tmp_path: Pat
     d = _eaf_dir(tmp_path, disagree=True)
     out = tmp_path / "release" / "labels.csv"
     code, stdout, err = run(
-        capsys, "remap", "labels", d, "--participants", _participants(tmp_path), "--out", out
+        ["remap", "labels", d, "--participants", _participants(tmp_path), "--out", out], capsys
     )
     assert code == EXIT_BAD_INPUT
     assert stdout == ""
@@ -212,16 +198,18 @@ def test_labels_unresolved_exit_2_lists_and_writes_nothing(capsys, tmp_path: Pat
     assert _no_outputs(out.parent)
     # --resolve first-rater takes alice's 180.
     code, _, err = run(
+        [
+            "remap",
+            "labels",
+            d,
+            "--participants",
+            _participants(tmp_path),
+            "--out",
+            out,
+            "--resolve",
+            "first-rater",
+        ],
         capsys,
-        "remap",
-        "labels",
-        d,
-        "--participants",
-        _participants(tmp_path),
-        "--out",
-        out,
-        "--resolve",
-        "first-rater",
     )
     assert code == EXIT_OK, err
     labels = pd.read_csv(out)
@@ -238,7 +226,7 @@ def test_labels_failures_leave_old_outputs_alone(capsys, tmp_path: Path) -> None
     # PD02 is missing from the table: the error names the .eaf file, tier and time.
     missing = _participants(tmp_path, "PD01,PD,a,F,60,4\nHC01,HC,a,M,64,\n")
     code, _, err = run(
-        capsys, "remap", "labels", d, "--participants", missing, "--out", out_dir / "labels.csv"
+        ["remap", "labels", d, "--participants", missing, "--out", out_dir / "labels.csv"], capsys
     )
     assert code == EXIT_BAD_INPUT
     assert "'PD02'" in err and "S02.eaf" in err and "'Turn bob'" in err and "0.500 s" in err
@@ -248,14 +236,16 @@ def test_labels_failures_leave_old_outputs_alone(capsys, tmp_path: Path) -> None
         [Tier("Turn x", annotator="x", participant="PD01", annotations=[(2000, 3000, "100")])],
     )
     code, _, err = run(
+        [
+            "remap",
+            "labels",
+            d,
+            "--participants",
+            _participants(tmp_path),
+            "--out",
+            out_dir / "labels.csv",
+        ],
         capsys,
-        "remap",
-        "labels",
-        d,
-        "--participants",
-        _participants(tmp_path),
-        "--out",
-        out_dir / "labels.csv",
     )
     assert code == EXIT_BAD_INPUT
     assert "S03.eaf" in err and "'Turn x'" in err and "2.000 s" in err
@@ -271,16 +261,18 @@ def test_labels_bad_min_overlap_is_a_usage_error(capsys, tmp_path: Path, value: 
     d = _eaf_dir(tmp_path, disagree=False)
     out = tmp_path / "o" / "labels.csv"
     code, stdout, err = run(
+        [
+            "remap",
+            "labels",
+            d,
+            "--participants",
+            _participants(tmp_path),
+            "--min-overlap",
+            value,
+            "--out",
+            out,
+        ],
         capsys,
-        "remap",
-        "labels",
-        d,
-        "--participants",
-        _participants(tmp_path),
-        "--min-overlap",
-        value,
-        "--out",
-        out,
     )
     assert code == EXIT_BAD_INPUT and stdout == ""
     assert "--min-overlap" in err and "Traceback" not in err
@@ -291,25 +283,27 @@ def test_labels_refuses_to_overwrite_an_input(capsys, tmp_path: Path) -> None:
     d = _eaf_dir(tmp_path, disagree=False)
     p = _participants(tmp_path)
     before = p.read_bytes()
-    code, _, err = run(capsys, "remap", "labels", d, "--participants", p, "--out", p)
+    code, _, err = run(["remap", "labels", d, "--participants", p, "--out", p], capsys)
     assert code == EXIT_BAD_INPUT and "overwrite" in err
     assert p.read_bytes() == before
     code, _, err = run(
-        capsys, "remap", "labels", d, "--participants", p, "--out", tmp_path / "annotations.csv"
+        ["remap", "labels", d, "--participants", p, "--out", tmp_path / "annotations.csv"], capsys
     )
     assert code == EXIT_BAD_INPUT
 
 
 def test_labels_no_turn_tiers(capsys, tmp_path: Path, real_eaf_dir: Path) -> None:
     code, _, err = run(
+        [
+            "remap",
+            "labels",
+            real_eaf_dir / "speach_test.eaf",
+            "--participants",
+            _participants(tmp_path),
+            "--out",
+            tmp_path / "o" / "labels.csv",
+        ],
         capsys,
-        "remap",
-        "labels",
-        real_eaf_dir / "speach_test.eaf",
-        "--participants",
-        _participants(tmp_path),
-        "--out",
-        tmp_path / "o" / "labels.csv",
     )
     assert code == EXIT_BAD_INPUT
     assert "no turn annotations" in err and "remap inspect" in err
@@ -329,7 +323,7 @@ def test_labels_no_turn_tiers(capsys, tmp_path: Path, real_eaf_dir: Path) -> Non
         ],
         ["agreement"],
     ):
-        code, out, err = run(capsys, "remap", command[0], blank, *command[1:])
+        code, out, err = run(["remap", command[0], blank, *command[1:]], capsys)
         assert code == EXIT_BAD_INPUT and out == ""
         last = err.strip().splitlines()[-1]
         assert last.startswith(f"turn-datasets: error: {blank}: no turn annotations in 1 file")
@@ -345,9 +339,9 @@ def _labels(capsys, tmp_path: Path) -> Path:
     d = _eaf_dir(tmp_path, disagree=False)
     out = tmp_path / "labels.csv"
     assert (
-        run(capsys, "remap", "labels", d, "--participants", _participants(tmp_path), "--out", out)[
-            0
-        ]
+        run(
+            ["remap", "labels", d, "--participants", _participants(tmp_path), "--out", out], capsys
+        )[0]
         == EXIT_OK
     )
     return out
@@ -356,7 +350,7 @@ def _labels(capsys, tmp_path: Path) -> Path:
 def test_stats_markdown_by_hand(capsys, tmp_path: Path) -> None:
     labels = _labels(capsys, tmp_path)
     code, out, err = run(
-        capsys, "remap", "stats", labels, "--participants", _participants(tmp_path)
+        ["remap", "stats", labels, "--participants", _participants(tmp_path)], capsys
     )
     assert code == EXIT_OK, err
     # PD: PD01 (60 y, 4 y since diagnosis) and PD02 (70, 10), 3 turns: age 65 ± 7.1
@@ -374,14 +368,14 @@ def test_stats_markdown_by_hand(capsys, tmp_path: Path) -> None:
 
 def test_stats_csv_and_json(capsys, tmp_path: Path) -> None:
     labels = _labels(capsys, tmp_path)
-    code, out, _ = run(capsys, "remap", "stats", labels, "--csv")
+    code, out, _ = run(["remap", "stats", labels, "--csv"], capsys)
     assert code == EXIT_OK
     long = pd.read_csv(StringIO(out), dtype=str, keep_default_na=False)
     cell = long.set_index(["table", "row", "column"])["value"]
     assert cell[("table2", "free-living", "total")] == "3"
     assert cell[("table1", "all", "turns")] == "4"
     assert cell[("table1", "PD", "age_mean")] == ""  # no participants table given
-    code, out, _ = run(capsys, "remap", "stats", labels, "--format", "json")
+    code, out, _ = run(["remap", "stats", labels, "--format", "json"], capsys)
     doc = json.loads(out)
     assert doc["table2"]["total"]["total"] == 4
     assert doc["table1"]["PD"]["subjects"] == 2
@@ -393,14 +387,14 @@ def test_stats_bad_labels_file(capsys, tmp_path: Path) -> None:
     bad.write_text(
         "clip_id,subject,cohort,angle_deg,scenario,location\nc,P,PD,x,s,l\n", encoding="utf-8"
     )
-    code, out, err = run(capsys, "remap", "stats", bad)
+    code, out, err = run(["remap", "stats", bad], capsys)
     assert code == EXIT_BAD_INPUT and out == ""
     assert f"{bad}:2" in err
 
 
 @pytest.mark.parametrize("command", ["inspect", "labels", "stats"])
 def test_help_has_examples(capsys, command: str) -> None:
-    code, out, _ = run(capsys, "remap", command, "--help")
+    code, out, _ = run(["remap", command, "--help"], capsys)
     assert code == EXIT_OK
     assert "Example:" in out
 

@@ -5,19 +5,13 @@ any process starts (4096 were accepted: some 800 GB)."""
 from __future__ import annotations
 
 import numpy as np
+from conftest import run_turn_eval as run
 from test_reading_bounds import walking
 
 from turn_datasets import limits, machine
-from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
-from turn_eval.cli import cli
+from turn_datasets.cli.common import EXIT_BAD_INPUT
 
 DETECT = ["--layout", "h36m17", "--up-axis", "z", "--fps", "30"]
-
-
-def run(args: list, capsys) -> tuple[int, str, str]:
-    code = run_group(cli, "turn-eval", [str(a) for a in args])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 def test_more_local_workers_than_the_bound_are_refused(tmp_path, capsys) -> None:

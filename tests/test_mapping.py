@@ -13,12 +13,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import run_turn_eval as run
 from test_detect import WALK_TURN_WALK, stream
 
-from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
+from turn_datasets.cli.common import EXIT_BAD_INPUT
 from turn_datasets.fileio import sha256_file
 from turn_datasets.skeleton import H36M17
-from turn_eval.cli import cli
 from turn_eval.detect.mapping import detect_files
 from turn_eval.detect.rule import MinerRule
 from turn_eval.mapping import Failure, files
@@ -34,11 +34,6 @@ def _camera(p_zup: np.ndarray) -> np.ndarray:
 @pytest.fixture(scope="module")
 def turn_stream() -> np.ndarray:
     return _camera(stream(WALK_TURN_WALK))
-
-
-def run(args: list, capsys) -> tuple[int, str]:
-    code = run_group(cli, "turn-eval", [str(a) for a in args])
-    return code, capsys.readouterr().err
 
 
 @pytest.fixture()
@@ -120,7 +115,7 @@ def test_files_are_hashed_here_and_an_unreadable_one_is_a_failure(tmp_path, turn
 def test_tls_and_ucx_schedulers_are_one_line(tmp_path, capsys, turn_stream, scheme) -> None:
     np.savez(tmp_path / "home.npz", P01=turn_stream)
     args = ["detect", tmp_path / "home.npz", *BASE, "--scheduler", f"{scheme}://127.0.0.1:9"]
-    code, err = run([*args, "--out", tmp_path / "d.csv"], capsys)
+    code, _, err = run([*args, "--out", tmp_path / "d.csv"], capsys)
     assert code == EXIT_BAD_INPUT and len(err.strip().splitlines()) == 1, err
     assert f"only tcp:// schedulers are supported, not {scheme}://" in err
     assert not (tmp_path / "d.csv").exists()
@@ -134,7 +129,7 @@ def test_a_scheduler_without_workers_times_out_in_one_line(
     monkeypatch.setattr(cluster, "WORKER_WAIT_S", 1)
     np.savez(tmp_path / "home.npz", P01=turn_stream)
     args = ["detect", tmp_path / "home.npz", *BASE, "--scheduler", scheduler]
-    code, err = run([*args, "--out", tmp_path / "d.csv"], capsys)
+    code, _, err = run([*args, "--out", tmp_path / "d.csv"], capsys)
     assert code == EXIT_BAD_INPUT and len(err.strip().splitlines()) == 1, err
     assert f"no worker joined the Dask scheduler at {scheduler} within 1 s" in err
 

@@ -389,3 +389,50 @@ def test_segments_are_numpys_unique_rows(seed):
     )
     assert first.tolist() == first_np.tolist()
     assert seg.tolist() == seg_np.reshape(-1).tolist()
+
+
+def _bench_score():
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_score.py"
+    spec = importlib.util.spec_from_file_location("bench_score_module", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_generic_engine_scores_clips_as_the_sparse_path_and_sklearn():
+    # The benchmark's comparison is of equal work: the clips through the generic engine
+    # (components per clip, one combine) give every metric of every group on every resample
+    # that the sparse path and scikit-learn give.
+    bench = _bench_score()
+    pred, ref, duration, speed, group = _sample(n=90, seed=5)
+    o = clip_outcomes(pred, ref, ref_duration_s=duration, pred_speed_deg_s=speed)
+    partitions = [Partition.whole(o.n), Partition("g", ("a", "b", "c"), group)]
+    chunks = [np.random.default_rng(2).integers(0, o.n, (25, o.n))]
+    generic = bench.generic_bootstrap(o, partitions, chunks)
+    sparse = grouped_bootstrap(o, partitions, indices=chunks)
+    for a, b in zip(sparse, generic, strict=True):
+        assert set(a) == set(b)
+        for name in a:
+            assert np.allclose(a[name], b[name], rtol=1e-12, atol=0.0, equal_nan=True), name
+    for r in (0, 13, 24):
+        drawn = chunks[0][r]
+        for g in range(3):
+            keep = drawn[group[drawn] == g]
+            expected = precision_score(
+                quantise_deg(ref[keep]),
+                quantise_deg(pred[keep]),
+                average="weighted",
+                zero_division=0,
+            )
+            assert generic[1]["wprec"][r, g] == pytest.approx(expected, abs=1e-12)
+            assert generic[1]["n"][r, g] == keep.size
+            assert generic[1]["mae_deg"][r, g] == pytest.approx(
+                np.abs(pred[keep] - ref[keep]).mean()
+            )
+    ratio = bench.sparse_over_generic(o, partitions, n_resamples=20, repeats=1)
+    assert np.isfinite(ratio) and ratio > 0

@@ -237,7 +237,7 @@ def test_overrides_exclude_keep_adjust_and_unmatched(corpus, tmp_path, capsys) -
         ("a,exclude,3,9,\n", 2, "exclude takes no frames"),
         (",keep,,,\n", 2, "empty clip_id"),
         ("a,keep,,,\na,exclude,,,\n", 3, "already has an override on line 2"),
-        ("a,keep,,\n", 2, "4 fields, expected 5"),
+        ("a,keep,,\n", 2, "row has 4 fields but the header has 5"),
     ],
 )
 def test_bad_override_rows_name_file_and_line(corpus, tmp_path, capsys, body, line, message):
@@ -272,6 +272,23 @@ def test_override_header_and_adjust_outside_the_sequence(corpus, tmp_path, capsy
     code, _, stderr = _mine(corpus, out, capsys, "--overrides", far)
     assert code == EXIT_BAD_INPUT and f"{far}:2: cannot adjust {first}" in stderr
     assert not out.exists()
+
+
+def test_a_semicolon_overrides_export_is_applied_and_said(corpus, tmp_path, capsys) -> None:
+    plain = tmp_path / "plain.csv"
+    assert _mine(corpus, plain, capsys)[0] == 0
+    first = pd.read_csv(plain)["clip_id"][0]
+    curation = tmp_path / "curation.csv"
+    curation.write_bytes(
+        b"\xef\xbb\xbfclip_id;decision;start_frame;end_frame;note\r\n"
+        + f"{first};exclude;;;not a turn\r\n".encode()
+    )
+    out = tmp_path / "curated.csv"
+    code, _, stderr = _mine(corpus, out, capsys, "--overrides", curation)
+    assert code == 0, stderr
+    assert f"warning: {curation}: read as semicolon-separated (a spreadsheet export?)" in stderr
+    assert first not in set(pd.read_csv(out)["clip_id"])
+    assert len(pd.read_csv(out)) == len(pd.read_csv(plain)) - 1
 
 
 def test_adjusting_a_clip_onto_another_is_refused(corpus, tmp_path, capsys) -> None:

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import run_turn_eval
 from scipy.spatial.transform import Rotation
 
 from turn_datasets.h36m.miner import mine_sequence
@@ -173,14 +174,10 @@ def test_detect_reads_the_same_captures_and_finds_the_same_turns(cmu_dir, tmp_pa
     one included, once; none on the walks), each within 8° of the root's own heading change,
     none longer than 10 s or faster than the human bound."""
     from turn_datasets import limits
-    from turn_datasets.cli.common import run_group
-    from turn_eval.cli import cli
 
     out = tmp_path / "d.csv"
-    code = run_group(
-        cli, "turn-eval", ["detect", str(cmu_dir), "--from", "mocap", "--out", str(out)]
-    )
-    assert code == 0, capsys.readouterr().err
+    code, _, err = run_turn_eval(["detect", cmu_dir, "--from", "mocap", "--out", out], capsys)
+    assert code == 0, err
     found = pd.read_csv(out)
     manifest = json.loads(out.with_suffix(".manifest.json").read_text(encoding="utf-8"))
     assert manifest["reading"]["fps_hz"] is None  # each file's own: 120 Hz

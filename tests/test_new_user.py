@@ -10,17 +10,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import run_turn_datasets as _run_datasets
+from conftest import run_turn_eval as _run_eval
 
-from turn_datasets.cli import cli
-from turn_datasets.cli.common import run_group
 from turn_datasets.synthetic import mocap as sm
 from turn_datasets.synthetic.h36m_files import write_h36m_cdf, write_videopose_npz
-
-
-def _run_datasets(args, capsys) -> tuple[int, str, str]:
-    code = run_group(cli, "turn-datasets", [str(a) for a in args])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 def _walk_and_turn(seed: int) -> np.ndarray:
@@ -69,14 +63,6 @@ def test_a_folder_walk_names_every_file_it_passes_over(tmp_path, capsys) -> None
 
 
 # --- detect takes the frame rate estimate's manifest records -----------------------------
-
-
-def _run_eval(args, capsys) -> tuple[int, str, str]:
-    from turn_eval.cli import cli as eval_cli
-
-    code = run_group(eval_cli, "turn-eval", [str(a) for a in args])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 def _estimate_like(folder: Path, fps_hz: float) -> Path:

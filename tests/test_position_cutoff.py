@@ -11,10 +11,11 @@ import json
 
 import numpy as np
 import pytest
+from conftest import run_cli as run
 from test_reading_bounds import walking
 
 from turn_datasets.cli import cli as datasets_cli
-from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
+from turn_datasets.cli.common import EXIT_BAD_INPUT
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.h36m.miner import (
     check_position_cutoff,
@@ -26,12 +27,6 @@ from turn_eval.cli import cli as eval_cli
 
 DETECT = ["--layout", "h36m17", "--up-axis", "z", "--fps", "30"]
 MINE = ["--layout", "h36m17", "--fps", "30", "--up-axis", "z", "--units", "m"]
-
-
-def run(group, name: str, args: list, capsys) -> tuple[int, str, str]:
-    code = run_group(group, name, [str(a) for a in args])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 @pytest.mark.parametrize("cutoff", ["1e-9", "0.0029", "13.5", "100"])

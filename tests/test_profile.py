@@ -15,10 +15,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import run_turn_datasets, run_turn_eval
 from sklearn.metrics import roc_auc_score
 
-from turn_datasets.cli.common import run_group
-from turn_eval.cli import cli
 from turn_eval.profile import turning_profile
 
 PD = ["P01", "P02", "P03", "P04", "P05"]
@@ -27,9 +26,8 @@ SMALL = "P09"  # a PD participant with three turns: suppressed at --min-turns 5
 
 
 def run(args, capsys) -> tuple[int, str, str]:
-    code = run_group(cli, "turn-eval", ["profile", *(str(a) for a in args)])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
+    """``turn-eval profile args``."""
+    return run_turn_eval(["profile", *args], capsys)
 
 
 def _write_inputs(folder: Path, seed: int = 7) -> dict[str, Path]:
@@ -444,7 +442,6 @@ def test_existing_out_dir_is_kept_on_bad_input(inputs, tmp_path, capsys):
 def test_remap_labels_copies_the_recorded_start_time(tmp_path, capsys):
     """ELAN files that record their start (header property ``start_time``) give sessions.csv
     a ``start_time``, which ``profile`` reads; files without it give the column as before."""
-    from turn_datasets.cli import cli as datasets_cli
     from turn_datasets.synthetic.eaf import session_start_time, write_sessions
 
     synth = write_sessions(
@@ -458,9 +455,8 @@ def test_remap_labels_copies_the_recorded_start_time(tmp_path, capsys):
         "--participants",
         str(synth.participants_path),
     ]
-    assert run_group(datasets_cli, "turn-datasets", [*args, "--out", str(out)]) == 0, (
-        capsys.readouterr().err
-    )
+    code, _, err = run_turn_datasets([*args, "--out", out], capsys)
+    assert code == 0, err
     sessions = pd.read_csv(out.parent / "sessions.csv")
     assert list(sessions.columns) == ["session", "subject", "duration_s", "start_time"]
     for row in sessions.itertuples(index=False):
@@ -490,7 +486,7 @@ def test_remap_labels_copies_the_recorded_start_time(tmp_path, capsys):
     write_sessions(tmp_path / "eaf2", seed=4, n_pairs=2, turns_per_subject=8)
     out2 = tmp_path / "labels2" / "labels.csv"
     args[2] = str(tmp_path / "eaf2")
-    assert run_group(datasets_cli, "turn-datasets", [*args, "--out", str(out2)]) == 0
+    assert run_turn_datasets([*args, "--out", out2], capsys)[0] == 0
     assert "start_time" not in pd.read_csv(out2.parent / "sessions.csv").columns
 
 

@@ -11,10 +11,11 @@ import zipfile
 import h5py
 import numpy as np
 import pytest
+from conftest import run_cli as run
 
 from turn_datasets import limits, machine
 from turn_datasets.cli import cli as datasets_cli
-from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
+from turn_datasets.cli.common import EXIT_BAD_INPUT
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.mocap.checks import check_declared_size, check_magnitude
 from turn_datasets.skeleton import H36M17, UP_AXES, to_z_up
@@ -26,12 +27,6 @@ DETECT = ["--layout", "h36m17", "--up-axis", "z", "--fps", "30"]
 PREDICT = ["--layout", "h36m17", "--up-axis", "z"]
 MINE = ["--layout", "h36m17", "--fps", "30", "--up-axis", "z", "--units", "m"]
 HUGE = (40_000_000, 17, 3)  # the 8.2 GB of float32
-
-
-def run(group, name: str, args: list, capsys) -> tuple[int, str, str]:
-    code = run_group(group, name, [str(a) for a in args])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 def one_line(code: int, stderr: str) -> str:

@@ -8,9 +8,9 @@ from pathlib import Path
 
 import pandas as pd
 from _eaf_builder import Tier, write_eaf
+from conftest import run_turn_datasets, run_turn_eval
 
-from turn_datasets.cli import cli
-from turn_datasets.cli.common import EXIT_OK, run_group
+from turn_datasets.cli.common import EXIT_OK
 from turn_datasets.remap.context import (
     CONTEXT_COLUMNS,
     SESSIONS_COLUMNS,
@@ -18,7 +18,6 @@ from turn_datasets.remap.context import (
     sessions_table,
 )
 from turn_datasets.remap.eaf import FileContext, _Context
-from turn_eval.cli import main as eval_main
 
 HEADER = "subject,cohort,pair,sex,age,years_since_diagnosis\n"
 
@@ -60,13 +59,10 @@ def _labels(capsys, tmp_path: Path) -> Path:
     participants = tmp_path / "participants.csv"
     participants.write_text(HEADER + "PD01,PD,a,F,60,4\nHC01,HC,a,M,64,\nPD02,PD,b,M,70,10\n")
     out = tmp_path / "labels" / "labels.csv"
-    code = run_group(
-        cli,
-        "turn-datasets",
-        ["remap", "labels", str(_eaf_dir(tmp_path)), "--participants", str(participants)]
-        + ["--out", str(out)],
+    code, _, err = run_turn_datasets(
+        ["remap", "labels", _eaf_dir(tmp_path), "--participants", participants, "--out", out],
+        capsys,
     )
-    _, err = capsys.readouterr()
     assert code == EXIT_OK, err
     assert "context.csv" in err and "sessions.csv" in err
     return out
@@ -140,11 +136,9 @@ def test_score_events_on_perturbed_labels(capsys, tmp_path: Path):
     args = ["score-events", str(path), "-r", str(out), "--format", "json"]
     args += ["--context", str(out.parent / "context.csv")]
     args += ["--sessions", str(out.parent / "sessions.csv"), "--bootstrap", "0"]
-    try:
-        eval_main(args)
-    except SystemExit as exc:
-        assert exc.code == 0
-    doc = json.loads(capsys.readouterr().out)
+    code, stdout, err = run_turn_eval(args, capsys)
+    assert code == 0, err
+    doc = json.loads(stdout)
     o = doc["overall"]
     # IoUs: HC01 [3.25, 4.5] vs [3, 4.5] 1.25/1.5; PD01 [1, 2] exact; [5.5, 6] vs [5, 6] 0.5
     # (at the threshold: a match); PD02 exact. 4 TP, the false turn an FP, 12-13 s an FN.

@@ -17,9 +17,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import run_cli as run
 
 from turn_datasets.cli import cli as datasets_cli
-from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
+from turn_datasets.cli.common import EXIT_BAD_INPUT
 from turn_datasets.skeleton import to_z_up
 from turn_datasets.synthetic.remap_open import (
     SHEET_RELATIVE,
@@ -40,12 +41,6 @@ SHEET_COLUMNS = [
     "DBS_state",
     "clinical_assessment",
 ]
-
-
-def run(group, prog: str, args: list, capsys) -> tuple[int, str, str]:
-    code = run_group(group, prog, [str(a) for a in args])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 def datasets(args: list, capsys) -> tuple[int, str, str]:

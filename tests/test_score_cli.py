@@ -11,9 +11,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import run_turn_datasets
 from conftest import run_turn_eval as run
 
-from turn_datasets.cli.common import EXIT_BAD_INPUT, run_group
+from turn_datasets.cli.common import EXIT_BAD_INPUT
 from turn_eval.cli import score as _cli_score
 from turn_eval.clips import plots
 
@@ -215,17 +216,12 @@ def test_console_script_exit_codes(files):
 
 def test_a_real_clip_index_scores_as_it_is(cmu_dir, tmp_path, capsys):
     # Turn-H3.6M's clip index format, mined from the real CMU captures in ../shared/data.
-    from turn_datasets.cli import cli as datasets_cli
-
     index = tmp_path / "cmu.csv"
     bvh = sorted(str(p) for p in cmu_dir.glob("*.bvh"))
-    code = run_group(
-        datasets_cli,
-        "turn-datasets",
-        ["h36m", "mine", *bvh, "--skip-first-frame", "--out", str(index)],
+    code, _, err = run_turn_datasets(
+        ["h36m", "mine", *bvh, "--skip-first-frame", "--out", index], capsys
     )
-    capsys.readouterr()
-    assert code == 0
+    assert code == 0, err
     clips = pd.read_csv(index)
     assert len(clips) >= 1
     # A submission off by known amounts: +10, +30, -50, +10, ... degrees.

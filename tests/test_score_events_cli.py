@@ -6,8 +6,7 @@ import json
 from pathlib import Path
 
 import pytest
-
-from turn_eval.cli import main
+from conftest import run_turn_eval as run
 
 REF = """session,subject,start_s,end_s,angle_deg,cohort,scenario,location
 s1,P1,0,2,90,PD,scripted,kitchen
@@ -24,13 +23,6 @@ s2,P2,0.5,3,135,0.3
 """
 
 
-def _run(capsys, args: list[str]) -> tuple[int, str, str]:
-    with pytest.raises(SystemExit) as exc:
-        main(args)
-    out, err = capsys.readouterr()
-    return int(exc.value.code), out, err
-
-
 @pytest.fixture()
 def files(tmp_path: Path) -> tuple[Path, Path]:
     (tmp_path / "ref.csv").write_text(REF)
@@ -40,8 +32,8 @@ def files(tmp_path: Path) -> tuple[Path, Path]:
 
 def test_json_has_the_keys_the_issue_names(capsys, files):
     det, ref = files
-    code, out, _ = _run(
-        capsys, ["score-events", str(det), "-r", str(ref), "--format", "json", "--bootstrap", "50"]
+    code, out, _ = run(
+        ["score-events", str(det), "-r", str(ref), "--format", "json", "--bootstrap", "50"], capsys
     )
     assert code == 0
     doc = json.loads(out)
@@ -60,8 +52,8 @@ def test_json_has_the_keys_the_issue_names(capsys, files):
 
 def test_markdown_by_default_and_by_takes_a_comma_list(capsys, files):
     det, ref = files
-    code, out, err = _run(
-        capsys, ["score-events", str(det), "-r", str(ref), "--by", "cohort,scenario"]
+    code, out, err = run(
+        ["score-events", str(det), "-r", str(ref), "--by", "cohort,scenario"], capsys
     )
     assert code == 0
     assert "## By cohort" in out and "## By scenario" in out and "## By subject" not in out
@@ -76,9 +68,9 @@ def test_out_dir_is_written_whole_and_identically(capsys, files, tmp_path):
     sessions = tmp_path / "sessions.csv"
     sessions.write_text("session,subject,duration_s\ns1,P1,1800\ns2,P2,3600\n")
     args = ["score-events", str(det), "-r", str(ref), "--sessions", str(sessions)]
-    code, _, err = _run(capsys, [*args, "--out-dir", str(tmp_path / "a")])
+    code, _, err = run([*args, "--out-dir", str(tmp_path / "a")], capsys)
     assert code == 0 and "wrote event scores" in err
-    code, _, _ = _run(capsys, [*args, "--out-dir", str(tmp_path / "b")])
+    code, _, _ = run([*args, "--out-dir", str(tmp_path / "b")], capsys)
     names = sorted(p.name for p in (tmp_path / "a").iterdir())
     assert names == sorted(
         [
@@ -108,7 +100,7 @@ def test_bad_input_is_one_line_naming_file_and_line(capsys, tmp_path, files, det
     _, ref = files
     bad = tmp_path / "det.csv"
     bad.write_text(det_text)
-    code, out, err = _run(capsys, ["score-events", str(bad), "-r", str(ref)])
+    code, out, err = run(["score-events", str(bad), "-r", str(ref)], capsys)
     assert code == 2 and out == ""
     assert err.count("\n") == 1
     assert message in err
@@ -118,9 +110,8 @@ def test_ignore_unknown_warns_and_scores(capsys, tmp_path, files):
     _, ref = files
     bad = tmp_path / "det.csv"
     bad.write_text(DET.replace("s2,P2,0.5", "s3,P2,0.5"))
-    code, out, err = _run(
-        capsys,
-        ["score-events", str(bad), "-r", str(ref), "--ignore-unknown", "--format", "json"],
+    code, out, err = run(
+        ["score-events", str(bad), "-r", str(ref), "--ignore-unknown", "--format", "json"], capsys
     )
     assert code == 0
     assert json.loads(out)["counts"]["dropped_unknown"] == 1
@@ -129,7 +120,7 @@ def test_ignore_unknown_warns_and_scores(capsys, tmp_path, files):
 
 def test_iou_out_of_range_is_a_usage_error(capsys, files):
     det, ref = files
-    code, _, err = _run(capsys, ["score-events", str(det), "-r", str(ref), "--iou", "0"])
+    code, _, err = run(["score-events", str(det), "-r", str(ref), "--iou", "0"], capsys)
     assert code == 2 and "--iou" in err
 
 
@@ -137,7 +128,7 @@ def test_plots_are_written_identically_and_removed_by_a_run_without(capsys, file
     det, ref = files
     args = ["score-events", str(det), "-r", str(ref), "--bootstrap", "20"]
     for name in ("a", "b"):
-        code, _, err = _run(capsys, [*args, "--out-dir", str(tmp_path / name), "--plots"])
+        code, _, err = run([*args, "--out-dir", str(tmp_path / name), "--plots"], capsys)
         assert code == 0, err
     a, b = tmp_path / "a", tmp_path / "b"
     figures = sorted(str(p.relative_to(a)) for p in a.rglob("*.png"))
@@ -151,7 +142,7 @@ def test_plots_are_written_identically_and_removed_by_a_run_without(capsys, file
     for name in figures:
         assert (a / name).read_bytes() == (b / name).read_bytes()
         assert (a / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    code, _, err = _run(capsys, [*args, "--out-dir", str(a)])
+    code, _, err = run([*args, "--out-dir", str(a)], capsys)
     assert code == 0
     assert not list(a.rglob("*.png"))
     assert "removed 4 file(s) of the previous run" in err
@@ -159,7 +150,7 @@ def test_plots_are_written_identically_and_removed_by_a_run_without(capsys, file
 
 def test_plots_need_an_out_dir(capsys, files):
     det, ref = files
-    code, _, err = _run(capsys, ["score-events", str(det), "-r", str(ref), "--plots"])
+    code, _, err = run(["score-events", str(det), "-r", str(ref), "--plots"], capsys)
     assert code == 2 and "--plots needs --out-dir" in err
 
 
@@ -169,8 +160,7 @@ def test_an_out_dir_that_would_overwrite_an_input_names_out_dir(capsys, tmp_path
     out.mkdir()
     (out / "events.csv").write_text(DET)
     (tmp_path / "ref.csv").write_text(REF)
-    code, stdout, err = _run(
-        capsys,
+    code, stdout, err = run(
         [
             "score-events",
             str(out / "events.csv"),
@@ -179,6 +169,7 @@ def test_an_out_dir_that_would_overwrite_an_input_names_out_dir(capsys, tmp_path
             "--out-dir",
             str(out),
         ],
+        capsys,
     )
     assert code == 2 and stdout == ""
     assert "choose another --out-dir" in err and len(err.strip().splitlines()) == 1

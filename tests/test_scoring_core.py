@@ -199,3 +199,66 @@ def test_compare_takes_r_and_signs_both_submissions(clips, tmp_path: Path, capsy
         _sha(pred),
         _sha(other),
     )
+
+
+# --- the signature hashes the bytes the reader read ---------------------------------------
+
+
+def test_the_reader_hashes_the_bytes_it_read(tmp_path: Path):
+    from turn_datasets.usertable import read_table
+
+    # A BOM, CRLF and semicolons: the sha256 is of the file's bytes, not of the text read.
+    raw = b"\xef\xbb\xbfclip_id;angle_deg\r\na;90,5\r\nb;180\r\n"
+    path = tmp_path / "ref.csv"
+    path.write_bytes(raw)
+    assert read_table(path, what="reference").sha256 == hashlib.sha256(raw).hexdigest()
+
+
+@pytest.fixture()
+def no_second_read(monkeypatch):
+    """A signature that reads an input again fails the test."""
+    import turn_eval.scoring.signature as signature
+
+    def read_again(path, *args, **kwargs):
+        pytest.fail(f"the signature read {path} again")
+
+    monkeypatch.setattr(signature, "sha256_file", read_again)
+
+
+def test_score_and_compare_sign_the_bytes_read_without_reading_again(
+    clips, tmp_path: Path, capsys, no_second_read
+):
+    pred, ref = clips
+    code, out, err = run(["score", pred, "-r", ref, "--format", "json"], capsys)
+    assert code == 0, err
+    sig = json.loads(out)["signature"]
+    assert (sig["reference_sha256"], sig["predictions_sha256"]) == (_sha(ref), _sha(pred))
+    other = tmp_path / "b.csv"
+    other.write_bytes(b"\xef\xbb\xbfclip_id,angle_deg\r\na,90\r\nb,180\r\nc,45\r\nd,140\r\n")
+    code, out, err = run(
+        ["compare", pred, other, "-r", ref, "--bootstrap", "20", "--format", "json"], capsys
+    )
+    assert code == 0, err
+    sig = json.loads(out)["signature"]
+    assert (sig["reference_sha256"], sig["a_sha256"], sig["b_sha256"]) == (
+        hashlib.sha256(CLIP_REF.encode()).hexdigest(),
+        hashlib.sha256(CLIP_PRED.encode()).hexdigest(),
+        hashlib.sha256(other.read_bytes()).hexdigest(),
+    )
+
+
+def test_score_events_signs_the_bytes_read_without_reading_again(
+    events, tmp_path: Path, capsys, no_second_read
+):
+    det, ref = events
+    sessions = tmp_path / "sessions.csv"
+    sessions.write_bytes(b"\xef\xbb\xbfsession,subject,duration_s\r\ns1,P1,60\r\ns2,P2,30\r\n")
+    args = ["score-events", det, "-r", ref, "--sessions", sessions, "--bootstrap", "0"]
+    code, out, err = run([*args, "--format", "json"], capsys)
+    assert code == 0, err
+    sig = json.loads(out)["signature"]
+    assert (sig["reference_sha256"], sig["detections_sha256"], sig["sessions_sha256"]) == (
+        hashlib.sha256(EVENT_REF.encode()).hexdigest(),
+        hashlib.sha256(EVENT_DET.encode()).hexdigest(),
+        hashlib.sha256(sessions.read_bytes()).hexdigest(),
+    )

@@ -24,11 +24,11 @@ from _server_support import (  # noqa: E402
     Served,
     bearer,
     database,
-    run,
     wait_scored,
     write_predictions,
     write_reference,
 )
+from conftest import run_turn_eval as run  # noqa: E402
 
 DBS = ["sqlite", "postgresql"]
 

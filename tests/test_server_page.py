@@ -19,11 +19,11 @@ from _server_support import (  # noqa: E402
     MARKER,
     Served,
     bearer,
-    run,
     wait_scored,
     write_predictions,
     write_reference,
 )
+from conftest import run_turn_eval as run  # noqa: E402
 
 #: No network, no first-run work, a new empty profile: the flags the issue fixes.
 CHROMIUM_FLAGS = (

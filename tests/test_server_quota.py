@@ -20,10 +20,10 @@ from _server_support import (  # noqa: E402
     Served,
     bearer,
     database,
-    run,
     write_predictions,
     write_reference,
 )
+from conftest import run_turn_eval as run  # noqa: E402
 
 
 @pytest.mark.parametrize("db", ["sqlite", "postgresql"])

@@ -18,11 +18,11 @@ from _server_support import (  # noqa: E402
     bearer,
     database,
     descendants,
-    run,
     wait_scored,
     write_predictions,
     write_reference,
 )
+from conftest import run_turn_eval as run  # noqa: E402
 
 
 def _statuses(root, capsys) -> dict[str, int]:

@@ -14,7 +14,8 @@ import time
 import numpy as np
 import pandas as pd
 import pytest
-from _server_support import run, write_predictions, write_reference
+from _server_support import write_predictions, write_reference
+from conftest import run_turn_eval as run
 
 from turn_eval.server.ranking import gated_ranks
 from turn_eval.server.receipts import RECEIPT_FIELDS, sign_receipt, verify_receipt

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import run_turn_eval
 
 from turn_datasets.skeleton import H36M17, H36M17_FROM_32, H36M32
 from turn_datasets.synthetic import mocap as sm
@@ -211,9 +212,6 @@ def test_score_reports_steps_and_turn_type_by_hand(tmp_path, capsys):
 
     import pandas as pd
 
-    from turn_datasets.cli.common import run_group
-    from turn_eval.cli import cli
-
     ref = pd.DataFrame(
         {
             "clip_id": [f"c{i}" for i in range(6)],
@@ -234,8 +232,7 @@ def test_score_reports_steps_and_turn_type_by_hand(tmp_path, capsys):
     ref.to_csv(tmp_path / "ref.csv", index=False)
     pred.to_csv(tmp_path / "pred.csv", index=False)
     args = ["score", str(tmp_path / "pred.csv"), "-r", str(tmp_path / "ref.csv")]
-    code = run_group(cli, "turn-eval", [*args, "--format", "json", "--bootstrap", "0"])
-    out = capsys.readouterr().out
+    code, out, _ = run_turn_eval([*args, "--format", "json", "--bootstrap", "0"], capsys)
     assert code == 0
     steps = json.loads(out)["steps"]
     overall = steps["overall"]
@@ -247,16 +244,15 @@ def test_score_reports_steps_and_turn_type_by_hand(tmp_path, capsys):
     pd_group = steps["by"]["cohort"]["PD"]
     assert pd_group["steps_mae"] == pytest.approx(1 / 3)
     assert pd_group["type_accuracy"] == pytest.approx(2 / 3)
-    code = run_group(cli, "turn-eval", [*args, "--bootstrap", "0"])
-    assert "## Steps and turn type" in capsys.readouterr().out
+    code, out, _ = run_turn_eval([*args, "--bootstrap", "0"], capsys)
+    assert "## Steps and turn type" in out
     # without the columns on one side, no steps section
     pred.drop(columns=["steps", "turn_type"]).to_csv(tmp_path / "pred.csv", index=False)
-    code = run_group(cli, "turn-eval", [*args, "--format", "json", "--bootstrap", "0"])
-    assert "steps" not in json.loads(capsys.readouterr().out)
+    code, out, _ = run_turn_eval([*args, "--format", "json", "--bootstrap", "0"], capsys)
+    assert "steps" not in json.loads(out)
     # a fractional step count is refused with its line
     pred.assign(steps=["1", "2.5", "3", "2", "5", "1"]).to_csv(tmp_path / "pred.csv", index=False)
-    code = run_group(cli, "turn-eval", [*args, "--bootstrap", "0"])
-    err = capsys.readouterr().err
+    code, _, err = run_turn_eval([*args, "--bootstrap", "0"], capsys)
     assert code == 2 and "pred.csv:3" in err and "steps 2.5" in err
 
 
@@ -265,9 +261,6 @@ def test_detect_cli_step_options_reach_the_counter_and_the_manifest(tmp_path, ca
     import json
 
     import pandas as pd
-
-    from turn_datasets.cli.common import run_group
-    from turn_eval.cli import cli
 
     segs = [sm.Segment.stand(2.0), sm.Segment.pivot_turn(120.0, 2.0, steps=2)]
     segs += [sm.Segment.walk(3.0), sm.Segment.walking_turn(-150.0, 2.0, steps=5)]
@@ -284,12 +277,14 @@ def test_detect_cli_step_options_reach_the_counter_and_the_manifest(tmp_path, ca
         "--fps",
         "50",
     ]
-    assert run_group(cli, "turn-eval", [*base, "--out", str(tmp_path / "a.csv")]) == 0
+    code, _, err = run_turn_eval([*base, "--out", tmp_path / "a.csv"], capsys)
+    assert code == 0, err
     found = pd.read_csv(tmp_path / "a.csv")
     assert found["steps"].tolist() == [2, 5] and found["turn_type"].tolist() == ["pivot", "step"]
     strict = ["--steps-min-step-legs", "5", "--steps-min-lift-legs", "5"]
     out = tmp_path / "b.csv"
-    assert run_group(cli, "turn-eval", [*base, *strict, "--out", str(out)]) == 0
+    code, _, err = run_turn_eval([*base, *strict, "--out", out], capsys)
+    assert code == 0, err
     assert pd.read_csv(out)["steps"].tolist() == [0, 0]
     manifest = json.loads(out.with_name("b.manifest.json").read_text())
     assert manifest["params"]["steps_min_step_legs"] == 5.0

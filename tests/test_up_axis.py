@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import run_turn_eval
 
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.skeleton import H36M17, H36M32, UP_AXES, to_z_up
@@ -150,9 +151,6 @@ def test_resolve_and_the_record_of_axes(walker):
 def test_detect_infers_each_streams_axis_and_records_it(tmp_path, capsys):
     import json
 
-    from turn_datasets.cli.common import run_group
-    from turn_eval.cli import cli
-
     seq = generate_sequence(
         seed=4,
         segments=[Segment.walk(3.0), Segment.walking_turn(-135.0, 1.5), Segment.walk(3.0)],
@@ -165,8 +163,7 @@ def test_detect_infers_each_streams_axis_and_records_it(tmp_path, capsys):
     for name, extra in (("auto", []), ("stated", ["--up-axis", "-y"])):
         out = tmp_path / f"{name}.csv"
         args = ["detect", tmp_path / "home.npz", "--layout", "h36m17", "--fps", "30", *extra]
-        code = run_group(cli, "turn-eval", [str(a) for a in [*args, "--out", out]])
-        err = capsys.readouterr().err
+        code, _, err = run_turn_eval([*args, "--out", out], capsys)
         assert code == 0, err
         found[name] = (
             pd.read_csv(out),

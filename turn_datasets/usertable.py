@@ -24,6 +24,7 @@ module; both give the same :class:`Table`.
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
 import os
 import re
@@ -84,6 +85,9 @@ class Table:
     ascii: bool = True
     #: How many cells of each text column had white space around them (read without it).
     padded: dict[str, int] = field(default_factory=dict)
+    #: The sha256 of the file's bytes as read (a signature names the input by it, without
+    #: reading the file again).
+    sha256: str = ""
 
 
 def _sniff_delimiter(header_line: str) -> str:
@@ -93,18 +97,23 @@ def _sniff_delimiter(header_line: str) -> str:
     return best if counts[best] > 0 else ","
 
 
-def _read_text(name: str, *, what: str) -> str:
+def _read_text(name: str, *, what: str) -> tuple[str, str]:
+    """The file's text (UTF-8, a byte-order mark dropped) and the sha256 of its bytes: one
+    read serves both."""
     try:
-        with open(name, encoding="utf-8-sig", newline="") as fh:
-            return fh.read()
+        with open(name, "rb") as fh:
+            data = fh.read()
     except FileNotFoundError:
         raise TurnbenchError(f"{what} file not found", file=name) from None
     except IsADirectoryError:
         raise TurnbenchError(f"{what} is a folder, not a CSV file", file=name) from None
-    except UnicodeDecodeError as exc:
-        raise TurnbenchError(f"{what} file is not UTF-8 text ({exc.reason})", file=name) from None
     except OSError as exc:
         raise TurnbenchError(f"cannot read the {what} file: {exc.strerror}", file=name) from None
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise TurnbenchError(f"{what} file is not UTF-8 text ({exc.reason})", file=name) from None
+    return text, hashlib.sha256(data).hexdigest()
 
 
 def _one_newline(text: str, name: str, *, what: str) -> str:
@@ -414,7 +423,8 @@ def read_table(
     A header without rows is refused unless ``allow_no_rows`` (a detector that found no
     turns writes one; a clip index of a corpus without turns)."""
     name = os.fspath(path)
-    text = _one_newline(_read_text(name, what=what), name, what=what)
+    text, sha256 = _read_text(name, what=what)
+    text = _one_newline(text, name, what=what)
     if not text or text.isspace():  # blank (strip would copy the whole text to say so)
         raise TurnbenchError(f"empty {what} file: no header and no rows", file=name)
     # The first line with something on it, found without splitting the whole text.
@@ -431,6 +441,7 @@ def read_table(
         else _read_plain(text, name, delimiter, numeric_columns)
     )
     table.ascii = text.isascii()
+    table.sha256 = sha256
     if table.lines.size == 0 and not allow_no_rows:
         raise TurnbenchError(
             f"empty {what} file: a header on line {table.header_line} and no rows", file=name

@@ -169,7 +169,7 @@ def mine_cmd(
     jmap = parse_joint_map(joint_map) if joint_map else None
     mpath = manifest_path(out)
     _check_out_folder(out)
-    overrides = read_overrides(overrides_path) if overrides_path is not None else None
+    overrides = read_overrides(overrides_path, warn=warn) if overrides_path is not None else None
     found = find_sources(sources, fmt=fmt)
     inputs = found.paths + ([overrides_path] if overrides_path else [])
     check_not_input(out, inputs)

@@ -24,21 +24,21 @@ run (``turn-datasets h36m mine --overrides curation.csv``):
 
 from __future__ import annotations
 
-import csv
 import os
 import re
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from turn_datasets.errors import TurnbenchError, require_columns
+from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import sha256_file
 from turn_datasets.h36m.clip_index import SequenceClips, clip_id_of
 from turn_datasets.h36m.miner import MinerParams, measure_clip
 from turn_datasets.skeleton import MocapSequence
+from turn_datasets.usertable import Problems, and_more, read_table, reading_notes, require
 
 __all__ = [
     "DECISIONS",
@@ -99,106 +99,150 @@ class Overrides:
         return len(self.by_id)
 
 
-def _frame_field(text: str, *, name: str, path: str, line: int) -> int | None:
-    text = text.strip()
+def _frame_field(text: str) -> int | None:
+    """A whole number of frames, None when empty; raises ValueError for anything else."""
     if text == "":
         return None
     if not _INT_RE.match(text):
-        raise TurnbenchError(
-            f"{name} {text!r} is not a whole number of frames", file=path, row=line
-        )
+        raise ValueError(text)
     return int(text)
 
 
-def read_overrides(path: str | os.PathLike[str]) -> Overrides:
+class _RowProblems:
+    """The rows' problems, by kind, each with its rows' lines, messages and what is there,
+    handed to :class:`~turn_datasets.usertable.Problems` at the end (the first row's message
+    in full, the others counted)."""
+
+    def __init__(self) -> None:
+        self.kinds: dict[str, list[tuple[int, str, str]]] = {}
+        self.count = 0
+
+    def add(self, kind: str, line: int, message: str, detail: str = "") -> None:
+        self.kinds.setdefault(kind, []).append((line, message, detail))
+        self.count += 1
+
+    def into(self, problems: Problems) -> None:
+        for kind, rows in self.kinds.items():
+            first = rows[0][1]
+            details = [d for _, _, d in rows] if all(d for _, _, d in rows) else []
+            problems.add(
+                kind,
+                [line for line, _, _ in rows],
+                details[: problems.shown],
+                single=first + and_more(len(rows)),
+                first=first,
+            )
+
+
+def _check_row(
+    cell: dict[str, str], line: int, seen: dict[str, int], found: _RowProblems
+) -> Override | None:
+    """One row as an override, or None after adding its problems to ``found``."""
+    n_before = found.count
+    clip_id = cell["clip_id"]
+    decision = cell["decision"].lower()
+    if not clip_id:
+        found.add("empty clip_id", line, "empty clip_id")
+    if decision not in DECISIONS:
+        found.add(
+            f"decision is not one of {', '.join(DECISIONS)}",
+            line,
+            f"decision {cell['decision']!r} is not one of {', '.join(DECISIONS)}",
+            repr(cell["decision"]),
+        )
+    frames: dict[str, int | None] = {}
+    for name in ("start_frame", "end_frame"):
+        try:
+            frames[name] = _frame_field(cell[name])
+        except ValueError:
+            found.add(
+                f"{name} is not a whole number of frames",
+                line,
+                f"{name} {cell[name]!r} is not a whole number of frames",
+                repr(cell[name]),
+            )
+    start, end = frames.get("start_frame"), frames.get("end_frame")
+    if decision == "adjust" and len(frames) == 2:
+        if start is None or end is None:
+            found.add(
+                "adjust needs start_frame and end_frame",
+                line,
+                "adjust needs start_frame and end_frame",
+            )
+        elif end < start + 2:
+            found.add(
+                "end_frame must exceed start_frame by at least 2",
+                line,
+                f"end_frame {end} must exceed start_frame {start} by at least 2 "
+                "(frames are 0-based, end exclusive)",
+                f"{start}-{end}",
+            )
+    elif decision in DECISIONS and decision != "adjust" and (start is not None or end is not None):
+        found.add(
+            f"{decision} takes frames",
+            line,
+            f"{decision} takes no frames (only adjust does); leave start_frame and end_frame empty",
+        )
+    if clip_id and clip_id in seen:
+        found.add(
+            "clip_id given twice",
+            line,
+            f"clip {clip_id!r} already has an override on line {seen[clip_id]}",
+            repr(clip_id),
+        )
+    elif clip_id:
+        seen[clip_id] = line
+    if found.count > n_before:
+        return None
+    return Override(
+        clip_id=clip_id,
+        decision=decision,
+        start_frame=start,
+        end_frame=end,
+        note=cell["note"],
+        line=line,
+    )
+
+
+def read_overrides(
+    path: str | os.PathLike[str], *, warn: Callable[[str], None] | None = None
+) -> Overrides:
     """Read and check ``curation.csv`` (see the module docstring for its columns).
+
+    The file is read by the one reader of user tables (:mod:`turn_datasets.usertable`):
+    UTF-8 with or without a byte-order mark, header names ignoring case and spaces, a comma,
+    semicolon or tab delimiter, blank lines skipped, each row's own line number. ``warn``
+    is called with each thing the reader did that the file does not say (a semicolon
+    export, padded cells: :func:`~turn_datasets.usertable.reading_notes`).
 
     Raises
     ------
     TurnbenchError
-        A missing or unreadable file, a missing column, an empty ``clip_id``, an unknown
-        decision, frames given to ``exclude``/``keep``, missing or bad frames for ``adjust``
-        (not whole numbers, negative, or ``end_frame <= start_frame + 1``), or a clip id given
-        twice; each names the file and the line.
+        A missing or unreadable file, a missing column; then every bad row in one error,
+        grouped by kind, each naming its lines: an empty ``clip_id``, an unknown decision,
+        frames given to ``exclude``/``keep``, missing or bad frames for ``adjust`` (not whole
+        numbers, negative, or ``end_frame <= start_frame + 1``), a clip id given twice.
     """
     p = Path(path)
     if not p.is_file():
         raise TurnbenchError("no such overrides file", file=p)
-    name = str(p)
-    try:
-        text = p.read_text(encoding="utf-8-sig")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise TurnbenchError(f"cannot read the overrides file: {exc}", file=p) from None
-    reader = csv.reader(text.splitlines(keepends=True))
-    try:
-        header = [h.strip() for h in next(reader)]
-    except StopIteration:
-        raise TurnbenchError(
-            f"the overrides file is empty; expected a header {','.join(OVERRIDE_COLUMNS)}",
-            file=p,
-            row=1,
-        ) from None
-    require_columns(header, OVERRIDE_COLUMNS, what="the overrides file", file=p)
-    col = {c: header.index(c) for c in OVERRIDE_COLUMNS}
-    out = Overrides(path=name, sha256=sha256_file(p))
-    try:
-        for fields in reader:
-            line = reader.line_num
-            if not any(f.strip() for f in fields):
-                continue  # a blank line
-            if len(fields) != len(header):
-                raise TurnbenchError(
-                    f"{len(fields)} fields, expected {len(header)} as in the header",
-                    file=p,
-                    row=line,
-                )
-            clip_id = fields[col["clip_id"]].strip()
-            decision = fields[col["decision"]].strip().lower()
-            if not clip_id:
-                raise TurnbenchError("empty clip_id", file=p, row=line)
-            if decision not in DECISIONS:
-                raise TurnbenchError(
-                    f"decision {fields[col['decision']]!r} is not one of {', '.join(DECISIONS)}",
-                    file=p,
-                    row=line,
-                )
-            start = _frame_field(
-                fields[col["start_frame"]], name="start_frame", path=name, line=line
-            )
-            end = _frame_field(fields[col["end_frame"]], name="end_frame", path=name, line=line)
-            if decision == "adjust":
-                if start is None or end is None:
-                    raise TurnbenchError("adjust needs start_frame and end_frame", file=p, row=line)
-                if end < start + 2:
-                    raise TurnbenchError(
-                        f"end_frame {end} must exceed start_frame {start} by at least 2 "
-                        "(frames are 0-based, end exclusive)",
-                        file=p,
-                        row=line,
-                    )
-            elif start is not None or end is not None:
-                raise TurnbenchError(
-                    f"{decision} takes no frames (only adjust does); leave start_frame and "
-                    "end_frame empty",
-                    file=p,
-                    row=line,
-                )
-            if clip_id in out.by_id:
-                raise TurnbenchError(
-                    f"clip {clip_id!r} already has an override on line {out.by_id[clip_id].line}",
-                    file=p,
-                    row=line,
-                )
-            out.by_id[clip_id] = Override(
-                clip_id=clip_id,
-                decision=decision,
-                start_frame=start,
-                end_frame=end,
-                note=fields[col["note"]].strip(),
-                line=line,
-            )
-    except csv.Error as exc:
-        raise TurnbenchError(f"malformed CSV: {exc}", file=p, row=reader.line_num) from None
+    table = read_table(p, what="overrides", numeric_columns=(), allow_no_rows=True)
+    for note in reading_notes(table):
+        if warn is not None:
+            warn(note)
+    require(table, OVERRIDE_COLUMNS, what="the overrides file")
+    out = Overrides(path=str(p), sha256=sha256_file(p))
+    found = _RowProblems()
+    seen: dict[str, int] = {}
+    columns = [table.columns[c] for c in OVERRIDE_COLUMNS]
+    for i, line in enumerate(table.lines.tolist()):
+        cell = {c: str(values[i]) for c, values in zip(OVERRIDE_COLUMNS, columns, strict=True)}
+        override = _check_row(cell, line, seen, found)
+        if override is not None:
+            out.by_id[override.clip_id] = override
+    problems = Problems(str(p))
+    found.into(problems)
+    problems.raise_if_any("no override applied")
     return out
 
 

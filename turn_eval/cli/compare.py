@@ -172,7 +172,14 @@ def compare_command(
         seed=seed,
         bin_width_deg=joined_a.bin_width_deg,
     )
-    signature = result.signature_of(reference=reference, a=pred_a, b=pred_b)
+    signature = result.signature_of(
+        {"reference": reference, "a": pred_a, "b": pred_b},
+        {
+            "reference": joined_a.reference_sha256,
+            "a": joined_a.predictions_sha256,
+            "b": joined_b.predictions_sha256,
+        },
+    )
     if fmt == "json":
         doc = {
             "a": str(pred_a),

@@ -12,7 +12,15 @@ from typing import IO, Any
 
 import click
 
-from turn_datasets.cli.common import CONTEXT_SETTINGS, FPS_HZ, Number, info, wrote
+from turn_datasets.cli.common import (
+    CONTEXT_SETTINGS,
+    FPS_HZ,
+    Number,
+    info,
+    params_from,
+    params_options,
+    wrote,
+)
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import check_not_input, write_json
 from turn_eval.cli import cli
@@ -22,8 +30,10 @@ from turn_eval.estimate.batch import (
     estimate_videos,
     run_manifest,
 )
-from turn_eval.estimate.blazepose import load_mediapipe
+from turn_eval.estimate.blazepose import PoseParams, load_mediapipe
+from turn_eval.estimate.guard import IdentityGuardParams
 from turn_eval.estimate.pipeline import EstimateParams, manifest_path
+from turn_eval.estimate.tilt import LevelParams
 from turn_eval.estimate.timing import RATE_AGREEMENT_FRACTION
 from turn_eval.estimate.video import expected_frames
 from turn_eval.mapping import WORKER_WAIT_S, check_scheduler_address
@@ -173,6 +183,9 @@ def _made_if_missing(*folders: Path | None):
     show_default=True,
     help="Rotate the skeletons so the floor is level (removes the camera's tilt).",
 )
+@params_options(PoseParams)
+@params_options(IdentityGuardParams)
+@params_options(LevelParams)
 @click.option(
     "--workers",
     type=Number(int, min=1, max=4096),
@@ -206,6 +219,7 @@ def estimate_command(
     scheduler: str | None,
     resume: bool,
     skip_bad: bool,
+    **param_values: float,
 ) -> None:
     """Estimate 3D skeletons from VIDEOS with MediaPipe Pose, offline on the CPU.
 
@@ -215,7 +229,9 @@ def estimate_command(
     manifest (video sha256, frame times, detection rate, identity breaks, versions).
     Variable-frame-rate videos are put on a regular grid at their nominal rate. When the
     tracker jumps to another person, the frames are split into tracks <stem>.t1, .t2, ...
-    Only the named local files are read; a truncated video is refused.
+    Only the named local files are read; a truncated video is refused. The pose model's
+    confidences, the identity guard's thresholds and the levelling's upright frames are
+    options below; every manifest records them.
 
     Many videos: --workers N maps them over N local processes, --scheduler over a running
     Dask cluster (every worker needs turnbench with the video extra and the videos, and
@@ -239,7 +255,13 @@ def estimate_command(
         check_scheduler_address(scheduler)
     else:
         load_mediapipe()  # before any work: a missing extra is one line, exit 2
-    params = EstimateParams(fps_hz=fps_hz, level=level)
+    params = EstimateParams(
+        fps_hz=fps_hz,
+        level=level,
+        pose=params_from(PoseParams, param_values),
+        guard=params_from(IdentityGuardParams, param_values),
+        levelling=params_from(LevelParams, param_values),
+    )
     where = f" on {scheduler}" if scheduler else (f" on {workers} local workers" if workers else "")
     started_utc = datetime.now(timezone.utc).isoformat(timespec="seconds")
     with (

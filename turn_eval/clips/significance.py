@@ -145,10 +145,15 @@ class Comparison:
         """One line that pins down the test (:attr:`options`) and the version."""
         return Signature("compare", self.options, (), self.version).line()
 
-    def signature_of(self, **inputs: str | os.PathLike[str]) -> Signature:
-        """The signature with the sha256 of the files compared (``reference=``, ``a=``,
-        ``b=``), as ``turn-eval compare`` prints it."""
-        return Signature.of("compare", self.options, inputs)
+    def signature_of(
+        self,
+        inputs: Mapping[str, str | os.PathLike[str]],
+        digests: Mapping[str, str | None] | None = None,
+    ) -> Signature:
+        """The signature with the sha256 of the files compared (roles ``reference``, ``a``,
+        ``b``), as ``turn-eval compare`` prints it; ``digests`` as
+        :meth:`~turn_eval.scoring.signature.Signature.of`."""
+        return Signature.of("compare", self.options, inputs, digests)
 
     def as_dict(self) -> dict[str, object]:
         return {

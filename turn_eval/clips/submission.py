@@ -133,8 +133,9 @@ def read_reference(
     DataFrame
         ``clip_id`` (str), ``angle_deg`` (float64), ``duration_s`` (float64, only when the
         reference has it; an empty cell is NaN), ``bin_deg`` (float64), then every other
-        column of the file as stripped strings, in file order. ``attrs["path"]`` is the file
-        and ``attrs["lines"]`` each row's line number.
+        column of the file as stripped strings, in file order. ``attrs["path"]`` is the file,
+        ``attrs["sha256"]`` the sha256 of its bytes as read and ``attrs["lines"]`` each row's
+        line number.
 
     Raises
     ------
@@ -171,6 +172,7 @@ def read_reference(
             dtypes[col] = "str"
     frame = typed_frame(pd.DataFrame(data), dtypes)
     frame.attrs["path"] = table.path
+    frame.attrs["sha256"] = table.sha256
     frame.attrs["lines"] = table.lines
     frame.attrs["bin_width_deg"] = float(bin_width_deg)
     return frame
@@ -195,6 +197,9 @@ class Joined:
         Whether the reference has a ``duration_s`` column (else no speed metric).
     predictions_path, reference_path
         The files read.
+    predictions_sha256, reference_sha256
+        The sha256 of their bytes as read ("" where not known: a reference frame made in
+        memory).
     bin_width_deg
         The bin width ``bin_deg`` was computed with.
     abs_angles, allow_missing
@@ -210,6 +215,8 @@ class Joined:
     bin_width_deg: float = BIN_WIDTH_DEG
     abs_angles: bool = False
     allow_missing: bool = False
+    predictions_sha256: str = ""
+    reference_sha256: str = ""
 
     @property
     def group_columns(self) -> tuple[str, ...]:
@@ -435,4 +442,6 @@ def read_predictions(
         bin_width_deg=float(ref.attrs.get("bin_width_deg", bin_width_deg)),
         abs_angles=abs_angles,
         allow_missing=allow_missing,
+        predictions_sha256=table.sha256,
+        reference_sha256=str(ref.attrs.get("sha256", "")),
     )

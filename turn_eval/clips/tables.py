@@ -64,6 +64,7 @@ __all__ = [
     "SCORES_CSV_COLUMNS",
     "scores_csv",
     "outcomes_of",
+    "partitions_of",
     "build_scores",
     "scores_markdown",
     "scores_frame",
@@ -106,6 +107,12 @@ def _partition(joined: Joined, column: str) -> Partition:
     rank = np.empty(len(labels), dtype=np.int64)
     rank[order] = np.arange(len(labels))
     return Partition(column, tuple(labels[i] for i in order), rank[inverse.reshape(-1)])
+
+
+def partitions_of(joined: Joined, groupings: Sequence[str]) -> list[Partition]:
+    """The pooled clips, then one partition per grouping column: what :func:`build_scores`
+    scores and resamples."""
+    return [Partition.whole(len(joined.table)), *(_partition(joined, col) for col in groupings)]
 
 
 def _intervals(
@@ -167,8 +174,7 @@ def build_scores(
         file=joined.reference_path,
     )
     outcomes = outcomes_of(joined)
-    partitions = [Partition.whole(outcomes.n)]
-    partitions += [_partition(joined, col) for col in groupings]
+    partitions = partitions_of(joined, groupings)
 
     distributions: list[dict[str, np.ndarray]] = [{} for _ in partitions]
     if n_resamples > 0:
@@ -233,6 +239,7 @@ def _signature(joined: Joined, groupings: Sequence[str], *, n_resamples: int, se
             ("allow-missing", joined.allow_missing),
         ],
         {"reference": joined.reference_path, "predictions": joined.predictions_path},
+        {"reference": joined.reference_sha256, "predictions": joined.predictions_sha256},
     )
 
 

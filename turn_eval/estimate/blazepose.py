@@ -52,11 +52,15 @@ class PoseParams:
     #: 1 (the "full" model) is the only complexity whose model is in the wheel.
     model_complexity: int = 1
     min_detection_confidence: float = param(
-        0.5, "Confidence of a person detection to start tracking (MediaPipe's).", min=0.0, max=1.0
+        0.5,
+        "Confidence (0 to 1) of a person detection to start tracking (MediaPipe's).",
+        min=0.0,
+        max=1.0,
     )
     min_tracking_confidence: float = param(
         0.5,
-        "Confidence of the landmarks to keep tracking instead of detecting again (MediaPipe's).",
+        "Confidence (0 to 1) of the landmarks to keep tracking instead of detecting again "
+        "(MediaPipe's).",
         min=0.0,
         max=1.0,
     )

@@ -50,15 +50,20 @@ class IdentityGuardParams:
         1.5,
         "A trunk centre jump of at least this many trunk lengths can be a break.",
         min=0.0,
+        max=100.0,
         min_open=True,
     )
     max_speed_torso_per_s: float = param(
-        10.0, "Trunk lengths per second a person can move; a faster jump is a break.", min=0.0
+        10.0,
+        "Trunk lengths per second a person can move; a faster jump is a break.",
+        min=0.0,
+        max=1000.0,
     )
     max_scale_ratio: float = param(
         2.0,
         "A trunk length changing by more than this factor between frames is a break.",
         min=1.0,
+        max=100.0,
         min_open=True,
     )
 

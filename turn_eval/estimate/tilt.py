@@ -49,7 +49,10 @@ class LevelParams:
         max=180.0,
     )
     min_upright_frames: int = param(
-        10, "Fewer upright frames than this and every frame with a body is used instead.", min=1
+        10,
+        "Fewer upright frames than this and every frame with a body is used instead.",
+        min=1,
+        max=100_000,
     )
 
 

@@ -457,6 +457,7 @@ def _frame_of(
     # together (pandas copies arrays given to a constructor unless told not to).
     frame = pd.DataFrame(data, copy=False)
     frame.attrs["path"] = table.path
+    frame.attrs["sha256"] = table.sha256
     frame.attrs["lines"] = _shared_lines(table.lines)
     # The reader strips every cell and has no missing text (an empty cell is "").
     frame.attrs["stripped"] = True

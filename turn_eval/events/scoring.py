@@ -731,6 +731,7 @@ def score_events(
     ref, ref_pairs = _load(reference, read_event_reference_pairs, check_event_reference_pairs)
     ctx = _load(context, read_context, check_context)
     ses = _load(sessions, read_sessions, check_sessions)
+    read = (ref, det, ctx, ses)  # as read: their files and sha256 in attrs, for the signature
     factorized: _Factorized = {}
     groupings = _groupings(ref, by, factorized)
     units, ref_unit = units_of_pairs(ref_pairs, ses)
@@ -783,8 +784,7 @@ def score_events(
             iou, bin_width_deg, n_resamples, seed, ap=curves is not None, context=ctx is not None
         ),
         "signature": _signature(
-            (iou, groupings, bin_width_deg, n_resamples, seed, ignore_unknown),
-            (reference, detections, context, sessions),
+            (iou, groupings, bin_width_deg, n_resamples, seed, ignore_unknown), read
         ),
     }
     return EventScores(
@@ -801,8 +801,9 @@ def _signature(options: tuple, inputs: tuple) -> dict[str, Any]:
     """The signature object of :func:`score_events`' run.
 
     ``options`` are its ``(iou, groupings, bin_width_deg, n_resamples, seed, ignore_unknown)``
-    and ``inputs`` its ``(reference, detections, context, sessions)``, each a file or a frame
-    (whose ``attrs["path"]`` is its file); an input not given, or built in memory, is left out.
+    and ``inputs`` its ``(reference, detections, context, sessions)`` as checked, each a frame
+    whose ``attrs["path"]`` is its file and ``attrs["sha256"]`` the sha256 of the bytes read
+    (else its file is hashed), or None; an input not given, or built in memory, is left out.
     """
     iou, groupings, bin_width_deg, n_resamples, seed, ignore_unknown = options
     named = [
@@ -814,15 +815,14 @@ def _signature(options: tuple, inputs: tuple) -> dict[str, Any]:
         ("ignore-unknown", ignore_unknown),
     ]
 
-    def path_of(source: pd.DataFrame | str | os.PathLike[str] | None) -> str | None:
-        if source is None or isinstance(source, (str, os.PathLike)):
-            return None if source is None else os.fspath(source)
-        path = source.attrs.get("path")
-        return None if path is None else str(path)
-
     roles = ("reference", "detections", "context", "sessions")
-    files = {role: path_of(source) for role, source in zip(roles, inputs, strict=True)}
-    return Signature.of("score-events", named, files).as_dict()
+    files: dict[str, str | None] = {}
+    digests: dict[str, str | None] = {}
+    for role, source in zip(roles, inputs, strict=True):
+        attrs = {} if source is None else source.attrs
+        files[role] = None if attrs.get("path") is None else str(attrs["path"])
+        digests[role] = attrs.get("sha256")
+    return Signature.of("score-events", named, files, digests).as_dict()
 
 
 def _events_table(

@@ -56,18 +56,22 @@ class Signature:
         command: str,
         options: Sequence[tuple[str, object]],
         inputs: Mapping[str, str | os.PathLike[str] | None],
+        digests: Mapping[str, str | None] | None = None,
     ) -> Signature:
-        """The signature of a run: ``inputs`` maps each role to its file, hashed here (a role
-        whose file is None or not a file, such as a table built in memory, is left out)."""
-        return cls(
-            command,
-            tuple((name, _text(value)) for name, value in options),
-            tuple(
-                (role, sha256_file(path))
-                for role, path in inputs.items()
-                if path is not None and os.path.isfile(path)
-            ),
-        )
+        """The signature of a run: ``inputs`` maps each role to its file (a role whose file is
+        None or not a file, such as a table built in memory, is left out). ``digests`` gives
+        the sha256 a reader took of the bytes it read
+        (:attr:`turn_datasets.usertable.Table.sha256`), so that file is not read again; a
+        role without one is hashed here."""
+        known = digests or {}
+        sha256 = []
+        for role, path in inputs.items():
+            digest = known.get(role)
+            if path is not None and digest:
+                sha256.append((role, digest))
+            elif path is not None and os.path.isfile(path):
+                sha256.append((role, sha256_file(path)))
+        return cls(command, tuple((name, _text(value)) for name, value in options), tuple(sha256))
 
     @property
     def options_text(self) -> str:
