@@ -285,7 +285,7 @@ def run_bounded(tool: str, args: list, cwd) -> tuple[int, list[str], int]:
     )
     lines = done.stderr.strip().splitlines()
     peak = int(lines[-1].removeprefix("peak_kb=")) * 1024
-    progress = ("mining", "detecting")
+    progress = ("mining", "detecting", "predicting")
     return done.returncode, [x for x in lines[:-1] if not x.startswith(progress)], peak
 
 
@@ -498,3 +498,31 @@ def test_a_compressed_cdf_must_fit_in_free_memory_at_its_most(
         f"{size:,} bytes (deflate inflates at most 1032-fold), and this machine has "
         f"{free / 1e9:.1f} GB free"
     )
+
+
+class _Reconstructed2D:
+    """Pickles as NumPy's first step of a 40 M x 17 x 2 float32 array (5.4 GB)."""
+
+    def __reduce__(self):
+        return (_numpy_reconstruct(), (np.ndarray, (40_000_000, 17, 2), b"f"))
+
+
+@pytest.mark.parametrize("command", ["predict", "detect"])
+def test_videopose3d_2d_keypoints_are_refused_by_name_and_never_unpickled(
+    tmp_path, command
+) -> None:
+    # VideoPose3D's 2D file: positions_2d, a pickled dict (this one declaring 5.4 GB)
+    path = tmp_path / "data_2d_h36m_gt.npz"
+    payload = np.empty((), dtype=object)
+    payload[()] = {"S1": {"Walking": [_Reconstructed2D()]}}
+    np.savez(path, positions_2d=payload)
+    args = [command, path, "--from", "videopose3d", "--out", tmp_path / "o.csv"]
+    code, lines, peak = run_bounded(
+        "turn-eval", args + (["--fps", "50"] if command == "detect" else []), tmp_path
+    )
+    assert code == EXIT_BAD_INPUT and len(lines) == 1, lines
+    assert lines[0].startswith(
+        f"turn-eval: error: {path}: this is a 2D keypoint file (it holds ['positions_2d'])"
+    )
+    assert peak < REFUSED_PEAK_BYTES
+    assert not (tmp_path / "o.csv").exists()
