@@ -221,7 +221,7 @@ _CDF_NUMBER_TYPES: Mapping[int, str] = MappingProxyType(
 _CDF_MAGIC = (b"\xcd\xf3\x00\x01", b"\xcd\xf2\x60\x02", b"\x00\x00\xff\xff")
 _CDF_UNCOMPRESSED = b"\x00\x00\xff\xff"
 _CDF_DECOMPRESS_HINT = (
-    'decompress it first, e.g. with NASA\'s CDF tools: cdfconvert IN OUT -compression "cdf:none"'
+    "write it again uncompressed, e.g. with NASA's cdfconvert and its -compression option"
 )
 
 
