@@ -8,7 +8,9 @@ timed in the report to the lead, not here).
 from __future__ import annotations
 
 import base64
+import hashlib
 import json
+import os
 import re
 import shutil
 from html.parser import HTMLParser
@@ -17,7 +19,8 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from turn_datasets.cli.common import run_group
+from turn_datasets.cli.common import Terminated, run_group
+from turn_datasets.fileio import write_run_record
 from turn_datasets.synthetic.degrade import degrade_skeleton
 from turn_datasets.synthetic.demo_corpus import (
     write_h36m_corpus,
@@ -296,26 +299,168 @@ def test_disagreements_table_for_the_page(tmp_path: Path) -> None:
     }
 
 
-def test_prepare_out_dir_empties_only_what_the_demo_wrote(tmp_path: Path) -> None:
-    out = tmp_path / "demo-output"
-    for rel in ("corpus/h36m/S1/old.cdf", "h36m/turn-h36m.csv", "remap/eaf/x.eaf"):
+def _previous_run(out: Path, files: dict[str, str]) -> dict[str, str]:
+    """A folder as an earlier demo run left it: ``files`` (path -> text) written and listed
+    in its run record with their sha256 (worked out here with hashlib)."""
+    for rel, text in files.items():
         (out / rel).parent.mkdir(parents=True, exist_ok=True)
-        (out / rel).write_text("stale", encoding="utf-8")
-    (out / "report.html").write_text("stale", encoding="utf-8")
-    (out / "my-notes.txt").write_text("mine", encoding="utf-8")
-    (out / demo.MARKER).write_text("", encoding="utf-8")
-    demo.prepare_out_dir(out)
-    assert sorted(p.name for p in out.iterdir()) == sorted([demo.MARKER, "my-notes.txt"])
-    assert (out / "my-notes.txt").read_text(encoding="utf-8") == "mine"
-    # a demo folder of a version before the marker is known by its planted turns
-    old = tmp_path / "old"
-    (old / "corpus" / "h36m").mkdir(parents=True)
-    (old / "corpus" / "h36m" / "planted.csv").write_text("subject\n", encoding="utf-8")
-    demo.prepare_out_dir(old)
-    assert sorted(p.name for p in old.iterdir()) == [demo.MARKER]
-    # a new folder is made, with its marker
+        (out / rel).write_text(text, encoding="utf-8")
+    digests = {rel: hashlib.sha256(text.encode()).hexdigest() for rel, text in files.items()}
+    doc = {"written_by": "turnbench", "files": digests}
+    (out / demo.RECORD).write_text(json.dumps(doc), encoding="utf-8")
+    return digests
+
+
+def test_prepare_out_dir_removes_only_what_the_record_lists_as_written(tmp_path: Path) -> None:
+    out = tmp_path / "demo-output"
+    _previous_run(
+        out,
+        {
+            "corpus/h36m/S1/old.cdf": "cdf",
+            "h36m/turn-h36m.csv": "index",
+            "h36m/table3.md": "table 3",
+            "remap/eaf/x.eaf": "eaf",
+            "report.html": "page",
+        },
+    )
+    (out / "h36m" / "table3.md").write_text("table 3, annotated", encoding="utf-8")
+    (out / "h36m" / "my-notes.txt").write_text("mine", encoding="utf-8")
+    (out / "remap" / "eaf" / "fixed.eaf").write_text("my fix", encoding="utf-8")
+    (out / "my-notes.txt").write_text("mine too", encoding="utf-8")
+    removed = demo.prepare_out_dir(out)
+    assert sorted(p.relative_to(out).as_posix() for p in removed) == [
+        "corpus/h36m/S1/old.cdf",
+        "h36m/turn-h36m.csv",
+        "remap/eaf/x.eaf",
+        "report.html",
+    ]
+    left = sorted(p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file())
+    # the user's files, and the listed one the user changed since, are kept
+    assert left == [
+        demo.RECORD,
+        "h36m/my-notes.txt",
+        "h36m/table3.md",
+        "my-notes.txt",
+        "remap/eaf/fixed.eaf",
+    ]
+    assert (out / "h36m" / "table3.md").read_text(encoding="utf-8") == "table 3, annotated"
+    assert json.loads((out / demo.RECORD).read_text(encoding="utf-8"))["files"] == {}
+    # a new folder is made, with its (empty) record
     demo.prepare_out_dir(tmp_path / "new" / "deep")
-    assert (tmp_path / "new" / "deep" / demo.MARKER).is_file()
+    assert (tmp_path / "new" / "deep" / demo.RECORD).is_file()
+
+
+def test_a_rerun_replaces_the_demos_files_and_keeps_the_users(tmp_path: Path, monkeypatch) -> None:
+    # the steps replaced by two runs' worth of files: the first writes a larger corpus
+    runs = iter(
+        [
+            {"corpus/h36m/S6/Walking.npz": "S6", "h36m/turn-h36m.csv": "first", "report.html": "1"},
+            {"h36m/turn-h36m.csv": "second", "report.html": "2"},
+        ]
+    )
+
+    def steps(out: Path, **kwargs) -> dict[str, Path]:
+        for rel, text in next(runs).items():
+            (out / rel).parent.mkdir(parents=True, exist_ok=True)
+            (out / rel).write_text(text, encoding="utf-8")
+        return {}
+
+    monkeypatch.setattr(demo, "_run_steps", steps)
+    out = tmp_path / "demo-output"
+    demo.run_demo(out, quick=True)
+    (out / "h36m" / "my-notes.txt").write_text("mine", encoding="utf-8")
+    demo.run_demo(out, quick=True)
+    assert (out / "h36m" / "my-notes.txt").read_text(encoding="utf-8") == "mine"
+    assert (out / "h36m" / "turn-h36m.csv").read_text(encoding="utf-8") == "second"
+    assert not (out / "corpus" / "h36m" / "S6" / "Walking.npz").exists()  # the first run's
+    record = json.loads((out / demo.RECORD).read_text(encoding="utf-8"))["files"]
+    assert record == {
+        "h36m/turn-h36m.csv": hashlib.sha256(b"second").hexdigest(),
+        "report.html": hashlib.sha256(b"2").hexdigest(),
+    }
+
+
+def test_a_stopped_run_is_recorded_so_the_next_one_removes_its_files(
+    tmp_path: Path, monkeypatch
+) -> None:
+    def steps(out: Path, **kwargs) -> dict[str, Path]:
+        (out / "corpus" / "h36m").mkdir(parents=True)
+        (out / "corpus" / "h36m" / "half.cdf").write_text("half", encoding="utf-8")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(demo, "_run_steps", steps)
+    out = tmp_path / "demo-output"
+    with pytest.raises(KeyboardInterrupt):
+        demo.run_demo(out, quick=True)
+    assert json.loads((out / demo.RECORD).read_text(encoding="utf-8"))["files"] == {
+        "corpus/h36m/half.cdf": hashlib.sha256(b"half").hexdigest()
+    }
+    assert [p.name for p in demo.prepare_out_dir(out)] == ["half.cdf"]
+
+
+def test_the_demo_records_every_file_it_wrote(ran) -> None:
+    out, _, _ = ran
+    record = json.loads((out / demo.RECORD).read_text(encoding="utf-8"))["files"]
+    written = {
+        p.relative_to(out).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in out.rglob("*")
+        if p.is_file() and p.name != demo.RECORD
+    }
+    assert record == written
+    assert any(name.startswith("corpus/h36m/") for name in record)
+
+
+@pytest.mark.parametrize("kind", ["symlink", "fifo"])
+def test_a_link_or_fifo_in_the_demos_folder_is_refused_in_one_line(
+    tmp_path: Path, capsys, kind
+) -> None:
+    out = tmp_path / "demo-output"
+    _previous_run(out, {"h36m/turn-h36m.csv": "index", "corpus/h36m/planted.csv": "subject\n"})
+    node = out / "h36m" / ("elsewhere" if kind == "symlink" else "pipe")
+    if kind == "symlink":
+        node.symlink_to(tmp_path)
+    else:
+        os.mkfifo(node)
+    assert demo.main(["--out-dir", str(out), "--quick"]) == 2
+    what = f"a symbolic link to {tmp_path}" if kind == "symlink" else "a FIFO (named pipe)"
+    assert capsys.readouterr().err.strip().splitlines() == [
+        f"demo failed: {node}: is {what}, not a regular file: refusing to replace it "
+        "(hint: choose another --out-dir)"
+    ]
+    assert os.path.lexists(node) and (node.is_symlink() == (kind == "symlink"))
+    assert (out / "h36m" / "turn-h36m.csv").is_file()  # refused before any clean-up
+
+
+def test_a_file_left_where_the_demo_reads_every_file_is_refused(tmp_path: Path, capsys) -> None:
+    out = tmp_path / "demo-output"
+    _previous_run(out, {"corpus/h36m/S1/Walking.cdf": "cdf", "report.html": "page"})
+    (out / "corpus" / "h36m" / "S7").mkdir()
+    (out / "corpus" / "h36m" / "S7" / "Walking.cdf").write_text("mine", encoding="utf-8")
+    assert demo.main(["--out-dir", str(out), "--quick"]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [
+        f"demo failed: {out / 'corpus/h36m/S7/Walking.cdf'}: is in corpus, whose every file "
+        "the demo reads, and is not a file of the previous demo run as it wrote it (1 such "
+        "file there): move it out, or give another --out-dir"
+    ]
+    # nothing removed: the previous run's files and the user's are all there
+    assert (out / "corpus/h36m/S1/Walking.cdf").is_file() and (out / "report.html").is_file()
+    assert (out / "corpus/h36m/S7/Walking.cdf").read_text(encoding="utf-8") == "mine"
+
+
+def test_a_demo_folder_from_before_the_record_is_refused_not_emptied(
+    tmp_path: Path, capsys
+) -> None:
+    out = tmp_path / "demo-output"
+    (out / "corpus" / "h36m").mkdir(parents=True)
+    (out / "corpus" / "h36m" / "planted.csv").write_text("subject\n", encoding="utf-8")
+    (out / demo.MARKER).write_text("", encoding="utf-8")
+    assert demo.main(["--out-dir", str(out), "--quick"]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [
+        f"demo failed: {out}: --out-dir holds a demo run from before the demo kept a run "
+        f"record ({demo.RECORD}): which of its files are the demo's is not known, and the "
+        "demo reads every file in corpus; remove the folder, or give another --out-dir"
+    ]
+    assert (out / "corpus" / "h36m" / "planted.csv").is_file()
 
 
 def test_a_folder_that_is_not_the_demos_is_refused(tmp_path: Path, capsys) -> None:
@@ -337,11 +482,20 @@ def test_a_quick_run_over_a_larger_one_reads_only_its_own_corpus(
     # sessions. The gate is set out of reach so the run stops after mining and labelling.
     out = tmp_path / "demo-output"
     (out).mkdir()
-    (out / demo.MARKER).write_text("", encoding="utf-8")
     write_h36m_corpus(
         out / "corpus" / "h36m", seed=1, subjects=("S6", "S7"), actions={"Walking": (1, 1)}
     )
     write_remap_corpus(out / "corpus" / "remap", seed=1, n_pairs=5)
+    # as that run recorded them: every file it wrote, with its sha256
+    earlier = sorted(p for p in (out / "corpus").rglob("*") if p.is_file())
+    write_run_record(
+        out,
+        demo.RECORD,
+        {
+            p.relative_to(out).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in earlier
+        },
+    )
     monkeypatch.setattr(demo, "MIN_KAPPA", 0.999)
     assert demo.main(["--out-dir", str(out), "--quick", "--bootstrap", "10"]) == 1
     err = capsys.readouterr().err
@@ -472,3 +626,20 @@ def test_remap_open_stage_scores_by_medication_and_turn_type_in_the_report(ran) 
     # the page's numbers are the scores file's: overall accuracy with one decimal
     accuracy = f"{100 * scores['overall']['accuracy']:.1f}"
     assert accuracy in section
+
+
+def test_a_run_stopped_by_sigterm_is_recorded_and_said_in_one_line(
+    tmp_path: Path, monkeypatch, capsys
+) -> None:
+    def steps(out: Path, **kwargs) -> dict[str, Path]:
+        (out / "h36m").mkdir(parents=True)
+        (out / "h36m" / "turn-h36m.csv").write_text("half", encoding="utf-8")
+        raise Terminated  # what SIGTERM raises inside sigterm_unwinds
+
+    monkeypatch.setattr(demo, "_run_steps", steps)
+    out = tmp_path / "demo-output"
+    assert demo.main(["--out-dir", str(out), "--quick"]) == 143
+    assert capsys.readouterr().err.strip().splitlines() == ["demo stopped: terminated"]
+    assert json.loads((out / demo.RECORD).read_text(encoding="utf-8"))["files"] == {
+        "h36m/turn-h36m.csv": hashlib.sha256(b"half").hexdigest()
+    }

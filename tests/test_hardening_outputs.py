@@ -325,3 +325,87 @@ def test_score_keeps_a_figure_the_user_changed_and_says_so(tmp_path, capsys):
         "scores.manifest.json",
         "scores.md",
     ]
+
+
+# -- estimate: every output checked before the first frame --------------------------------
+
+
+def _no_pose_model(monkeypatch) -> None:
+    """``estimate`` as far as its pose model, which fails the test if it is reached: an
+    output refused after it would have cost minutes of estimation first."""
+    import turn_eval.cli.estimate as estimate_cli
+    from turn_eval.estimate import batch
+
+    def estimator(*args, **kwargs):
+        pytest.fail("the pose model ran before the outputs were checked")
+
+    monkeypatch.setattr(estimate_cli, "load_mediapipe", lambda: None)
+    monkeypatch.setattr(batch, "estimate_file", estimator)
+    monkeypatch.setattr(batch, "estimate_video", estimator)
+
+
+@pytest.mark.parametrize("kind", ["fifo", "symlink"])
+@pytest.mark.parametrize(
+    "output, option",
+    [
+        ("o/walk.npz", "--out-dir"),
+        ("o/walk.manifest.json", "--out-dir"),
+        ("o/estimate.manifest.json", "--out-dir"),
+        ("qa/walk.preview.mp4", "--preview"),
+        ("walk.npz", "--out"),
+        ("walk.manifest.json", "--out"),
+    ],
+)
+def test_estimate_refuses_an_output_that_is_not_a_regular_file_before_the_pose_model(
+    tmp_path, capsys, monkeypatch, kind, output, option
+):
+    from test_estimate import _write_numbered_video
+
+    _no_pose_model(monkeypatch)
+    video = tmp_path / "walk.mp4"
+    _write_numbered_video(video, 3)
+    (tmp_path / "o").mkdir()
+    (tmp_path / "qa").mkdir()
+    target = tmp_path / output
+    KINDS[kind](target)
+    before = _node(target)
+    outputs = (
+        ["--out", tmp_path / "walk.npz"]
+        if option == "--out"
+        else ["--out-dir", tmp_path / "o", "--preview", tmp_path / "qa"]
+    )
+    line = _one_error_line(*_run(eval_cli, "turn-eval", ["estimate", video, *outputs], capsys))
+    assert line == (
+        f"turn-eval: error: {target}: is "
+        + ("a FIFO (named pipe)" if kind == "fifo" else "a symbolic link to target.txt")
+        + f", not a regular file: refusing to replace it (hint: choose another {option})"
+    )
+    assert _node(target) == before
+    if kind == "symlink":
+        assert (target.parent / "target.txt").read_text() == "the target\n"
+
+
+def test_estimate_refuses_a_preview_path_that_became_a_fifo_while_it_ran(tmp_path, monkeypatch):
+    # the outputs are checked before the first frame; a node made there during the minutes
+    # of estimation is refused too, not renamed over (as the npz's atomic write refuses it)
+    from turn_eval.estimate import batch
+
+    preview = tmp_path / "qa" / "walk.preview.mp4"
+    preview.parent.mkdir()
+
+    def estimate_video(path, *, preview, **kwargs):
+        Path(preview).write_bytes(b"the preview")
+        os.mkfifo(tmp_path / "qa" / "walk.preview.mp4")
+        return "skeletons"
+
+    monkeypatch.setattr(batch, "estimate_video", estimate_video)
+    with pytest.raises(TurnbenchError) as exc:
+        batch.estimate_file(
+            str(tmp_path / "walk.mp4"), sha256="0" * 64, params=None, preview=str(preview)
+        )
+    assert str(exc.value) == (
+        f"{preview}: is a FIFO (named pipe), not a regular file: refusing to replace it "
+        "(hint: choose another --preview)"
+    )
+    assert stat.S_ISFIFO(os.lstat(preview).st_mode)
+    assert [p.name for p in preview.parent.iterdir()] == ["walk.preview.mp4"]  # no tmp left

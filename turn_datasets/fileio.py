@@ -44,7 +44,10 @@ __all__ = [
     "staged_dir",
     "check_output_path",
     "check_owned",
+    "check_files_and_folders",
     "read_run_record",
+    "remove_recorded",
+    "write_run_record",
     "write_text",
     "write_csv",
     "write_json",
@@ -211,6 +214,64 @@ def read_run_record(folder: str | os.PathLike[str], name: str) -> dict[str, str]
     }
 
 
+def _record_text(files: Mapping[str, str]) -> str:
+    """A run record's JSON: who wrote it, and every file the run wrote with its sha256."""
+    return to_json_text({"written_by": f"turnbench {__version__}", "files": dict(files)})
+
+
+def write_run_record(folder: str | os.PathLike[str], name: str, files: Mapping[str, str]) -> Path:
+    """Write the run record ``folder/name`` (atomically): ``files`` maps each file the run
+    wrote, relative to ``folder`` and ``/``-separated, to its sha256. :func:`staged_dir`
+    writes one for its files; a run that writes into its folder directly (the demo) writes
+    its own, and cleans up with :func:`remove_recorded`."""
+    return write_text(Path(folder) / name, _record_text(files))
+
+
+def remove_recorded(
+    folder: str | os.PathLike[str], listed: Mapping[str, str], *, keep: Iterable[str] = ()
+) -> tuple[list[Path], list[Path]]:
+    """Remove the files of a previous run's record (``listed``, from :func:`read_run_record`)
+    that still hold what that run wrote, except those in ``keep`` (this run's, about to be
+    replaced); return the paths removed and those kept (changed since, or no longer a
+    regular file reached through real folders). Nothing else is ever removed."""
+    target = Path(folder)
+    keep = set(keep)
+    removed: list[Path] = []
+    kept: list[Path] = []
+    for name, digest in sorted(listed.items()):
+        if name in keep:
+            continue
+        path = target.joinpath(*PurePosixPath(name).parts)
+        if _still_ours(target, name, digest):
+            path.unlink()
+            removed.append(path)
+        elif os.path.lexists(path):
+            kept.append(path)
+    return removed, kept
+
+
+def check_files_and_folders(root: str | os.PathLike[str], *, option: str = "--out-dir") -> None:
+    """Refuse anything at or under ``root`` that is neither a regular file nor a real folder
+    (a symbolic link, a FIFO, a socket, a device), in one line naming the first, in sorted
+    order (:func:`check_output_path`'s words): a run that cleans up or rewrites the folder
+    would replace it, or write or remove through it. A missing ``root`` passes."""
+    top = Path(root)
+    try:
+        mode = os.lstat(top).st_mode
+    except OSError:
+        return
+    if not stat.S_ISDIR(mode):
+        check_output_path(top, option=option)
+        return
+    for here, folders, files in os.walk(top):  # links are listed, never followed
+        folders.sort()
+        for name in sorted([*folders, *files]):
+            path = Path(here) / name
+            mode = os.lstat(path).st_mode
+            if not (stat.S_ISDIR(mode) or stat.S_ISREG(mode)):
+                check_output_path(path, option=option)
+
+
 def _check_destination(target: Path, name: str) -> None:
     """Refuse to move a staged file to ``target/name`` when something there is not ours to
     replace: a path component under ``target`` that is not a real folder (a symbolic link
@@ -259,9 +320,8 @@ def _move_in(tmp: Path, target: Path, record: str | None) -> tuple[set[str], dic
     previous = read_run_record(target, record) if record else {}
     if record:
         files = {name: sha256_file(src) for name, src in zip(names, staged, strict=True)}
-        doc = {"written_by": f"turnbench {__version__}", "files": files}
         staged.append(tmp.joinpath(*PurePosixPath(record).parts))
-        staged[-1].write_text(to_json_text(doc), encoding="utf-8", newline="\n")
+        staged[-1].write_text(_record_text(files), encoding="utf-8", newline="\n")
         names.append(record)
     for src, name in zip(staged, names, strict=True):
         dst = target.joinpath(*PurePosixPath(name).parts)
@@ -301,16 +361,11 @@ def staged_dir(
         yield tmp
         target.mkdir(parents=True, exist_ok=True)
         written, previous = _move_in(tmp, target, record)
-        for name, digest in sorted(previous.items()):
-            if name in written:
-                continue
-            stale = target.joinpath(*PurePosixPath(name).parts)
-            if _still_ours(target, name, digest):
-                stale.unlink()
-                if removed is not None:
-                    removed.append(stale)
-            elif os.path.lexists(stale) and kept is not None:
-                kept.append(stale)
+        gone, changed = remove_recorded(target, previous, keep=written)
+        if removed is not None:
+            removed.extend(gone)
+        if kept is not None:
+            kept.extend(changed)
     except BaseException as exc:
         shutil.rmtree(tmp, ignore_errors=True)
         if created and target.is_dir() and not any(target.iterdir()):

@@ -20,6 +20,7 @@ __all__ = [
     "MAX_SEED",
     "MAX_POSITION_ABS",
     "MAX_ARRAY_VALUES",
+    "MAX_PICKLE_OPCODES",
     "MAX_LOCAL_WORKERS",
     "MAX_TURN_DURATION_S",
     "MAX_TURN_MEAN_SPEED_DEG_S",
@@ -55,6 +56,12 @@ MAX_POSITION_ABS = 1e9
 #: machine's free memory, before anything is read: a few kilobytes of gzip-compressed HDF5
 #: can declare 40 million frames (8 GB).
 MAX_ARRAY_VALUES = 2**28
+#: Most opcodes the one pickle turnbench reads (VideoPose3D's ``positions_3d`` dict) may
+#: hold. Its writer spends 27 a sequence (Human3.6M's 210 sequences about 5,700); each opcode
+#: builds at most one Python object of a few hundred bytes besides the bytes it carries, so
+#: 2**20 keep what unpickling builds beyond its arrays to a few hundred MB, where a crafted
+#: pickle of empty lists builds 64 bytes of objects for every byte it inflates to.
+MAX_PICKLE_OPCODES = 2**20
 #: Most worker processes a local cluster (``--workers``) starts: one machine's. Each is
 #: single-threaded and holds about 200 MB before any file, and more processes than cores run
 #: no faster; 256 is already 51 GB. A bigger run belongs on a cluster (``--scheduler``).

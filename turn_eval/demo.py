@@ -28,11 +28,11 @@ from __future__ import annotations
 import argparse
 import contextlib
 import io
+import os
 import shlex
-import shutil
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TypedDict
@@ -43,9 +43,18 @@ import pandas as pd
 
 from turn_datasets import __version__
 from turn_datasets import cli as datasets_cli
-from turn_datasets.cli.common import run_group
+from turn_datasets.cli.common import Terminated, run_group, sigterm_unwinds
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.fileio import manifest_path, write_csv, write_text
+from turn_datasets.fileio import (
+    check_files_and_folders,
+    manifest_path,
+    read_run_record,
+    remove_recorded,
+    sha256_file,
+    write_csv,
+    write_run_record,
+    write_text,
+)
 from turn_datasets.render.markdown import markdown_table
 from turn_datasets.render.numbers import MISSING, elan_time, fixed, format_metric
 from turn_datasets.synthetic.degrade import degrade_skeleton
@@ -229,42 +238,93 @@ def _overall_line(scores: dict) -> str:
     )
 
 
-#: Written first into the output folder: a folder holding it is the demo's to empty.
+#: The demo's run record in its output folder: every file a run wrote, with its sha256
+#: (:func:`turn_datasets.fileio.write_run_record`). A folder holding it is an earlier run's.
+RECORD = "demo.manifest.json"
+#: What marked a demo folder before the run record: such a folder is known as the demo's,
+#: but lists nothing, so nothing in it is removed.
 MARKER = ".turnbench-demo"
-#: What the demo writes into its output folder, removed before each run.
+#: Where the demo writes in its output folder: only what its record lists is removed there.
 OWNED = ("corpus", "h36m", "remap", UNTRIMMED_DIR, OPEN_DIR, "report.html")
+#: Folders whose every file the demo reads (the corpus, the streams, a release's tree): a
+#: file left there that the demo did not write would be read as its own input.
+READ_WHOLE = ("corpus", f"{UNTRIMMED_DIR}/streams", f"{OPEN_DIR}/release")
 
 
-def prepare_out_dir(out: Path) -> None:
-    """Make ``out`` an empty demo folder, or refuse with a :class:`TurnbenchError`.
+def prepare_out_dir(out: Path) -> list[Path]:
+    """Make ``out`` ready for a demo run, or refuse with a :class:`TurnbenchError`; return
+    the files of the previous run removed.
 
-    Files of an earlier run would be read as this run's: the miner reads every file under
-    ``corpus/h36m`` and a ``--quick`` corpus has fewer files than the full one, so a quick run
-    over a full one would mine both and fail on sessions whose participants it never wrote.
-    Only what the demo writes (:data:`OWNED`) is removed, and only from a folder that is
-    the demo's (it holds :data:`MARKER`, or the planted turns of a demo corpus); any other
-    folder that is not empty is refused, so a mistyped ``--out-dir`` never costs a user files.
+    The folder keeps a run record (:data:`RECORD`), as every output folder does: clean-up
+    removes only the files it lists that still hold what the demo wrote; a file of the
+    user's, or one changed since, is never removed. Anything in the demo's places
+    (:data:`OWNED`) that is not a regular file or a real folder (a symbolic link, a FIFO) is
+    refused, since rewriting would replace it or write through it. A file left in a folder
+    the demo reads whole (:data:`READ_WHOLE`) is refused too: the miner reads every file
+    under ``corpus/h36m``, and a ``--quick`` run over a full one would mine both. A folder
+    that is not empty and holds no earlier run is refused, so a mistyped ``--out-dir`` never
+    costs a user files.
     """
     if out.exists() and any(out.iterdir()):
-        ours = (out / MARKER).is_file() or (out / "corpus" / "h36m" / "planted.csv").is_file()
+        ours = any(
+            os.path.lexists(p)
+            for p in (out / RECORD, out / MARKER, out / "corpus" / "h36m" / "planted.csv")
+        )
         if not ours:
             raise TurnbenchError(
                 "--out-dir is not empty and holds no earlier demo run; give a new or empty folder",
                 file=str(out),
             )
-        for name in OWNED:
-            path = out / name
-            if path.is_dir() and not path.is_symlink():
-                shutil.rmtree(path)
-            elif path.exists() or path.is_symlink():
-                path.unlink()
+    for name in (*OWNED, RECORD):
+        check_files_and_folders(out / name)
+    previous = read_run_record(out, RECORD)
+    for folder in READ_WHOLE:  # before anything is removed: a refused run changes nothing
+        left = [k for k, v in _files_under(out, (folder,)).items() if previous.get(k) != v]
+        if left and not os.path.lexists(out / RECORD):
+            raise TurnbenchError(
+                f"--out-dir holds a demo run from before the demo kept a run record ({RECORD}): "
+                "which of its files are the demo's is not known, and the demo reads every file "
+                f"in {folder}; remove the folder, or give another --out-dir",
+                file=str(out),
+            )
+        if left:
+            raise TurnbenchError(
+                f"is in {folder}, whose every file the demo reads, and is not a file of the "
+                f"previous demo run as it wrote it ({len(left)} such file"
+                f"{'' if len(left) == 1 else 's'} there): move "
+                f"{'it' if len(left) == 1 else 'them'} out, or give another --out-dir",
+                file=str(out / left[0]),
+            )
+    removed, _ = remove_recorded(out, previous)
     out.mkdir(parents=True, exist_ok=True)
-    write_text(
-        out / MARKER,
-        "Written by python -m turn_eval.demo: each run empties "
-        + ", ".join(OWNED)
-        + " here and writes them again.\n",
-    )
+    write_run_record(out, RECORD, {})  # the folder is the demo's from here on
+    return removed
+
+
+def _files_under(out: Path, names: Sequence[str]) -> dict[str, str]:
+    """The regular files at or under ``out/name`` for each of ``names``, by path relative to
+    ``out`` (``/``-separated, sorted), with their sha256."""
+    found: dict[str, str] = {}
+    for name in names:
+        top = out / name
+        paths = [top] if top.is_file() else sorted(p for p in top.rglob("*") if p.is_file())
+        for path in paths:
+            if os.path.lexists(path) and not path.is_symlink():
+                found[path.relative_to(out).as_posix()] = sha256_file(path)
+    return dict(sorted(found.items()))
+
+
+@contextlib.contextmanager
+def _recorded(out: Path) -> Iterator[None]:
+    """Record in :data:`RECORD` every file the block writes (new, or changed) in the demo's
+    places, whether it finishes or stops (a failed step, Ctrl-C, SIGTERM), so that the next
+    run may remove them; a file that was there before and is unchanged is not the run's."""
+    before = _files_under(out, OWNED)
+    try:
+        yield
+    finally:
+        after = _files_under(out, OWNED)
+        write_run_record(out, RECORD, {k: v for k, v in after.items() if before.get(k) != v})
 
 
 #: The corpus of ``--quick`` (and of the tests): three subjects (both splits), two actions, three
@@ -581,15 +641,24 @@ def run_demo(
 ) -> dict[str, Path]:
     """Run every step into ``out_dir`` and return the results' paths by description.
 
-    ``out_dir`` is new, empty, or the folder of an earlier demo run, whose results are
-    replaced (:func:`prepare_out_dir`). ``quick`` writes a small corpus (:data:`QUICK`) so
-    that every step runs in seconds.
+    ``out_dir`` is new, empty, or the folder of an earlier demo run, whose files are
+    replaced (:func:`prepare_out_dir`); what this run writes is recorded in :data:`RECORD`.
+    ``quick`` writes a small corpus (:data:`QUICK`) so that every step runs in seconds.
     """
     out = Path(out_dir)
-    prepare_out_dir(out)
+    removed = prepare_out_dir(out)
+    with _recorded(out):
+        return _run_steps(out, seed=seed, bootstrap=bootstrap, quick=quick, removed=len(removed))
+
+
+def _run_steps(
+    out: Path, *, seed: int, bootstrap: int, quick: bool, removed: int
+) -> dict[str, Path]:
     t0 = time.perf_counter()
     paths: dict[str, Path] = {}
     _say(f"turnbench {__version__} demo, seed {seed}: everything goes to {out}/")
+    if removed:
+        _say(f"Removed {removed} files of the previous demo run (its record, {RECORD}, lists them)")
     h36m, remap = _corpus_step(out, seed=seed, quick=quick, paths=paths)
     index_path, table3, miner_md = _h36m_step(out, h36m, paths)
     labels_path, tables12, audit_dir = _remap_step(out, remap, paths)
@@ -861,7 +930,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         click.echo(f"error: {args.out_dir}: --out-dir is a file, not a folder", err=True)
         return 2
     try:
-        run_demo(args.out_dir, seed=args.seed, bootstrap=args.bootstrap, quick=args.quick)
+        with sigterm_unwinds():  # stopped by SIGTERM, the run is still recorded
+            run_demo(args.out_dir, seed=args.seed, bootstrap=args.bootstrap, quick=args.quick)
+    except Terminated:
+        click.echo("demo stopped: terminated", err=True)
+        return 143
     except DemoFailed as exc:
         click.echo(f"demo failed: {exc}", err=True)
         return 1

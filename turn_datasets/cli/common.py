@@ -31,6 +31,8 @@ __all__ = [
     "EXIT_BAD_INPUT",
     "EXIT_GATE",
     "run_group",
+    "Terminated",
+    "sigterm_unwinds",
     "emit",
     "check_stdout",
     "info",
@@ -71,7 +73,9 @@ def _raise_terminated(signum, frame) -> None:
 
 
 @contextlib.contextmanager
-def _sigterm_unwinds() -> Iterator[None]:
+def sigterm_unwinds() -> Iterator[None]:
+    """SIGTERM raises :class:`Terminated` inside the block (in the main thread), so that
+    ``finally`` blocks run as they do on Ctrl-C."""
     # `timeout`, systemd and CI stop a job with SIGTERM, whose default action kills at once
     # and left hidden staging folders with full copies of the output behind. Raising instead
     # runs the same `finally` blocks as SIGINT does. Signals can only be set in the main thread.
@@ -98,7 +102,7 @@ def _library_warnings_silenced() -> Iterator[None]:
 
 def run_group(group: click.Group, prog_name: str, args: list[str] | None = None) -> int:
     """Run a click group, mapping turnbench errors to one line on stderr and an exit code."""
-    with _sigterm_unwinds(), _library_warnings_silenced():
+    with sigterm_unwinds(), _library_warnings_silenced():
         return _run_group(group, prog_name, args)
 
 

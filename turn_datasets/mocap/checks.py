@@ -22,7 +22,9 @@ from turn_datasets.skeleton import (
 __all__ = [
     "OnBadSequence",
     "CORRUPT",
+    "DEFLATE_MAX_RATIO",
     "check_declared_size",
+    "check_inflation",
     "check_joint_count",
     "check_magnitude",
     "checked_positions",
@@ -75,15 +77,18 @@ def check_declared_size(
     shape: tuple[int, ...],
     dtype: np.dtype | str,
     *,
-    path: str | os.PathLike[str],
+    path: str | os.PathLike[str] | None,
     item: str | None,
+    what: str = "the array",
 ) -> None:
     """Refuse an array whose declared size is past the bound or the machine, before reading.
 
-    A file's header (an ``.npy`` header, an HDF5 dataset's shape, a zip member's size)
+    A file's header (an ``.npy`` header, an HDF5 dataset's shape, a CDF variable's record
+    count and dimensions, a zip member's size, the shape a pickled array gives NumPy)
     declares how big the array is; compression lets a few kilobytes declare gigabytes. The
     bound is :data:`turn_datasets.limits.MAX_ARRAY_VALUES`; the machine's is its free memory
-    (:func:`turn_datasets.machine.available_memory_bytes`) against the stored size plus one float64 working copy.
+    (:func:`turn_datasets.machine.available_memory_bytes`) against the stored size plus one
+    float64 working copy. ``what`` names the array in the message.
 
     Raises
     ------
@@ -98,7 +103,7 @@ def check_declared_size(
     )
     if values > limits.MAX_ARRAY_VALUES:
         raise TurnbenchError(
-            f"the array {declared}: more than the {limits.MAX_ARRAY_VALUES:,} values turnbench "
+            f"{what} {declared}: more than the {limits.MAX_ARRAY_VALUES:,} values turnbench "
             "reads in one array (corrupt, or a recording to split into files)",
             file=path,
             item=item,
@@ -107,11 +112,47 @@ def check_declared_size(
     free = machine.available_memory_bytes()
     if free is not None and need > free:
         raise TurnbenchError(
-            f"the array {declared}: reading it needs about {gigabytes(need)} and this machine has "
+            f"{what} {declared}: reading it needs about {gigabytes(need)} and this machine has "
             f"{gigabytes(free)} free",
             file=path,
             item=item,
             hint="free memory, or split the recording into shorter files",
+        )
+
+
+#: The most one byte of deflate (gzip, zlib) data inflates to (zlib's technical notes:
+#: 1032:1, reached by long runs of one byte); run-length coding, cdflib's other method,
+#: inflates at most 128-fold.
+DEFLATE_MAX_RATIO = 1032
+
+
+def check_inflation(
+    compressed_bytes: int,
+    *,
+    path: str | os.PathLike[str],
+    item: str | None,
+    what: str,
+    hint: str | None = None,
+) -> None:
+    """Refuse compressed data that a library inflates whole, with no bound of its own, unless
+    the most it can inflate to (:data:`DEFLATE_MAX_RATIO` times its bytes) fits in free
+    memory: what such data declares does not bound what it inflates to.
+
+    Raises
+    ------
+    TurnbenchError
+        Naming the file, what is compressed, the worst case and the free memory.
+    """
+    worst = compressed_bytes * DEFLATE_MAX_RATIO
+    free = machine.available_memory_bytes()
+    if free is not None and worst > free:
+        raise TurnbenchError(
+            f"{what} is inflated whole when read: up to {gigabytes(worst)} from its "
+            f"{compressed_bytes:,} bytes (deflate inflates at most {DEFLATE_MAX_RATIO}-fold), "
+            f"and this machine has {gigabytes(free)} free",
+            file=path,
+            item=item,
+            hint=hint,
         )
 
 

@@ -2,7 +2,9 @@
 
 ``cdf``
     The original release, ``S*/MyPoseFeatures/D3_Positions/<Action>.cdf``: variable
-    ``Pose`` of shape ``(1, N, 96)``, millimetres, 50 Hz, z up, 32 joints (read with cdflib).
+    ``Pose`` of shape ``(1, N, 96)``, millimetres, 50 Hz, z up, 32 joints (read with cdflib;
+    the record count and dimensions the variable declares are checked before it is read, and
+    compressed data, which cdflib inflates whole, must fit in free memory at its most).
 ``h36m-h5``
     3d-pose-baseline's copy, ``S*/MyPoses/3D_positions/<Action>.h5``: dataset
     ``3D_positions`` stored ``(96, N)``; transposed, then ``(N, 32, 3)``, millimetres.
@@ -13,8 +15,9 @@
     root the user named (:mod:`turn_datasets.mocap.readers`); its member's header is checked
     first (a 0-d object array), and the pickle is read by an unpickler that builds NumPy
     arrays, dtypes and plain containers only, so a file whose pickle would import anything
-    else (``os.system``) is refused before any of it runs. It is loaded once and its
-    sequences yielded one by one.
+    else (``os.system``) is refused before any of it runs. What the pickle may build is
+    bounded first: the size the zip declares for it, its opcodes, and every array's shape
+    before NumPy allocates it. It is loaded once and its sequences yielded one by one.
 
 The subject comes from the ``S<n>`` folder (or the npz key) and the action and trial from
 the name on disk (:func:`parse_h36m_action`). The three share these names and the frame
@@ -26,21 +29,26 @@ from __future__ import annotations
 import importlib
 import os
 import pickle
+import pickletools
 import re
 import zipfile
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from types import MappingProxyType
+from typing import Any
 
 import cdflib
 import h5py
 import numpy as np
 
+from turn_datasets import limits
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.mocap.arrays import read_h5_dataset
 from turn_datasets.mocap.checks import (
     CORRUPT,
     OnBadSequence,
+    check_declared_size,
+    check_inflation,
     checked_positions,
     skip_bad,
     unreadable,
@@ -203,12 +211,76 @@ def _h36m_file_sequence(
     )
 
 
+#: CDF data types (the CDF specification's codes) -> the NumPy type cdflib reads them as.
+_CDF_NUMBER_TYPES: Mapping[int, str] = MappingProxyType(
+    {
+        1: "i1", 2: "i2", 4: "i4", 8: "i8", 11: "u1", 12: "u2", 14: "u4", 21: "f4",
+        22: "f8", 31: "f8", 32: "c16", 33: "i8", 41: "i1", 44: "f4", 45: "f8",
+    }
+)  # fmt: skip
+_CDF_MAGIC = (b"\xcd\xf3\x00\x01", b"\xcd\xf2\x60\x02", b"\x00\x00\xff\xff")
+_CDF_UNCOMPRESSED = b"\x00\x00\xff\xff"
+_CDF_DECOMPRESS_HINT = (
+    "write it again uncompressed, e.g. with NASA's cdfconvert and its -compression option"
+)
+
+
+def _check_whole_file_compression(path: Path) -> None:
+    """A CDF compressed as a whole is inflated by cdflib whole, at open, into memory:
+    refused unless the most it can inflate to fits in free memory
+    (:func:`~turn_datasets.mocap.checks.check_inflation`)."""
+    with unreadable("the CDF header", path, guess="truncated or corrupt CDF?"):
+        with open(path, "rb") as fh:
+            head = fh.read(8)
+        size = path.stat().st_size
+    if head[:4] in _CDF_MAGIC and head[4:8] != _CDF_UNCOMPRESSED:
+        check_inflation(
+            size,
+            path=path,
+            item=None,
+            what="the CDF (compressed as a whole)",
+            hint=_CDF_DECOMPRESS_HINT,
+        )
+
+
+def _check_cdf_variable(cdf: cdflib.CDF, path: Path) -> None:
+    """Check what variable ``Pose`` declares, its record count and dimensions (``varinq``),
+    with :func:`~turn_datasets.mocap.checks.check_declared_size` before cdflib allocates it
+    (cdflib makes the whole zero-filled buffer first); a compressed variable's blocks are
+    inflated whole, whatever they hold, so they must fit in free memory at their most."""
+    with unreadable(f"variable {H36M_CDF_VARIABLE!r}", path, guess="truncated or corrupt CDF?"):
+        info = cdf.varinq(H36M_CDF_VARIABLE)
+        stored = Path(cdf.file).stat().st_size  # the inflated copy, for a compressed file
+    dtype = _CDF_NUMBER_TYPES.get(int(info.Data_Type))
+    if dtype is None:
+        raise TurnbenchError(
+            f"variable {H36M_CDF_VARIABLE!r} holds {info.Data_Type_Description}, not numbers",
+            file=path,
+        )
+    records = max(int(info.Last_Rec) + 1, 0) if info.Rec_Vary else 1
+    dims = [int(n) for n, vary in zip(info.Dim_Sizes, info.Dim_Vary, strict=False) if vary]
+    check_declared_size((records, *dims), dtype, path=path, item=H36M_CDF_VARIABLE)
+    if info.Compress:
+        check_inflation(
+            stored,
+            path=path,
+            item=H36M_CDF_VARIABLE,
+            what="the variable (compressed)",
+            hint=_CDF_DECOMPRESS_HINT,
+        )
+
+
 def read_h36m_cdf(path: Path) -> Iterator[MocapSequence]:
     # subject and action first: a file outside the release's layout is refused unread
     subject = h36m_subject_of(path)
     action = _action_of(path.stem, path)
-    with unreadable(f"variable {H36M_CDF_VARIABLE!r}", path, guess="truncated or corrupt CDF?"):
-        pose = np.asarray(cdflib.CDF(path).varget(H36M_CDF_VARIABLE))
+    _check_whole_file_compression(path)
+    with unreadable("CDF", path, guess="truncated or corrupt CDF?"):
+        cdf = cdflib.CDF(path)
+    with cdf:
+        _check_cdf_variable(cdf, path)
+        with unreadable(f"variable {H36M_CDF_VARIABLE!r}", path, guess="truncated or corrupt CDF?"):
+            pose = np.asarray(cdf.varget(H36M_CDF_VARIABLE))
     if pose.ndim == 3 and pose.shape[0] == 1:
         pose = pose[0]
     if pose.ndim != 2 or pose.shape[1] != 96:
@@ -262,32 +334,141 @@ _PICKLE_ALLOWED = frozenset(
 )
 
 
+def _numpy_global(module: str, name: str):
+    try:
+        return getattr(importlib.import_module(module.replace("numpy.core", "numpy._core")), name)
+    except ImportError:  # numpy 1 has no numpy._core
+        return getattr(importlib.import_module(module), name)
+
+
+def _check_pickled_shape(shape: Any, dtype: Any) -> None:
+    """The one declared-size check for an array a pickle asks NumPy to make: its shape with
+    any sub-array dtype's own shape, in the dtype's base type."""
+    dt = np.dtype(dtype)
+    dims = (shape,) if isinstance(shape, (int, np.integer)) else tuple(shape)
+    check_declared_size(
+        tuple(int(n) for n in dims) + dt.shape, dt.base, path=None, item=VIDEOPOSE_KEY
+    )
+
+
+class _CheckedArray(np.ndarray):
+    """The ndarray an unpickled array is built as: the shape and dtype it declares, to
+    ``ndarray(...)`` or in its pickled state, are checked before NumPy allocates them (an
+    object array is zero-filled at once, 8 bytes a value, whatever data follows)."""
+
+    def __new__(cls, shape, dtype=float, *args, **kwargs):
+        _check_pickled_shape(shape, dtype)
+        return super().__new__(cls, shape, dtype, *args, **kwargs)
+
+    def __setstate__(self, state, /) -> None:
+        # (version, shape, dtype, is_fortran, data), or without the version
+        if isinstance(state, tuple) and len(state) in (4, 5):
+            _check_pickled_shape(state[-4], state[-3])
+        super().__setstate__(state)
+
+
+def _checked_reconstruct(subtype: Any, shape: Any, dtype: Any) -> np.ndarray:
+    """NumPy's ``_reconstruct`` (the pickled array's first step), the shape it is given
+    checked first; always a :class:`_CheckedArray`, whatever type the pickle names."""
+    _check_pickled_shape(shape, dtype)
+    return _numpy_global("numpy.core.multiarray", "_reconstruct")(_CheckedArray, shape, dtype)
+
+
 class _ArraysOnly(pickle.Unpickler):
     """An unpickler that builds NumPy arrays and plain containers, and refuses any other
-    global: a pickle that names ``os.system`` (or anything else) fails before it runs."""
+    global: a pickle that names ``os.system`` (or anything else) fails before it runs. Every
+    array's declared shape is checked before it is allocated (:class:`_CheckedArray`)."""
 
     def find_class(self, module: str, name: str):
         if (module, name) not in _PICKLE_ALLOWED:
             raise pickle.UnpicklingError(f"refused to load {module}.{name}")
-        try:
-            return getattr(
-                importlib.import_module(module.replace("numpy.core", "numpy._core")), name
+        if name == "_reconstruct":
+            return _checked_reconstruct
+        if name == "ndarray":
+            return _CheckedArray
+        return _numpy_global(module, name)
+
+
+def _plain(obj: object) -> object:
+    """``obj`` with every :class:`_CheckedArray` in its dicts a plain ndarray again."""
+    if isinstance(obj, _CheckedArray):
+        return obj.view(np.ndarray)
+    if isinstance(obj, dict):
+        return {k: _plain(v) for k, v in obj.items()}
+    return obj
+
+
+def _read_object_header(fh, path: Path) -> None:
+    """Read the member's ``.npy`` header; it must be what VideoPose3D writes, a 0-d object
+    array (a pickled dict)."""
+    version = np.lib.format.read_magic(fh)
+    read_header = (
+        np.lib.format.read_array_header_1_0
+        if version == (1, 0)
+        else np.lib.format.read_array_header_2_0
+    )
+    shape, _, dtype = read_header(fh)
+    if dtype != np.dtype(object) or shape != ():
+        raise TurnbenchError(
+            f"{VIDEOPOSE_KEY!r} is a {dtype} array of shape {shape}, not "
+            "a dict subject -> action -> array (VideoPose3D's pickled dict)",
+            file=path,
+        )
+
+
+def _check_pickle_opcodes(fh) -> None:
+    """Walk the pickle's opcodes without running them (``pickletools.genops``): at most
+    :data:`turn_datasets.limits.MAX_PICKLE_OPCODES`, and no object stored at a memo index
+    past the opcodes before it (the unpickler sizes its memo by the index: six bytes could
+    ask for gigabytes)."""
+    for n, (opcode, arg, _) in enumerate(pickletools.genops(fh), 1):
+        if n > limits.MAX_PICKLE_OPCODES:
+            raise TurnbenchError(
+                f"the pickle holds more than {limits.MAX_PICKLE_OPCODES:,} opcodes, which "
+                "no VideoPose3D dict needs (27 a sequence): corrupt or crafted",
+                item=VIDEOPOSE_KEY,
             )
-        except ImportError:  # numpy 1 has no numpy._core
-            return getattr(importlib.import_module(module), name)
+        if opcode.name in ("PUT", "BINPUT", "LONG_BINPUT") and isinstance(arg, int) and arg > n:
+            raise TurnbenchError(
+                f"the pickle stores an object at memo index {arg:,} after only {n} "
+                "opcodes: corrupt or crafted",
+                item=VIDEOPOSE_KEY,
+            )
+
+
+def _unpickle_member(zf: zipfile.ZipFile, info: zipfile.ZipInfo, path: Path) -> object:
+    """The member's pickled object, after what bounds the memory unpickling takes: the
+    size the zip declares for the inflated pickle (zipfile inflates no more) checked as the
+    float32 values it can hold, then its opcodes, then every array's shape as it is built."""
+    check_declared_size(
+        (-(-info.file_size // 4),),
+        np.dtype(np.float32),
+        path=path,
+        item=VIDEOPOSE_KEY,
+        what="the pickled dict, inflated and counted as float32 (as VideoPose3D stores it),",
+    )
+    with zf.open(info) as fh:
+        _read_object_header(fh, path)
+        _check_pickle_opcodes(fh)
+    with zf.open(info) as fh:
+        _read_object_header(fh, path)
+        return _ArraysOnly(fh).load()
 
 
 def load_videopose_dict(path: Path) -> object:
     """VideoPose3D's ``positions_3d`` member, without NumPy's unrestricted unpickling.
 
     The member's ``.npy`` header is read first and must describe what VideoPose3D writes, a
-    0-d object array (a pickled dict); the pickle is then read by :class:`_ArraysOnly`.
+    0-d object array (a pickled dict); the size the zip declares for the pickle, its opcodes
+    and every array's declared shape are checked before they take memory
+    (:func:`~turn_datasets.mocap.checks.check_declared_size`, the one check of every
+    reader); the pickle is read by :class:`_ArraysOnly`.
 
     Raises
     ------
     TurnbenchError
-        No ``positions_3d`` member, another header, a corrupt archive, or a pickle that
-        needs anything but NumPy arrays.
+        No ``positions_3d`` member, another header, a corrupt archive, a pickle that
+        needs anything but NumPy arrays, or one declaring more than the bounds allow.
     """
     member = f"{VIDEOPOSE_KEY}.npy"
     try:
@@ -298,23 +479,11 @@ def load_videopose_dict(path: Path) -> object:
                 raise TurnbenchError(
                     f"no {VIDEOPOSE_KEY!r} in this npz (it holds {held})", file=path
                 )
-            with zf.open(member) as fh:
-                version = np.lib.format.read_magic(fh)
-                read_header = (
-                    np.lib.format.read_array_header_1_0
-                    if version == (1, 0)
-                    else np.lib.format.read_array_header_2_0
-                )
-                shape, _, dtype = read_header(fh)
-                if dtype != np.dtype(object) or shape != ():
-                    raise TurnbenchError(
-                        f"{VIDEOPOSE_KEY!r} is a {dtype} array of shape {shape}, not "
-                        "a dict subject -> action -> array (VideoPose3D's pickled dict)",
-                        file=path,
-                    )
-                array = _ArraysOnly(fh).load()
-    except TurnbenchError:
-        raise
+            array = _unpickle_member(zf, zf.getinfo(member), path)
+    except TurnbenchError as exc:
+        if exc.where.file is not None:
+            raise
+        raise TurnbenchError(exc.message, file=path, item=exc.where.item, hint=exc.hint) from None
     except pickle.UnpicklingError as exc:
         raise TurnbenchError(
             f"refused: {VIDEOPOSE_KEY!r} is a pickle that would run code ({exc})", file=path
@@ -323,7 +492,7 @@ def load_videopose_dict(path: Path) -> object:
         raise TurnbenchError(
             f"cannot read this npz (truncated or corrupt?): {exc}", file=path
         ) from None
-    return array.item() if isinstance(array, np.ndarray) and array.shape == () else array
+    return _plain(array.item() if isinstance(array, np.ndarray) and array.shape == () else array)
 
 
 def read_videopose_npz(path: Path, on_bad: OnBadSequence | None) -> Iterator[MocapSequence]:

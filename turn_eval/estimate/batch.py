@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import Any
 
 from turn_datasets import __version__
-from turn_datasets.fileio import sha256_file, to_json_text
+from turn_datasets.fileio import check_output_path, sha256_file, to_json_text
 from turn_eval.estimate.pipeline import (
     EstimateParams,
     SkeletonEstimate,
@@ -91,7 +91,8 @@ def estimate_file(
     on_progress: Callable[[int], None] | None = None,
 ) -> SkeletonEstimate:
     """One video's skeletons (the task :func:`estimate_videos` maps); its preview, when
-    asked for, lands at ``preview`` (written aside as ``.<name>.<token>.tmp`` meanwhile)."""
+    asked for, lands at ``preview`` (written aside as ``.<name>.<token>.tmp`` meanwhile),
+    unless something not a regular file has appeared there since the run's checks."""
     tmp = _tmp_name(Path(preview), token or uuid.uuid4().hex) if preview else None
     try:
         result = estimate_video(
@@ -102,6 +103,9 @@ def estimate_file(
             sha256=sha256,
         )
         if tmp is not None and preview is not None:
+            # checked before the run; again here: minutes went by, and a rename replaces
+            # whatever has the name (a FIFO, a link) as the npz's atomic write never does
+            check_output_path(preview, option="--preview")
             os.replace(tmp, preview)
     finally:
         if tmp is not None:

@@ -134,10 +134,25 @@ def _as_h36m17(array: np.ndarray, path: Path, key: str) -> np.ndarray:
     return a if a.dtype in (np.float32, np.float64) else a.astype(np.float64)
 
 
+def _refuse_2d_members(keys: list[str], path: Path) -> None:
+    """Refuse a 2D keypoint file by its members' names, before any is read: VideoPose3D's
+    ``positions_2d`` is a pickle, never unpickled here, so reading it first would only say
+    "pickled"."""
+    for two_d in ("positions_2d", "keypoints"):
+        if two_d in keys or (two_d == "keypoints" and "boxes" in keys):
+            raise TurnbenchError(
+                f"this is a 2D keypoint file (it holds {keys})",
+                file=path,
+                hint=_LIFTER_HINT,
+            )
+
+
 def _npz_arrays(path: Path) -> dict[str, np.ndarray]:
     out = {}
     with load_numpy(path) as archive:
-        for key in sorted(archive.files):
+        keys = sorted(archive.files)
+        _refuse_2d_members(keys, path)
+        for key in keys:
             # declared size checked first; a pickled member or a damaged one is one error
             out[key] = read_npz_member(archive, key, path)
     return out
@@ -152,13 +167,6 @@ def _read(path: Path, fmt: EstimatorFormat) -> Iterator[tuple[str, np.ndarray]]:
         yield _clip_name(path), _as_h36m17(load_numpy(path), path, path.stem)
         return
     members = _npz_arrays(path)
-    for two_d in ("positions_2d", "keypoints"):
-        if two_d in members or (two_d == "keypoints" and "boxes" in members):
-            raise TurnbenchError(
-                f"this is a 2D keypoint file (it holds {sorted(members)})",
-                file=path,
-                hint=_LIFTER_HINT,
-            )
     if fmt.name == "strided-transformer":
         if "reconstruction" not in members:
             raise TurnbenchError(
