@@ -18,6 +18,7 @@ from above), ``speed_deg_s`` and ``score`` (higher = surer; NaN when the detecto
 
 from __future__ import annotations
 
+import functools
 from typing import Protocol, runtime_checkable
 
 import numpy as np
@@ -52,12 +53,18 @@ def empty_turns() -> pd.DataFrame:
     return typed_frame(pd.DataFrame({c: [] for c in TURN_DTYPES}), TURN_DTYPES)
 
 
+@functools.cache
+def _contract_dtypes() -> pd.Series:
+    """The dtypes :func:`typed_frame` gives the contract's columns (whatever this pandas
+    makes of "str"), found once: every stream's result is checked against them."""
+    return empty_turns().dtypes
+
+
 def _typed(table: pd.DataFrame) -> bool:
     """Whether ``table`` has exactly the contract's columns, in order, of its dtypes."""
     if list(table.columns) != list(TURN_DTYPES):
         return False
-    # the dtypes typed_frame gives (whatever this pandas makes of "str")
-    want = empty_turns().dtypes
+    want = _contract_dtypes()
     return all(table[col].dtype == want[col] for col in TURN_DTYPES)
 
 
