@@ -219,3 +219,15 @@ def test_the_timeline_shown_has_a_false_and_a_missed_detection(tmp_path) -> None
         (tmp_path / "timelines" / name).write_bytes(b"")
     (tmp_path / "events.csv").write_text("unit,kind\n0,TP\n0,TP\n1,TP\n1,FP\n2,TP\n2,FN\n2,FP\n")
     assert telling_timeline(tmp_path).name == "0002_s2_P1.png"
+
+
+def test_a_p_value_bound_from_a_markdown_table_shows_once_escaped() -> None:
+    # `compare` writes "< 0.001" in its Markdown as "&lt; 0.001" (a name like "<script>" is
+    # shown, not run, where Markdown is rendered); the page showed "&lt; 0.001" literally
+    from turn_datasets.render.markdown import markdown_table
+    from turn_eval.report import markdown_to_html
+
+    text = "\n".join(markdown_table(["metric", "p"], [["MAE (°)", "< 0.001"]], align="lr"))
+    html = markdown_to_html(text + "\n\nsubject <script>alert(1)</script>\n")
+    assert "<td>&lt; 0.001</td>" in html and "&amp;lt;" not in html
+    assert "<script>" not in html and "&lt;script&gt;" in html

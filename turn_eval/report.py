@@ -273,7 +273,9 @@ def _split_row(line: str) -> list[str]:
     if body.endswith("|") and not body.endswith("\\|"):
         body = body[:-1]
     cells = re.split(r"(?<!\\)\|", body)
-    return [_plain_cell(c.strip().replace("\\|", "|")) for c in cells]
+    # Markdown's entities read as the characters they stand for (the commands write "<" as
+    # "&lt;"), to be escaped once, on the way out
+    return [_plain_cell(html.unescape(c.strip().replace("\\|", "|"))) for c in cells]
 
 
 def _plain_cell(text: str) -> str:
@@ -284,8 +286,9 @@ def _plain_cell(text: str) -> str:
 
 
 def _inline(text: str) -> str:
-    # Escape first, then the only inline markup we honour: `code` and **bold**.
-    out = _esc(text)
+    # Escape first (entities as the characters they stand for, as Markdown shows them),
+    # then the only inline markup we honour: `code` and **bold**.
+    out = _esc(html.unescape(text))
     out = re.sub(r"`([^`]+)`", r"<code>\1</code>", out)
     return re.sub(r"\*\*([^*]+)\*\*", r"<strong>\1</strong>", out)
 
