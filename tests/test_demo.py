@@ -26,8 +26,8 @@ from turn_datasets.synthetic.demo_corpus import (
     write_remap_estimates,
 )
 from turn_eval import cli as eval_cli
-from turn_eval import demo
-from turn_eval.detect.demo_stage import telling_timeline
+from turn_eval.demo import run as demo
+from turn_eval.demo.untrimmed import telling_timeline
 
 
 @pytest.fixture(scope="module")
@@ -454,7 +454,7 @@ def test_untrimmed_stage_plants_the_labels_and_finds_them(ran) -> None:
 
 
 def test_remap_open_stage_scores_by_medication_and_turn_type_in_the_report(ran) -> None:
-    from turn_eval.demo_remap_open import OPEN_DIR
+    from turn_eval.demo.remap_open import OPEN_DIR
 
     out, results, said = ran
     folder = out / OPEN_DIR

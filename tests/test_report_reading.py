@@ -180,7 +180,7 @@ def test_the_overall_table_gives_the_quadratic_kappa_score_prints() -> None:
 
 
 def test_disagreement_times_as_elan_shows_them(tmp_path) -> None:
-    from turn_eval.demo import _disagreements_table
+    from turn_eval.demo.run import _disagreements_table
 
     path = tmp_path / "d.csv"
     path.write_text(
@@ -212,7 +212,7 @@ def test_the_files_section_links(tmp_path) -> None:
 
 
 def test_the_timeline_shown_has_a_false_and_a_missed_detection(tmp_path) -> None:
-    from turn_eval.detect.demo_stage import telling_timeline
+    from turn_eval.demo.untrimmed import telling_timeline
 
     (tmp_path / "timelines").mkdir()
     for name in ("0000_s1_P1.png", "0001_s1_P2.png", "0002_s2_P1.png"):

@@ -15,9 +15,9 @@ printed as ``$ turn-datasets ...`` before it runs:
    ``turn-eval predict`` with both methods (``paper``: equation 3 as printed; ``net``);
 5. ``turn-eval score --plots`` of each method on each set (Tables 4 and 5, Figure 5);
 6. ``turn-eval compare`` of the two methods on each set;
-7. untrimmed sessions: ``turn-eval detect`` and ``score-events`` (:mod:`turn_eval.detect.demo_stage`);
+7. untrimmed sessions: ``turn-eval detect`` and ``score-events`` (:mod:`turn_eval.demo.untrimmed`);
 8. Turn-REMAP as released: a REMAP-Open-shaped tree, ``turn-datasets remap open``, ``predict``
-   and ``score`` by medication, DBS, turn type and steps (:mod:`turn_eval.demo_remap_open`);
+   and ``score`` by medication, DBS, turn type and steps (:mod:`turn_eval.demo.remap_open`);
 9. ``report.html``: one self-contained page of all of it (:mod:`turn_eval.report`).
 
 It ends by printing where each result is. Same seed, same outputs.
@@ -57,22 +57,22 @@ from turn_datasets.synthetic.demo_corpus import (
     write_remap_estimates,
 )
 from turn_eval import cli as eval_cli
-from turn_eval.demo_remap_open import (
+from turn_eval.demo.profile import PROFILE_DIR, profile_section, run_profile_stage
+from turn_eval.demo.remap_open import (
     OPEN_DIR,
     RemapOpenResults,
     load_remap_open,
     remap_open_section,
     run_remap_open_stage,
 )
-from turn_eval.detect.demo_stage import FPS_HZ as UNTRIMMED_FPS_HZ
-from turn_eval.detect.demo_stage import (
+from turn_eval.demo.untrimmed import FPS_HZ as UNTRIMMED_FPS_HZ
+from turn_eval.demo.untrimmed import (
     UNTRIMMED_DIR,
     UntrimmedResults,
     load_untrimmed,
     run_untrimmed_stage,
     untrimmed_section,
 )
-from turn_eval.profile.demo_stage import PROFILE_DIR, profile_section, run_profile_stage
 from turn_eval.report import Report, load_json
 
 __all__ = [
