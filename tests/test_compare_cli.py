@@ -259,3 +259,42 @@ def test_an_out_file_that_cannot_be_written_prints_nothing_and_exits_2(files, ca
     )
     assert code == EXIT_BAD_INPUT and stdout == ""
     assert err == f"turn-eval: error: {out}: cannot write the comparison: {ref}: File exists\n"
+
+
+def test_plots_dir_draws_a_beside_b_on_shared_axes(files, tmp_path, capsys, monkeypatch):
+    from turn_eval.clips import plots
+
+    ref, a, b = files
+    figures = tmp_path / "figures"
+    args = ["compare", a, b, "-r", ref, "--bootstrap", "20", "--plots-dir", figures]
+    code, out, err = run([*args, "--names", "base", "ours"], capsys)
+    assert code == 0 and "| metric |" in out
+    assert sorted(p.name for p in figures.iterdir()) == sorted(plots.PLOT_FILES)
+    assert f"wrote base beside ours: {figures / 'confusion_matrix.png'}" in err
+    first = {p.name: p.read_bytes() for p in figures.iterdir()}
+    assert all(data[:8] == b"\x89PNG\r\n\x1a\n" for data in first.values())
+    # the figures as drawn: one panel per file, titled by --names (else the file names)
+    drawn = {}
+    monkeypatch.setattr(plots, "save_figure", lambda fig, path: drawn.setdefault(path.name, fig))
+    assert run(args, capsys)[0] == 0
+    for name, fig in drawn.items():
+        panels = [ax for ax in fig.axes if ax.get_title()]
+        assert [ax.get_title() for ax in panels] == ["a", "b"], name
+        assert panels[0].get_ylim() == panels[1].get_ylim(), name
+    # same inputs, same bytes
+    monkeypatch.undo()
+    assert run([*args, "--names", "base", "ours"], capsys)[0] == 0
+    assert {p.name: p.read_bytes() for p in figures.iterdir()} == first
+
+
+def test_plots_dir_refusals(files, tmp_path, capsys):
+    ref, a, b = files
+    base = ["compare", a, b, "-r", ref, "--bootstrap", "20"]
+    code, out, err = run([*base, "--names", "x", "y"], capsys)
+    assert code == EXIT_BAD_INPUT and out == "" and "--plots-dir" in err
+    code, out, err = run([*base, "--plots-dir", tmp_path / "f", "--names", "x", "x"], capsys)
+    assert code == EXIT_BAD_INPUT and out == "" and not (tmp_path / "f").exists()
+    # a file where the folder should be: one line, nothing replaced
+    code, out, err = run([*base, "--plots-dir", a], capsys)
+    assert code == EXIT_BAD_INPUT and out == "" and "is a file" in err
+    assert a.read_text(encoding="utf-8").startswith("clip_id,angle_deg")

@@ -29,8 +29,8 @@ from turn_datasets.synthetic.demo_corpus import (
     write_remap_estimates,
 )
 from turn_eval import cli as eval_cli
-from turn_eval import demo
-from turn_eval.detect.demo_stage import telling_timeline
+from turn_eval.demo import run as demo
+from turn_eval.demo.untrimmed import telling_timeline
 
 
 @pytest.fixture(scope="module")
@@ -64,6 +64,8 @@ def test_every_result_listed_exists(ran) -> None:
         "corpus/remap/participants.csv",
         "h36m/compare.json",
         "remap/compare.json",
+        "h36m/compare-figures",
+        "remap/compare-figures",
     ):
         assert out / rel in listed, rel
 
@@ -132,10 +134,13 @@ def test_report_is_one_self_contained_page_with_everything(ran) -> None:
     text = (out / "report.html").read_text(encoding="utf-8")
     assert "<script" not in text.lower() and "<link" not in text.lower()
     sources = re.findall(r'src="([^"]+)"', text)
-    # every PNG the demo wrote is on the page, byte for byte: `score --plots` writes 4 per
-    # method and set (2 x 2 x 4 = 16), the audit its confusion matrix (1)
-    pngs = sorted(out.glob("*/scores-*/*.png")) + sorted(out.glob("remap/agreement/*.png"))
-    assert len(pngs) == 2 * 2 * 4 + 1
+    # the figures on the page, byte for byte: `score --plots`' 4 figures once per set, the
+    # two methods side by side on shared axes (`compare --plots-dir`: 2 x 4; each method's
+    # own stay in its scores folder), the audit's confusion matrix (1)
+    assert len(list(out.glob("*/scores-*/*.png"))) == 2 * 2 * 4
+    pngs = sorted(out.glob(f"*/{demo.COMPARE_FIGURES}/*.png"))
+    pngs += sorted(out.glob("remap/agreement/*.png"))
+    assert len(pngs) == 2 * 4 + 1
     # and the untrimmed sessions' (issue 13): one session's timeline, F1 per group, PR curve
     events = out / "untrimmed" / "events"
     # the session shown is one with a false and a missed detection where there is one
@@ -603,7 +608,7 @@ def test_untrimmed_stage_plants_the_labels_and_finds_them(ran) -> None:
 
 
 def test_remap_open_stage_scores_by_medication_and_turn_type_in_the_report(ran) -> None:
-    from turn_eval.demo_remap_open import OPEN_DIR
+    from turn_eval.demo.remap_open import OPEN_DIR
 
     out, results, said = ran
     folder = out / OPEN_DIR

@@ -2,7 +2,7 @@
 
 The full demo (``make demo``'s corpus and settings) runs once here, so the suite checks
 what the README claims: the scores table, the untrimmed stage's detections and the
-agreement audit, as :mod:`turn_eval.demo_results` writes them. ``make test`` runs this in
+agreement audit, as :mod:`turn_eval.demo.results` writes them. ``make test`` runs this in
 ``.venv`` (NumPy 2.x) and in ``.venv-video`` (NumPy 1.26): both must give the README's
 block, so the two environments give the same detections. They did not: 1358 turns against
 1359, a tie in the synthetic streams broken by the last bit of NumPy's trigonometry; then 6
@@ -21,8 +21,8 @@ from pathlib import Path
 import pytest
 
 from turn_datasets.errors import TurnbenchError
-from turn_eval import demo
-from turn_eval.demo_results import END, START, readme_block, replace_block, results_block
+from turn_eval.demo import run as demo
+from turn_eval.demo.results import END, START, readme_block, replace_block, results_block
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 
@@ -43,7 +43,7 @@ def test_the_readme_shows_what_the_full_demo_prints(full_demo: Path) -> None:
     block = results_block(full_demo)
     assert readme_block(README.read_text(encoding="utf-8")) == block, (
         "README.md's demo results differ from the demo's output: run make demo, then "
-        ".venv/bin/python -m turn_eval.demo_results demo-output README.md"
+        ".venv/bin/python -m turn_eval.demo.results demo-output README.md"
     )
 
 

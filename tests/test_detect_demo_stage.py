@@ -9,7 +9,7 @@ import pandas as pd
 from turn_datasets.cli.common import run_group
 from turn_datasets.synthetic.untrimmed import write_untrimmed_corpus
 from turn_eval.cli import cli
-from turn_eval.detect.demo_stage import UNTRIMMED_DIR, run_untrimmed_stage, untrimmed_section
+from turn_eval.demo.untrimmed import UNTRIMMED_DIR, run_untrimmed_stage, untrimmed_section
 from turn_eval.report import Report
 
 

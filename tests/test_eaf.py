@@ -238,6 +238,60 @@ def test_one_session_from_two_files(tmp_path: Path) -> None:
     assert "S01" in msg and str(b) in msg
 
 
+def _aid(path: Path, tier: str) -> str:
+    """The ANNOTATION_ID of the first annotation of ``tier`` (standard library)."""
+    (el,) = [t for t in ET.parse(path).getroot().iter("TIER") if t.get("TIER_ID") == tier]
+    return str(next(el.iter("ALIGNABLE_ANNOTATION")).get("ANNOTATION_ID"))
+
+
+def test_every_kind_of_problem_in_one_pass(tmp_path: Path) -> None:
+    """Each check of the reader adds to one report instead of stopping the pass: the kinds
+    in the order met, each place by file, annotation, tier and time."""
+    (tmp_path / "x").mkdir()
+    (tmp_path / "y").mkdir()
+    s01 = write_eaf(
+        tmp_path / "x" / "S01.eaf",
+        [
+            Tier(
+                "Turn A",
+                annotator="a",
+                participant="P01",
+                annotations=[(1000, 2000, "90"), (3000, 4000, "180")],
+            ),
+            Tier("Turn C", annotator="c", participant="P01", raw=[(1000, None, "90")]),
+            Tier("Turn D", annotator="d", participant="P01", raw=[(3000, 1500, "90")]),
+            Tier("Turn", participant="P01", annotations=[(0, 900, "90")]),
+            Tier("Turn 2", annotator="A", participant="P01", annotations=[(0, 900, "90")]),
+            Tier("Scenario", annotations=[(500, 3000, "weekend")]),
+        ],
+    )
+    # The same session again, elsewhere: read too (its own problems would count), and named
+    s01_again = _one_turn_tier(tmp_path / "y").rename(tmp_path / "y" / "S01.eaf")
+    evil = tmp_path / "y" / "evil.eaf"
+    evil.write_text(EXTERNAL_ENTITY, encoding="utf-8")
+    with pytest.raises(TurnbenchError) as info:
+        read_annotations(tmp_path)
+    lines = str(info.value).splitlines()
+    assert lines[0] == "7 problems of 7 kinds in 3 ELAN files; nothing read:"
+    assert lines[1:] == [
+        "  value not in the scenario vocabulary (scripted, clinical, free-living): "
+        f"{s01}, annotation {_aid(s01, 'Scenario')}, tier 'Scenario', at 0.500 s ('weekend') "
+        "[fix it in ELAN, or add an alias to the schema (--schema)]",
+        f"  annotation with an unaligned time slot (align it in ELAN): {s01}, annotation "
+        f"{_aid(s01, 'Turn C')}, tier 'Turn C', at 1.000 s ('90', start 1.000 s, end ?)",
+        f"  annotation ends not after it starts: {s01}, annotation {_aid(s01, 'Turn D')}, "
+        "tier 'Turn D', at 3.000 s ('90', ends at 1.500 s)",
+        f"  turn tier names no rater: {s01}, tier 'Turn' [set the tier's ANNOTATOR attribute "
+        "in ELAN (Tier > Change Tier Attributes)]",
+        f"  a second turn tier for one rater and participant: {s01}, tier 'Turn 2' (rater "
+        "'A' and participant 'P01', the first is 'Turn A')",
+        f"  a session comes from two files: {s01_again} (the other is {s01}) [one .eaf per "
+        "session: the file stem is the session id]",
+        f"  not readable as an ELAN file: {evil} (refused: the file declares a DOCTYPE (its "
+        "entities could expand without bound or read other files); ELAN never writes one)",
+    ]
+
+
 def test_missing_path_and_empty_folder(tmp_path: Path) -> None:
     assert "not found" in _error_text(tmp_path / "nope.eaf")
     (tmp_path / "empty").mkdir()

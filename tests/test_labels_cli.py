@@ -292,6 +292,103 @@ def test_labels_refuses_to_overwrite_an_input(capsys, tmp_path: Path) -> None:
     assert code == EXIT_BAD_INPUT
 
 
+def _annotation_id(path: Path, value: str) -> str:
+    """The ANNOTATION_ID of the annotation whose text is ``value``, read with the standard
+    library (independent of the reader)."""
+    import xml.etree.ElementTree as ET
+
+    root = ET.parse(path).getroot()
+    (aid,) = [
+        a.get("ANNOTATION_ID")
+        for a in root.iter("ALIGNABLE_ANNOTATION")
+        if a.findtext("ANNOTATION_VALUE") == value
+    ]
+    return str(aid)
+
+
+@pytest.mark.parametrize("command", ["labels", "agreement"])
+def test_every_problem_of_a_folder_in_one_run(capsys, tmp_path: Path, command: str) -> None:
+    """A file without a turn tier, unparseable angles, an overlapping pair and a file that is
+    not XML: one run names them all (file and annotation), grouped by kind with a count,
+    exits 2 and writes nothing."""
+    d = tmp_path / "eaf"
+    d.mkdir()
+    s01 = write_eaf(
+        d / "S01.eaf",
+        [
+            Tier(
+                "Turn alice",
+                annotator="alice",
+                participant="PD01",
+                annotations=[(1000, 2000, "90"), (5000, 6000, "ninety")],
+            ),
+            Tier(
+                "Turn bob",
+                annotator="bob",
+                participant="PD01",
+                annotations=[(1050, 2000, "90"), (5000, 6000, "180")],
+            ),
+        ],
+    )
+    s02 = write_eaf(
+        d / "S02.eaf",
+        [
+            Tier(
+                "Turn bob",
+                annotator="bob",
+                participant="PD02",
+                annotations=[(500, 1500, "90"), (1000, 2500, "135"), (3000, 4000, "180")],
+            )
+        ],
+    )
+    write_eaf(d / "S03.eaf", [Tier("Speech", annotations=[(0, 100, "hello")])])
+    (d / "S04.eaf").write_text("<ANNOTATION_DOCUMENT><TIER>", encoding="utf-8")
+    # Four more angles outside the vocabulary: the kind lists the first three and counts all.
+    s05 = write_eaf(
+        d / "S05.eaf",
+        [
+            Tier(
+                "Turn alice",
+                annotator="alice",
+                participant="PD02",
+                annotations=[(k * 1000, k * 1000 + 500, f"x{k}") for k in range(1, 5)],
+            )
+        ],
+    )
+    out_dir = tmp_path / "o"
+    args = (
+        ["--participants", _participants(tmp_path), "--out", out_dir / "labels.csv"]
+        if command == "labels"
+        else ["--out-dir", out_dir, "--min-kappa", "0.5"]
+    )
+    code, out, err = run(capsys, "remap", command, d, *args)
+    assert code == EXIT_BAD_INPUT and out == ""
+    assert "Traceback" not in err
+    assert not out_dir.exists()
+    lines = err.splitlines()
+    head = lines.index("turn-datasets: error: 8 problems of 4 kinds in 5 ELAN files; nothing read:")
+    body = lines[head + 1 :]
+    assert len(body) == 4
+    vocab = "value not in the turn_angle vocabulary (90, 135, 180, 225, 270, 315, 360)"
+    assert body[0] == (
+        f"  {vocab} (5 annotations): "
+        f"{s01}, annotation {_annotation_id(s01, 'ninety')}, tier 'Turn alice', at 5.000 s "
+        f"('ninety'); {s05}, annotation {_annotation_id(s05, 'x1')}, tier 'Turn alice', at "
+        f"1.000 s ('x1'); {s05}, annotation {_annotation_id(s05, 'x2')}, tier 'Turn alice', "
+        "at 2.000 s ('x2'); ... [fix it in ELAN, or add an alias to the schema (--schema)]"
+    )
+    assert body[1] == (
+        f"  turn overlaps the previous turn on its tier: {s02}, annotation "
+        f"{_annotation_id(s02, '135')}, tier 'Turn bob', at 1.000 s ('135', the previous "
+        "0.500 to 1.500 s)"
+    )
+    assert body[2].startswith(f"  not readable as an ELAN file: {d / 'S04.eaf'} (not well-formed")
+    assert body[3] == (
+        f"  no turn tier: no tier name matches '(?i)^turn': {d / 'S03.eaf'} "
+        "[see `turn-datasets remap inspect`, or map the tiers with --schema]"
+    )
+
+
 def test_labels_no_turn_tiers(capsys, tmp_path: Path, real_eaf_dir: Path) -> None:
     code, _, err = run(
         [

@@ -180,7 +180,7 @@ def test_the_overall_table_gives_the_quadratic_kappa_score_prints() -> None:
 
 
 def test_disagreement_times_as_elan_shows_them(tmp_path) -> None:
-    from turn_eval.demo import _disagreements_table
+    from turn_eval.demo.run import _disagreements_table
 
     path = tmp_path / "d.csv"
     path.write_text(
@@ -212,10 +212,79 @@ def test_the_files_section_links(tmp_path) -> None:
 
 
 def test_the_timeline_shown_has_a_false_and_a_missed_detection(tmp_path) -> None:
-    from turn_eval.detect.demo_stage import telling_timeline
+    from turn_eval.demo.untrimmed import telling_timeline
 
     (tmp_path / "timelines").mkdir()
     for name in ("0000_s1_P1.png", "0001_s1_P2.png", "0002_s2_P1.png"):
         (tmp_path / "timelines" / name).write_bytes(b"")
     (tmp_path / "events.csv").write_text("unit,kind\n0,TP\n0,TP\n1,TP\n1,FP\n2,TP\n2,FN\n2,FP\n")
     assert telling_timeline(tmp_path).name == "0002_s2_P1.png"
+
+
+# --- paper and net on shared axes -----------------------------------------------------------
+
+#: Ten clips, two reference bins. "paper" is far off on three (errors up to 200°, predicted
+#: bins 90 to 270); "net" is within 10° everywhere (predicted bins 90 and 180 only).
+_REF = np.array([90.0] * 5 + [180.0] * 5)
+_PAPER = _REF + np.array([0, 10, -10, 120, 200, 0, 10, -10, 40, -30])
+_NET = _REF + np.array([5, -5, 0, 10, -10, 5, -5, 0, 10, -10])
+
+
+@pytest.mark.parametrize("name", plots.PLOT_FILES)
+def test_paper_and_net_share_axes_side_by_side(name) -> None:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = plots.side_by_side(name, {"paper": (_PAPER, _REF), "net": (_NET, _REF)})
+    FigureCanvasAgg(fig).draw()
+    paper, net = [ax for ax in fig.axes if ax.get_title() in ("paper", "net")]
+    assert (paper.get_title(), net.get_title()) == ("paper", "net")
+    # one row: net to the right of paper, at the same height
+    assert paper.get_position().x1 <= net.get_position().x0
+    assert paper.get_position().y0 == pytest.approx(net.get_position().y0)
+    assert paper.get_ylim() == net.get_ylim() and paper.get_xlim() == net.get_xlim()
+
+    def ticks(labels) -> list[str]:
+        return [t.get_text() for t in labels]
+
+    assert ticks(paper.get_yticklabels()) == ticks(net.get_yticklabels())
+    assert ticks(paper.get_xticklabels()) == ticks(net.get_xticklabels())
+    if name == "abs_error.png":
+        # the same 5° bars in both, up to paper's largest error (200°): 40 bars each
+        edges = [[p.get_x() for p in ax.patches] for ax in (paper, net)]
+        assert edges[0] == edges[1] == [5.0 * k for k in range(40)]
+    elif name == "confusion_matrix.png":
+        # rows: the reference's bins; columns: every bin either predicts, in both panels
+        assert ticks(paper.get_yticklabels()) == ["90", "180"]
+        assert ticks(net.get_xticklabels()) == ["90", "135", "180", "225", "270"]
+    elif name == "predicted_by_bin.png":
+        # net's panel reaches paper's 290° (90 + 200) too: the heights compare directly
+        assert net.get_ylim()[1] >= 290.0
+    else:
+        # paper's +200° difference sets both panels' top
+        assert net.get_ylim()[1] >= 200.0
+
+
+def test_a_p_value_bound_from_a_markdown_table_shows_once_escaped() -> None:
+    # `compare` writes "< 0.001" in its Markdown as "&lt; 0.001" (a name like "<script>" is
+    # shown, not run, where Markdown is rendered); the page showed "&lt; 0.001" literally
+    from turn_datasets.render.markdown import markdown_table
+    from turn_eval.report import markdown_to_html
+
+    text = "\n".join(markdown_table(["metric", "p"], [["MAE (°)", "< 0.001"]], align="lr"))
+    html = markdown_to_html(text + "\n\nsubject <script>alert(1)</script>\n")
+    assert "<td>&lt; 0.001</td>" in html and "&amp;lt;" not in html
+    assert "<script>" not in html and "&lt;script&gt;" in html
+
+
+def test_side_by_side_of_a_submission_in_the_wrong_unit_stays_bounded(tmp_path) -> None:
+    # Centidegrees beside degrees: ~200 bins; the matrices merge them into at most 40 runs
+    # and no figure grows past a single figure's 14 + 1.2 inches at 110 dpi (1672 px)
+    rng = np.random.default_rng(0)
+    ref = rng.uniform(45, 360, 300)
+    written = plots.write_side_by_side({"cdeg": (ref * 100, ref), "deg": (ref, ref)}, tmp_path)
+    assert [p.name for p in written] == list(plots.PLOT_FILES)
+    for path in written:
+        data = path.read_bytes()
+        width = int.from_bytes(data[16:20], "big")
+        height = int.from_bytes(data[20:24], "big")
+        assert width <= 1672 and height <= 1672, (path.name, width, height)

@@ -608,44 +608,69 @@ def reading_notes(table: Table) -> list[str]:
 
 @dataclass
 class Problems:
-    """Every problem one pass over a table finds, grouped by kind, raised together.
+    """Every problem one pass finds, grouped by kind, raised together.
 
-    A check adds its kind (``"angle_deg is not a number"``), the file lines of every row
-    with it and, for the first few, what is there; :meth:`raise_if_any` raises one
+    A check adds its kind (``"angle_deg is not a number"``), where each case is and, for the
+    first few, what is there; :meth:`raise_if_any` raises one
     :class:`~turn_datasets.errors.TurnbenchError` listing each kind with its count and first
-    lines, so that a file with three kinds of problem needs one run, not three.
+    places, so that a file with three kinds of problem needs one run, not three.
+
+    Over one table (``path`` set) a place is the file's line number. Over several files
+    (``path`` None: a folder of ELAN files) a place is named in full, as a
+    :class:`~turn_datasets.errors.Where` prints it (file, annotation, tier, time), and a
+    lone problem is raised as the error its check gave.
     """
 
-    path: str
-    kinds: dict[str, tuple[list[int], list[str], str | None]] = field(default_factory=dict)
-    #: Lines listed per kind.
+    path: str | None
+    kinds: dict[str, tuple[list[int | str], list[str], str | None]] = field(default_factory=dict)
+    #: Places listed per kind.
     shown: int = 3
     singles: dict[str, str] = field(default_factory=dict)
     firsts: dict[str, str] = field(default_factory=dict)
+    #: What one place of each kind is ("row", "file", "annotation"), to count them.
+    units: dict[str, str] = field(default_factory=dict)
+    #: The first error recorded of each kind, raised as it is when it is the only problem.
+    errors: dict[str, TurnbenchError] = field(default_factory=dict)
 
     def add(
         self,
         kind: str,
-        lines: Sequence[int] | np.ndarray,
+        lines: Sequence[int | str] | np.ndarray,
         details: Sequence[str] = (),
         *,
         hint: str | None = None,
         single: str | None = None,
         first: str | None = None,
+        unit: str = "row",
     ) -> None:
-        """Rows of one kind of problem (``lines`` in file order; ``details[k]`` says what is
-        on ``lines[k]``); ``first`` says the first row's problem in full and ``single`` is
-        the whole message when it is the only kind (the first, the others counted)."""
+        """Places of one kind of problem (``lines`` in file order; ``details[k]`` says what
+        is at ``lines[k]``); ``first`` says the first place's problem in full and ``single``
+        is the whole message when it is the only kind (the first, the others counted)."""
         got, said, _ = self.kinds.setdefault(kind, ([], [], hint))
-        got.extend(int(x) for x in lines)
+        got.extend(x if isinstance(x, str) else int(x) for x in lines)
         said.extend(details)
         self.singles.setdefault(kind, single or first or kind)
         self.firsts.setdefault(kind, first or kind)
+        self.units.setdefault(kind, unit)
 
-    def record(self, exc: TurnbenchError) -> None:
-        """A problem a check raised: its message (first row, the others counted) and line."""
-        row = exc.where.row
-        self.add(exc.message, [row] if row else [], hint=exc.hint, single=exc.message)
+    def record(
+        self,
+        exc: TurnbenchError,
+        *,
+        kind: str | None = None,
+        detail: str | None = None,
+        unit: str = "row",
+    ) -> None:
+        """A problem a check raised. Over one table: its message (first row, the others
+        counted) and line. Over several files: as ``kind`` (default: its message), placed
+        where the error says, with ``detail`` saying what is there."""
+        if self.path is not None:
+            row = exc.where.row
+            self.add(exc.message, [row] if row else [], hint=exc.hint, single=exc.message)
+            return
+        kind = kind or exc.message
+        self.errors.setdefault(kind, exc)
+        self.add(kind, [str(exc.where)], [detail] if detail else [], hint=exc.hint, unit=unit)
 
     def run(self, check: Callable[[], object]) -> bool:
         """Run one check, recording what it raises instead of stopping; True if it passed."""
@@ -659,31 +684,41 @@ class Problems:
     def __bool__(self) -> bool:
         return bool(self.kinds)
 
-    def raise_if_any(self, what: str = "nothing scored") -> None:
-        """Raise every problem at once (grouped by kind, the first lines of each, a count)."""
+    def _listed(self, kind: str) -> str:
+        """One kind's line: what it is, how many places, the first few with what is there."""
+        places, details, hint = self.kinds[kind]
+        named = [
+            f"{place}" + (f" ({details[k]})" if k < len(details) else "")
+            for k, place in enumerate(places[: self.shown])
+        ]
+        more = ", ..." if len(places) > self.shown else ""
+        if self.path is not None:
+            lines = f"line{'s' if len(places) > 1 else ''} "
+            where = f": {lines}{', '.join(named)}{more}" if places else ""
+        else:
+            where = f": {'; '.join(named)}{more.replace(',', ';')}" if places else ""
+        count = f" ({counted(len(places), self.units[kind])})" if len(places) > 1 else ""
+        return f"  {self.firsts[kind]}{count}{where}" + (f" [{hint}]" if hint else "")
+
+    def raise_if_any(self, what: str = "nothing scored", *, scope: str = "") -> None:
+        """Raise every problem at once (grouped by kind, the first places of each, a count);
+        ``scope`` follows the count ("in 5 ELAN files")."""
         if not self.kinds:
             return
         if len(self.kinds) == 1:
-            # One kind: the message its check has always given (first line, the rest counted)
-            kind, (lines, _, hint) = next(iter(self.kinds.items()))
-            raise TurnbenchError(
-                self.singles[kind], file=self.path, row=lines[0] if lines else None, hint=hint
-            )
-        n_rows = sum(max(len(lines), 1) for lines, _, _ in self.kinds.values())
-        out = [f"{counted(n_rows, 'problem')} of {counted(len(self.kinds), 'kind')}; {what}:"]
-        for kind, (lines, details, hint) in self.kinds.items():
-            first = [
-                f"{line}" + (f" ({details[k]})" if k < len(details) else "")
-                for k, line in enumerate(lines[: self.shown])
-            ]
-            where = (
-                f": line{'s' if len(lines) > 1 else ''} {', '.join(first)}"
-                + (", ..." if len(lines) > self.shown else "")
-                if lines
-                else ""
-            )
-            rows = f" ({counted(len(lines), 'row')})" if len(lines) > 1 else ""
-            out.append(f"  {self.firsts[kind]}{rows}{where}" + (f" [{hint}]" if hint else ""))
+            kind, (places, _, hint) = next(iter(self.kinds.items()))
+            if self.path is not None:
+                # One kind: the message its check has always given (first line, the rest
+                # counted); over one table a place is a line number
+                line = places[0] if places and isinstance(places[0], int) else None
+                raise TurnbenchError(self.singles[kind], file=self.path, row=line, hint=hint)
+            if len(places) <= 1 and kind in self.errors:
+                raise self.errors[kind]
+        n_places = sum(max(len(places), 1) for places, _, _ in self.kinds.values())
+        out = [
+            f"{counted(n_places, 'problem')} of {counted(len(self.kinds), 'kind')}{scope}; {what}:"
+        ]
+        out.extend(self._listed(kind) for kind in self.kinds)
         # The error's line is the file's first problem (each kind's lines are listed).
-        starts = [entry[0][0] for entry in self.kinds.values() if entry[0]]
+        starts = [p for entry in self.kinds.values() for p in entry[0] if isinstance(p, int)]
         raise TurnbenchError("\n".join(out), file=self.path, row=min(starts) if starts else None)

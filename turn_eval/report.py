@@ -95,8 +95,6 @@ figure:target img{max-width:none}
 figure:target .close{display:inline-block;position:sticky;top:0;left:0;background:#1f5fa8;
 color:#fff;padding:.2em .8em;text-decoration:none}
 figcaption{font-size:.9em;color:#44505c;max-width:640px}
-.pair{display:grid;grid-template-columns:1fr 1fr;gap:1em;align-items:start}
-.pair figure{display:block;margin:.4em 0}
 @media print{main{max-width:none;box-shadow:none;padding:0}.wrap{overflow:visible}
 table{font-size:.78em}figure{break-inside:avoid}nav{display:none}}
 pre{background:#f3f5f7;padding:.6em .8em;overflow-x:auto;font-size:.88em}
@@ -273,7 +271,9 @@ def _split_row(line: str) -> list[str]:
     if body.endswith("|") and not body.endswith("\\|"):
         body = body[:-1]
     cells = re.split(r"(?<!\\)\|", body)
-    return [_plain_cell(c.strip().replace("\\|", "|")) for c in cells]
+    # Markdown's entities read as the characters they stand for (the commands write "<" as
+    # "&lt;"), to be escaped once, on the way out
+    return [_plain_cell(html.unescape(c.strip().replace("\\|", "|"))) for c in cells]
 
 
 def _plain_cell(text: str) -> str:
@@ -284,8 +284,9 @@ def _plain_cell(text: str) -> str:
 
 
 def _inline(text: str) -> str:
-    # Escape first, then the only inline markup we honour: `code` and **bold**.
-    out = _esc(text)
+    # Escape first (entities as the characters they stand for, as Markdown shows them),
+    # then the only inline markup we honour: `code` and **bold**.
+    out = _esc(html.unescape(text))
     out = re.sub(r"`([^`]+)`", r"<code>\1</code>", out)
     return re.sub(r"\*\*([^*]+)\*\*", r"<strong>\1</strong>", out)
 
@@ -510,26 +511,6 @@ class Section:
         for path in paths:
             name = Path(path).name
             self.figure(path, caption=(captions or {}).get(name, name))
-        return self
-
-    def figure_pairs(
-        self,
-        pairs: Iterable[tuple[str | os.PathLike[str], str | os.PathLike[str]]],
-        *,
-        captions: Sequence[str],
-        heads: tuple[str, str],
-    ) -> Section:
-        """Two columns of figures, row by row (``paper`` beside ``net``): ``heads`` name the
-        columns, ``captions`` each row."""
-        rows = [f'<div class="pair"><h4>{_esc(heads[0])}</h4><h4>{_esc(heads[1])}</h4></div>']
-        for (left, right), caption in zip(pairs, captions, strict=True):
-            rows.append(
-                '<div class="pair">'
-                + self._figure_html(left, f"{heads[0]}: {caption}")
-                + self._figure_html(right, f"{heads[1]}: {caption}")
-                + "</div>"
-            )
-        self.blocks.append("\n".join(rows))
         return self
 
     def files(

@@ -126,6 +126,8 @@ def agreement(
     agreement, Cohen's kappa (unweighted and linear, with a bootstrap 95% CI), kappa with
     "unmatched" as a category, the confusion matrix and median boundary differences,
     overall, per session and per pair of raters. Fractions in JSON, percentages in Markdown.
+    Problems in the ELAN files (as `remap labels` finds them) are all reported in one run,
+    grouped by kind, with exit 2 and nothing written.
 
     \b
     Example:
@@ -145,7 +147,10 @@ def agreement(
             out_dir, OUT_FILES, [*inputs, *paths], folders=(REVIEW_DIR,), record=AGREEMENT_RECORD
         )
     annotations = read_annotations(
-        list(progress(paths, label="reading ELAN files")), schema=schema, warn=warn
+        list(progress(paths, label="reading ELAN files")),
+        schema=schema,
+        warn=warn,
+        require_turn_tier=True,
     )
     if annotations.empty:
         raise no_turns_error(paths, schema)

@@ -169,10 +169,12 @@ def labels_cmd(
     annotated duration (session, subject, duration_s), for `turn-eval score-events`. All
     four are written together or not at all.
 
-    Exit 2, naming file, tier and time: a value outside the vocabulary, overlapping turns on
-    one tier, an end not after its start, a participant missing from the table, or
-    disagreements without consensus (all listed first; --resolve first-rater takes the
-    first rater's label instead).
+    Exit 2, naming file, annotation, tier and time: a value outside the vocabulary,
+    overlapping turns on one tier, an end not after its start, a file that is not ELAN or
+    has no turn tier beside files that have one (every such problem of every file in one
+    run, grouped by kind); a participant missing from the table; or disagreements without
+    consensus (all listed first; --resolve first-rater takes the first rater's label
+    instead).
 
     \b
     Example:
@@ -195,6 +197,7 @@ def labels_cmd(
         schema=schema,
         iterate=lambda ps: progress(ps, label="reading ELAN files"),
         warn=warn,
+        require_turn_tier=True,
     )
     if annotations.empty:
         raise no_turns_error(paths, schema)

@@ -36,6 +36,8 @@ from defusedxml.common import DTDForbidden, EntitiesForbidden, ExternalReference
 from turn_datasets.errors import TurnbenchError, Where
 from turn_datasets.fileio import typed_frame, walk_files
 from turn_datasets.remap.schema import Schema, Vocabulary, load_schema
+from turn_datasets.render.numbers import counted
+from turn_datasets.usertable import Problems
 
 __all__ = [
     "ANNOTATION_COLUMNS",
@@ -407,43 +409,84 @@ class Timed:
     value: str
 
 
+def _refuse(
+    problems: Problems | None,
+    exc: TurnbenchError,
+    kind: str,
+    *,
+    detail: str | None = None,
+    unit: str = "annotation",
+) -> None:
+    """Raise ``exc``, or with ``problems`` add it there as ``kind`` and go on."""
+    if problems is None:
+        raise exc
+    problems.record(exc, kind=kind, detail=detail, unit=unit)
+
+
 def _checked_intervals(
     doc: Document,
     tier: str,
     anns: list[_Ann],
     *,
     allow_overlap: bool,
+    problems: Problems | None = None,
 ) -> list[Timed]:
-    """Aligned, positive-length annotations of one tier, in time order (errors otherwise)."""
+    """Aligned, positive-length annotations of one tier, in time order (errors otherwise;
+    with ``problems``, each added there and the annotation left out)."""
     file = str(doc.path)
     out: list[Timed] = []
     for a in anns:
+        item = f"annotation {a.aid}"
+        shown = f"{a.value.strip()!r}"
         if a.start_ms is None or a.end_ms is None:
             known = a.start_ms if a.start_ms is not None else a.end_ms
-            raise TurnbenchError(
-                f"annotation {a.value.strip()!r} has an unaligned time slot "
-                f"(start {_fmt_s(a.start_ms)}, end {_fmt_s(a.end_ms)}); align it in ELAN",
+            span = f"start {_fmt_s(a.start_ms)}, end {_fmt_s(a.end_ms)}"
+            exc = TurnbenchError(
+                f"annotation {shown} has an unaligned time slot ({span}); align it in ELAN",
                 file=file,
+                item=item,
                 tier=tier,
                 time_s=None if known is None else known / 1000,
             )
+            _refuse(
+                problems,
+                exc,
+                "annotation with an unaligned time slot (align it in ELAN)",
+                detail=f"{shown}, {span}",
+            )
+            continue
         if a.end_ms <= a.start_ms:
-            raise TurnbenchError(
-                f"annotation {a.value.strip()!r} ends ({a.end_ms / 1000:.3f} s) "
-                "not after it starts",
+            exc = TurnbenchError(
+                f"annotation {shown} ends ({a.end_ms / 1000:.3f} s) not after it starts",
                 file=file,
+                item=item,
                 tier=tier,
                 time_s=a.start_ms / 1000,
             )
+            _refuse(
+                problems,
+                exc,
+                "annotation ends not after it starts",
+                detail=f"{shown}, ends at {a.end_ms / 1000:.3f} s",
+            )
+            continue
         if not allow_overlap and out and a.start_ms < out[-1].end_ms:
             prev = out[-1]
-            raise TurnbenchError(
-                f"turn {a.value.strip()!r} overlaps the previous turn on this tier "
-                f"({prev.start_ms / 1000:.3f} to {prev.end_ms / 1000:.3f} s)",
+            span = f"{prev.start_ms / 1000:.3f} to {prev.end_ms / 1000:.3f} s"
+            exc = TurnbenchError(
+                f"turn {shown} overlaps the previous turn on this tier ({span})",
                 file=file,
+                item=item,
                 tier=tier,
                 time_s=a.start_ms / 1000,
             )
+            _refuse(
+                problems,
+                exc,
+                "turn overlaps the previous turn on its tier",
+                detail=f"{shown}, the previous {span}",
+            )
+            continue
         out.append(Timed(a.aid, a.start_ms, a.end_ms, a.value))
     return out
 
@@ -472,10 +515,32 @@ def parse_value(doc: Document, tier: str, a: Timed, vocab: Vocabulary) -> str | 
     raise TurnbenchError(
         f"value {a.value!r} is not in the {vocab.name} vocabulary ({vocab.describe()})",
         file=str(doc.path),
+        item=f"annotation {a.aid}",
         tier=tier,
         time_s=a.start_ms / 1000,
-        hint="fix it in ELAN, or add an alias to the schema (--schema)",
+        hint=VOCABULARY_HINT,
     )
+
+
+#: How to mend a value outside its vocabulary.
+VOCABULARY_HINT = "fix it in ELAN, or add an alias to the schema (--schema)"
+
+
+def _parsed_or_none(
+    doc: Document, tier: str, a: Timed, vocab: Vocabulary, problems: Problems | None
+) -> str | float | None:
+    """:func:`parse_value`; with ``problems``, a value outside the vocabulary is added there
+    (and None returned)."""
+    try:
+        return parse_value(doc, tier, a, vocab)
+    except TurnbenchError as exc:
+        _refuse(
+            problems,
+            exc,
+            f"value not in the {vocab.name} vocabulary ({vocab.describe()})",
+            detail=repr(a.value),
+        )
+        return None
 
 
 @dataclass(frozen=True)
@@ -536,9 +601,10 @@ class FileContext:
 
 
 def _file_contexts(
-    doc: Document, schema: Schema, roles: list[TierRole], times
+    doc: Document, schema: Schema, roles: list[TierRole], times, problems: Problems
 ) -> dict[str, list[_Context]]:
-    """The context tiers' annotations of a file, by role, in time order."""
+    """The context tiers' annotations of a file, by role, in time order (problems added to
+    ``problems``, the annotation left out)."""
     eaf = doc.eaf
     contexts: dict[str, list[_Context]] = {"location": [], "scenario": []}
     for r in roles:
@@ -546,24 +612,73 @@ def _file_contexts(
             continue
         vocab = schema.vocabulary(r.role)
         anns = _checked_intervals(
-            doc, r.tier, tier_annotations(eaf, r.tier, times), allow_overlap=True
+            doc, r.tier, tier_annotations(eaf, r.tier, times), allow_overlap=True, problems=problems
         )
         for a in anns:
             if not a.value.strip() and a.aid not in doc.cve_refs:
                 continue  # an empty context annotation says nothing
-            value = str(parse_value(doc, r.tier, a, vocab))
-            contexts[r.role].append(_Context(r.participant, a.start_ms, a.end_ms, value))
+            value = _parsed_or_none(doc, r.tier, a, vocab, problems)
+            if value is not None:
+                contexts[r.role].append(_Context(r.participant, a.start_ms, a.end_ms, str(value)))
     for pool in contexts.values():
         pool.sort(key=lambda c: (c.start_ms, c.end_ms))
     return contexts
 
 
-def _file_rows(doc: Document, schema: Schema) -> tuple[list[dict[str, Any]], FileContext]:
+def _turn_tier_named(
+    r: TierRole, schema: Schema, file: str, seen: dict[tuple[str, str], str], problems: Problems
+) -> bool:
+    """Whether turn tier ``r`` names its rater and participant, and is the first of that
+    rater for that participant (each problem added to ``problems``)."""
+    named = True
+    for value, what, hint in (
+        (
+            r.annotator,
+            "rater",
+            f"set the tier's {schema.annotator_attribute} attribute "
+            "in ELAN (Tier > Change Tier Attributes)",
+        ),
+        (
+            r.participant,
+            "participant",
+            f"set the tier's {schema.participant_attribute} "
+            "attribute in ELAN, or turn.default_participant in the schema",
+        ),
+    ):
+        if not value:
+            exc = TurnbenchError(f"turn tier names no {what}", file=file, tier=r.tier, hint=hint)
+            problems.record(exc, unit="tier")
+            named = False
+    if not named:
+        return False
+    key = (r.annotator.casefold(), r.participant)
+    if key in seen:
+        first = f"rater {r.annotator!r} and participant {r.participant!r}"
+        problems.record(
+            TurnbenchError(
+                f"a second turn tier for {first} (the first is {seen[key]!r})",
+                file=file,
+                tier=r.tier,
+            ),
+            kind="a second turn tier for one rater and participant",
+            detail=f"{first}, the first is {seen[key]!r}",
+            unit="tier",
+        )
+        return False
+    seen[key] = r.tier
+    return True
+
+
+def _file_rows(
+    doc: Document, schema: Schema, problems: Problems
+) -> tuple[list[dict[str, Any]], FileContext]:
+    """One file's turn rows and context; each problem is added to ``problems`` and what it
+    concerns (an annotation, a tier) left out."""
     eaf = doc.eaf
     file = str(doc.path)
     roles = classify_tiers(eaf, schema)
     times = annotation_times_ms(eaf)
-    contexts = _file_contexts(doc, schema, roles, times)
+    contexts = _file_contexts(doc, schema, roles, times, problems)
 
     rows: list[dict[str, Any]] = []
     seen: dict[tuple[str, str], str] = {}
@@ -576,36 +691,13 @@ def _file_rows(doc: Document, schema: Schema) -> tuple[list[dict[str, Any]], Fil
             # without rater and participant beside the tiers a clinician did fill, must not
             # stop the parse (inspect still notes it).
             continue
-        for value, what, hint in (
-            (
-                r.annotator,
-                "rater",
-                f"set the tier's {schema.annotator_attribute} attribute "
-                "in ELAN (Tier > Change Tier Attributes)",
-            ),
-            (
-                r.participant,
-                "participant",
-                f"set the tier's {schema.participant_attribute} "
-                "attribute in ELAN, or turn.default_participant in the schema",
-            ),
-        ):
-            if not value:
-                raise TurnbenchError(
-                    f"turn tier names no {what}", file=file, tier=r.tier, hint=hint
-                )
-        key = (r.annotator.casefold(), r.participant)
-        if key in seen:
-            raise TurnbenchError(
-                f"a second turn tier for rater {r.annotator!r} and participant "
-                f"{r.participant!r} (the first is {seen[key]!r})",
-                file=file,
-                tier=r.tier,
-            )
-        seen[key] = r.tier
-        anns = _checked_intervals(doc, r.tier, tier_anns, allow_overlap=False)
+        if not _turn_tier_named(r, schema, file, seen, problems):
+            continue
+        anns = _checked_intervals(doc, r.tier, tier_anns, allow_overlap=False, problems=problems)
         for a in anns:
-            angle = parse_value(doc, r.tier, a, schema.turn_angle)
+            angle = _parsed_or_none(doc, r.tier, a, schema.turn_angle, problems)
+            if angle is None:
+                continue
             rows.append(
                 {
                     "session": doc.path.stem,
@@ -644,6 +736,7 @@ def read_annotations_and_context(
     schema: Schema | None = None,
     iterate: Callable[[list[Path]], Iterable[Path]] | None = None,
     warn: Callable[[str], None] | None = None,
+    require_turn_tier: bool = False,
 ) -> tuple[pd.DataFrame, list[FileContext]]:
     """Every turn annotation of every rater in ELAN files, one row each, and each file's
     context (:class:`FileContext`, for ``context.csv`` and ``sessions.csv``).
@@ -661,6 +754,10 @@ def read_annotations_and_context(
     warn
         Called with one line (file, tier, time) per value whose text disagrees with the
         vocabulary entry it links to (``CVE_REF``): it is read as the entry.
+    require_turn_tier
+        Refuse a file without a turn tier among files with turns (the commands, which read
+        a folder of sessions: such a file is in another convention, or stray); else it adds
+        no rows.
 
     Returns
     -------
@@ -670,38 +767,71 @@ def read_annotations_and_context(
         ``angle_deg`` is the vocabulary angle (the paper's 90° to 360° in 45° steps),
         ``scenario`` and ``location`` come from the context annotation overlapping the turn
         most (a participant's own context tiers before shared ones; empty if none overlaps),
-        ``value`` is the annotation's text as written. A file without turn tiers adds no rows,
-        and so does an empty turn tier (such as the template's ``Turn`` tier left unnamed).
+        ``value`` is the annotation's text as written. An empty turn tier adds no rows (such
+        as the template's ``Turn`` tier left unnamed), and so does a file without turn tiers
+        (unless ``require_turn_tier``).
 
     Raises
     ------
     TurnbenchError
-        Naming the file, tier and time: a value outside the vocabulary, overlapping turns on
-        one tier, an end not after its start, an unaligned turn, a turn tier with annotations
-        but without rater or participant, two tiers of one rater for one participant, two
-        files of one session;
-        and the refusals of :func:`load_eaf`.
+        Every problem of every file at once, grouped by kind (the first few places of each
+        named by file, annotation, tier and time, and counted), after reading them all; a
+        lone problem as its own one-line error: a value outside the vocabulary, overlapping
+        turns on one tier, an end not after its start, an unaligned annotation, a turn tier
+        with annotations but without rater or participant, two tiers of one rater for one
+        participant, two files of one session, a file :func:`load_eaf` refuses, and with
+        ``require_turn_tier`` a file without a turn tier among files with turns.
     """
     schema = schema if schema is not None else load_schema()
     rows: list[dict[str, Any]] = []
     contexts: list[FileContext] = []
     sessions: dict[str, Path] = {}
     paths = expand_eaf_paths(paths_or_dirs)
+    problems = Problems(None)
+    without_turn_tier: list[Path] = []
     for path in iterate(paths) if iterate is not None else paths:
         if path.stem in sessions:
-            raise TurnbenchError(
-                f"session {path.stem!r} comes from two files (the other is {sessions[path.stem]})",
+            other = sessions[path.stem]
+            exc = TurnbenchError(
+                f"session {path.stem!r} comes from two files (the other is {other})",
                 file=str(path),
                 hint="one .eaf per session: the file stem is the session id",
             )
-        sessions[path.stem] = path
-        doc = load_document(path)
-        file_rows, context = _file_rows(doc, schema)
+            problems.record(
+                exc,
+                kind="a session comes from two files",
+                detail=f"the other is {other}",
+                unit="file",
+            )
+        sessions.setdefault(path.stem, path)
+        try:
+            doc = load_document(path)
+        except TurnbenchError as exc:
+            problems.record(
+                exc, kind="not readable as an ELAN file", detail=exc.message, unit="file"
+            )
+            continue
+        if require_turn_tier and not any(r.role == "turn" for r in classify_tiers(doc.eaf, schema)):
+            without_turn_tier.append(path)
+        file_rows, context = _file_rows(doc, schema, problems)
         rows.extend(file_rows)
         contexts.append(context)
         if warn is not None:
             for message in doc.cve_disagreements:
                 warn(message)
+    if rows or problems:
+        # Beside files with turns, a file without a turn tier is another convention or a
+        # stray file, never a session to pass over in silence.
+        for path in without_turn_tier:
+            problems.record(
+                TurnbenchError(
+                    f"no turn tier: no tier name matches {schema.turn_tier_regex.pattern!r}",
+                    file=str(path),
+                    hint="see `turn-datasets remap inspect`, or map the tiers with --schema",
+                ),
+                unit="file",
+            )
+    problems.raise_if_any("nothing read", scope=f" in {counted(len(paths), 'ELAN file')}")
     frame = pd.DataFrame(rows, columns=list(ANNOTATION_COLUMNS))
     return typed_frame(frame, ANNOTATION_COLUMNS), contexts
 
@@ -712,7 +842,14 @@ def read_annotations(
     schema: Schema | None = None,
     iterate: Callable[[list[Path]], Iterable[Path]] | None = None,
     warn: Callable[[str], None] | None = None,
+    require_turn_tier: bool = False,
 ) -> pd.DataFrame:
     """Every turn annotation of every rater in ELAN files, one row each (the first part of
     :func:`read_annotations_and_context`, whose documentation says it all)."""
-    return read_annotations_and_context(paths_or_dirs, schema=schema, iterate=iterate, warn=warn)[0]
+    return read_annotations_and_context(
+        paths_or_dirs,
+        schema=schema,
+        iterate=iterate,
+        warn=warn,
+        require_turn_tier=require_turn_tier,
+    )[0]

@@ -10,9 +10,11 @@ from turn_datasets.cli.common import (
     CONTEXT_SETTINGS,
     FILE,
     bootstrap_options,
+    check_out_dir,
     emit,
     file_option,
     format_option,
+    one_run,
     warn,
     writing,
     wrote,
@@ -25,6 +27,7 @@ from turn_datasets.render.numbers import format_p, one_decimal
 from turn_datasets.render.numbers import signed as with_sign
 from turn_datasets.usertable import list_ids
 from turn_eval.cli import cli
+from turn_eval.cli.score import PLOT_FILES
 from turn_eval.clips.significance import Comparison, compare_predictions
 from turn_eval.clips.submission import Joined, read_predictions, read_reference
 
@@ -125,6 +128,21 @@ def _markdown(
     default=None,
     help="Also write the result (as printed) to this file.",
 )
+@click.option(
+    "--plots-dir",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=None,
+    help="Also draw the figures of `score --plots` with A and B side by side on shared axes "
+    "(same limits, ticks, bars and bins) into this folder.",
+)
+@click.option(
+    "--names",
+    nargs=2,
+    type=str,
+    default=None,
+    metavar="A B",
+    help="Panel titles of A and B in --plots-dir's figures (default: the file names without .csv).",
+)
 def compare_command(
     pred_a: Path,
     pred_b: Path,
@@ -135,6 +153,8 @@ def compare_command(
     allow_missing: bool,
     abs_angles: bool,
     out: Path | None,
+    plots_dir: Path | None,
+    names: tuple[str, str] | None,
 ) -> None:
     """Compare two submissions on the same clips: is B's difference from A more than noise?
 
@@ -149,9 +169,16 @@ def compare_command(
     Example:
       turn-eval compare baseline.csv ours.csv --reference turn-h36m.csv
       turn-eval compare a.csv b.csv --reference labels.csv --bootstrap 10000 --seed 1 --format json
+      turn-eval compare a.csv b.csv -r labels.csv --plots-dir figures/ --names baseline ours
     """
+    if names is not None and plots_dir is None:
+        raise click.UsageError("--names titles the figures of --plots-dir; give one")
+    if names is not None and names[0] == names[1]:
+        raise click.UsageError(f"--names: A and B are both called {names[0]!r}")
     if out is not None:
         check_not_input(out, (pred_a, pred_b, reference))
+    if plots_dir is not None:
+        check_out_dir(plots_dir, PLOT_FILES, [pred_a, pred_b, reference])
     ref = read_reference(reference)
     joined_a = read_predictions(
         pred_a, ref, allow_missing=allow_missing, abs_angles=abs_angles, warn=warn
@@ -199,6 +226,19 @@ def compare_command(
             n_missing=joined_a.n_missing,
             signature=signature.line(),
         )
+    if plots_dir is not None:
+        from turn_eval.clips.plots import write_side_by_side
+
+        title_a, title_b = names or (pred_a.stem, pred_b.stem)
+        if title_a == title_b:  # two files of one name in two folders
+            title_a, title_b = f"A: {title_a}", f"B: {title_b}"
+        panels = {
+            title_a: (table_a["pred_angle_deg"].to_numpy(), table_a["ref_angle_deg"].to_numpy()),
+            title_b: (table_b["pred_angle_deg"].to_numpy(), table_b["ref_angle_deg"].to_numpy()),
+        }
+        with one_run(plots_dir, what="the figures") as stage:
+            write_side_by_side(panels, stage, bin_width_deg=joined_a.bin_width_deg)
+        wrote(*(plots_dir / name for name in PLOT_FILES), what=f"{title_a} beside {title_b}:")
     if out is not None:
         # The file first: if it cannot be written, stdout stays empty and the exit is 2.
         with writing("the comparison", out):

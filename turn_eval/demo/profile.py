@@ -1,6 +1,6 @@
 """The demo's profile stage: ``turn-eval profile`` on the untrimmed stage's detections.
 
-After the untrimmed stage (:mod:`turn_eval.detect.demo_stage`) has found every turn in the
+After the untrimmed stage (:mod:`turn_eval.demo.untrimmed`) has found every turn in the
 demo's home-like streams, this stage runs what a clinic would run next: per-participant
 turning profiles and the PD-versus-control contrasts, with their figures, and adds a "Turning
 profile" section to ``report.html``.

@@ -15,9 +15,9 @@ printed as ``$ turn-datasets ...`` before it runs:
    ``turn-eval predict`` with both methods (``paper``: equation 3 as printed; ``net``);
 5. ``turn-eval score --plots`` of each method on each set (Tables 4 and 5, Figure 5);
 6. ``turn-eval compare`` of the two methods on each set;
-7. untrimmed sessions: ``turn-eval detect`` and ``score-events`` (:mod:`turn_eval.detect.demo_stage`);
+7. untrimmed sessions: ``turn-eval detect`` and ``score-events`` (:mod:`turn_eval.demo.untrimmed`);
 8. Turn-REMAP as released: a REMAP-Open-shaped tree, ``turn-datasets remap open``, ``predict``
-   and ``score`` by medication, DBS, turn type and steps (:mod:`turn_eval.demo_remap_open`);
+   and ``score`` by medication, DBS, turn type and steps (:mod:`turn_eval.demo.remap_open`);
 9. ``report.html``: one self-contained page of all of it (:mod:`turn_eval.report`).
 
 It ends by printing where each result is. Same seed, same outputs.
@@ -66,22 +66,22 @@ from turn_datasets.synthetic.demo_corpus import (
     write_remap_estimates,
 )
 from turn_eval import cli as eval_cli
-from turn_eval.demo_remap_open import (
+from turn_eval.demo.profile import PROFILE_DIR, profile_section, run_profile_stage
+from turn_eval.demo.remap_open import (
     OPEN_DIR,
     RemapOpenResults,
     load_remap_open,
     remap_open_section,
     run_remap_open_stage,
 )
-from turn_eval.detect.demo_stage import FPS_HZ as UNTRIMMED_FPS_HZ
-from turn_eval.detect.demo_stage import (
+from turn_eval.demo.untrimmed import FPS_HZ as UNTRIMMED_FPS_HZ
+from turn_eval.demo.untrimmed import (
     UNTRIMMED_DIR,
     UntrimmedResults,
     load_untrimmed,
     run_untrimmed_stage,
     untrimmed_section,
 )
-from turn_eval.profile.demo_stage import PROFILE_DIR, profile_section, run_profile_stage
 from turn_eval.report import Report, load_json
 
 __all__ = [
@@ -97,6 +97,8 @@ __all__ = [
 ]
 
 METHODS = ("paper", "net")
+#: Where ``compare --plots-dir`` draws the two methods side by side, in each set's folder.
+COMPARE_FIGURES = "compare-figures"
 MIN_KAPPA = 0.8
 #: A planted turn counts as found when a mined clip of the same sequence and direction
 #: covers at least this share of its frames.
@@ -353,6 +355,8 @@ class SetScores:
     scores: dict[str, dict]
     figures: dict[str, list[Path]]
     compare_md: str | None = None
+    #: ``compare --plots-dir``'s figures: the methods side by side on shared axes.
+    compare_figures: list[Path] = field(default_factory=list)
 
 
 @dataclass
@@ -563,11 +567,18 @@ def _compare_step(
             "--seed",
             "0",
         ]
-        _eval([*args, "--out", str(folder / "compare.md")], show=True)
+        figures = folder / COMPARE_FIGURES
+        _eval(
+            [*args, "--out", str(folder / "compare.md"), "--plots-dir", str(figures)]
+            + ["--names", *METHODS],
+            show=True,
+        )
         _eval([*args, "--format", "json", "--out", str(folder / "compare.json")])
         scored.compare_md = (folder / "compare.md").read_text(encoding="utf-8")
+        scored.compare_figures = sorted(figures.glob("*.png"), key=_figure_order)
         paths[f"{name}: paper vs net"] = folder / "compare.md"
         paths[f"{name}: paper vs net (JSON)"] = folder / "compare.json"
+        paths[f"{name}: paper beside net, figures on shared axes"] = figures
 
 
 def _audit_results(audit_dir: Path) -> dict[str, Any]:
@@ -724,12 +735,15 @@ def _figure_order(png: Path) -> tuple[int, str]:
     return rank, png.name
 
 
-def _caption(png: Path) -> str:
+def _caption(png: Path, note: str = "") -> str:
+    """The figure's caption, with ``note`` after its sentence, and the file's name."""
     stem = png.stem.lower()
     for key, text in _FIGURE_CAPTIONS.items():
         if key in stem:
-            return f"{text} ({png.name})"
-    return png.name
+            return (
+                f"{text.removesuffix('.')}{note}. ({png.name})" if note else f"{text} ({png.name})"
+            )
+    return f"{png.name}{note}"
 
 
 def _scores_section(report: Report, scored: SetScores) -> None:
@@ -746,15 +760,14 @@ def _scores_section(report: Report, scored: SetScores) -> None:
         present = [g for g in scored.groupings if g in scores.get("by", {})]
         sec.heading(f"Method {method}")
         sec.scores(scores, groupings=present, caption=f"{scored.title}, {method}")
-    # The two methods' figures side by side, one row per figure, to be compared
+    # The two methods in one figure each, side by side on shared axes, to be compared
     methods = list(scored.figures)
-    if len(methods) == 2:
-        left, right = (scored.figures[m] for m in methods)
-        by_name = {p.name: p for p in right}
-        pairs = [(p, by_name[p.name]) for p in left if p.name in by_name]
+    if scored.compare_figures:
         sec.heading(f"Figures: {methods[0]} beside {methods[1]}")
-        sec.figure_pairs(
-            pairs, captions=[_caption(a) for a, _ in pairs], heads=(methods[0], methods[1])
+        side = f"; {methods[0]} left, {methods[1]} right, on shared axes"
+        sec.figures(
+            scored.compare_figures,
+            captions={p.name: _caption(p, side) for p in scored.compare_figures},
         )
     else:
         for method in methods:
@@ -802,6 +815,7 @@ def load_results(out_dir: str | Path, *, seed: int = DEMO_SEED) -> DemoResults:
                     for m in METHODS
                 },
                 compare_md.read_text(encoding="utf-8") if compare_md.exists() else None,
+                sorted((folder / COMPARE_FIGURES).glob("*.png"), key=_figure_order),
             )
         )
     return DemoResults(
@@ -826,6 +840,7 @@ _FILES = {
     "predictions": "h36m/predictions-{paper,net}.csv, remap/predictions-{paper,net}.csv",
     "scores": "h36m/scores-{paper,net}/, remap/scores-{paper,net}/",
     "comparisons": "h36m/compare.md, remap/compare.md (and .json)",
+    "paper beside net": f"h36m/{COMPARE_FIGURES}/, remap/{COMPARE_FIGURES}/",
     "corpus": "corpus/h36m/ (planted.csv lists the planted turns), corpus/remap/",
     "miner check": "h36m/miner-check.md, h36m/miner-check.csv",
     "untrimmed sessions": "untrimmed/streams/ (one .npz per session), untrimmed/detections.csv "
