@@ -361,7 +361,7 @@ def test_every_problem_of_a_folder_in_one_run(capsys, tmp_path: Path, command: s
         if command == "labels"
         else ["--out-dir", out_dir, "--min-kappa", "0.5"]
     )
-    code, out, err = run(capsys, "remap", command, d, *args)
+    code, out, err = run(["remap", command, d, *args], capsys)
     assert code == EXIT_BAD_INPUT and out == ""
     assert "Traceback" not in err
     assert not out_dir.exists()
