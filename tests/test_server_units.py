@@ -341,3 +341,22 @@ def test_without_by_no_group_leaves_the_server(tmp_path, capsys):
     assert scores["public"]["by"] == {} and scores["private"]["by"] == {}
     text = json.dumps(scores)
     assert not any(word in text for word in ("P00", "PD", "scripted", "subject", "cohort"))
+
+
+def test_scoring_workers_run_at_a_lower_priority_than_the_server():
+    # Scoring is queued work: its workers yield the CPU to the requests (os.nice 10 more).
+    import concurrent.futures as cf
+    import multiprocessing
+
+    from turn_eval.server.scoring import WORKER_NICENESS, scoring_worker_init
+
+    ours = os.nice(0)
+    with cf.ProcessPoolExecutor(
+        max_workers=1,
+        mp_context=multiprocessing.get_context("spawn"),
+        initializer=scoring_worker_init,
+        initargs=(os.getpid(),),
+    ) as pool:
+        theirs = pool.submit(os.nice, 0).result(timeout=60)
+    assert WORKER_NICENESS == 10
+    assert theirs == min(ours + 10, 19)

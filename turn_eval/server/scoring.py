@@ -154,6 +154,21 @@ def warm_job(root: str) -> None:
     reference_of(open_challenge(root))
 
 
+#: How much lower the scoring workers' CPU priority is than the server's (``nice``): scoring
+#: is queued work, and on a machine whose cores it fills the uploads and pages must still be
+#: answered first.
+WORKER_NICENESS = 10
+
+
+def scoring_worker_init(parent_pid: int) -> None:
+    """A scoring worker's initializer: a lower CPU priority (:data:`WORKER_NICENESS`), and
+    exit when the server that started it is gone (:func:`watch_parent`)."""
+    import os
+
+    os.nice(WORKER_NICENESS)
+    watch_parent(parent_pid)
+
+
 def watch_parent(parent_pid: int, interval_s: float = 1.0) -> None:
     """A worker's initializer: exit when the server that started it is gone.
 

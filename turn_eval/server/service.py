@@ -45,10 +45,10 @@ from turn_eval.server.scoring import (
     reference_of,
     score_job,
     score_upload,
+    scoring_worker_init,
     side_arrays,
     validate_upload,
     warm_job,
-    watch_parent,
 )
 from turn_eval.server.split import PRIVATE, PUBLIC, draw_split
 from turn_eval.server.store import (
@@ -334,7 +334,7 @@ class Scorer:
         return cf.ProcessPoolExecutor(
             max_workers=self.workers,
             mp_context=_worker_context(),
-            initializer=watch_parent,
+            initializer=scoring_worker_init,
             initargs=(os.getpid(),),
         )
 
