@@ -10,8 +10,9 @@ of 1390 turns with other boundaries, a stride's valid-pair count of exactly its 
 that the two versions' FFTs put on either side of it (``test_miner`` pins it). The angles'
 last digits still differ: the two versions vectorise ``arctan2`` differently (1 ulp in a
 third of the frames); the C library's ``atan2`` element by element would make them equal
-at a tenth of ``detect``'s time, so the turns, their boundaries and every printed figure
-are what is held equal.
+at a tenth of ``detect``'s time, so what is held equal is every decision: the block
+carries the fingerprint of each turn's stream, frames, direction, angle to 0.01°, steps and
+type (``decisions_fingerprint``), and both environments must print it.
 """
 
 from __future__ import annotations
@@ -114,3 +115,30 @@ def test_results_block_by_hand(tmp_path: Path) -> None:
     assert replace_block(readme, block) == f"intro\n{START}\n{block}{END}\nrest\n"
     with pytest.raises(TurnbenchError, match="no demo-results markers"):
         readme_block("no markers here")
+
+
+def test_the_decisions_fingerprint_names_decisions_not_last_digits(tmp_path: Path) -> None:
+    import hashlib
+
+    from turn_eval.demo.results import decisions_fingerprint
+
+    head = "session,subject,start_s,end_s,angle_deg,direction,steps,turn_type\n"
+    a = tmp_path / "a.csv"
+    a.write_text(
+        head + "s1,P1,18.166666666666668,20.833333333333332,177.01782050972915,left,3.0,step\n",
+        encoding="utf-8",
+    )
+    # the same turn, its angle one ulp away and its times as another writer prints them
+    b = tmp_path / "b.csv"
+    b.write_text(
+        head + "s1,P1,18.16666666666667,20.83333333333333,177.01782050972912,left,3.0,step\n",
+        encoding="utf-8",
+    )
+    # one frame later
+    c = tmp_path / "c.csv"
+    c.write_text(
+        head + "s1,P1,18.2,20.833333333333332,177.01782050972915,left,3.0,step\n", encoding="utf-8"
+    )
+    want = hashlib.sha256(b"s1|P1|545|625|left|177.02|3.0|step").hexdigest()[:12]
+    assert decisions_fingerprint(a) == decisions_fingerprint(b) == want
+    assert decisions_fingerprint(c) != want
