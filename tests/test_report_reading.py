@@ -209,6 +209,16 @@ def test_the_files_section_links(tmp_path) -> None:
     text = report.render()
     assert '<a href="remap/labels.csv">remap/labels.csv</a>' in text
     assert "h36m/scores-{paper,net}/" in text and 'href="h36m/scores-{' not in text
+    # the words of a parenthesis are not paths beside the page
+    report = Report("t")
+    report.section("Files").files(
+        {"events": "untrimmed/events/ (event scores, timelines, PR curve), untrimmed/x.csv"},
+        link=True,
+    )
+    text = report.render()
+    assert '<a href="untrimmed/events/">untrimmed/events/</a> (event scores, timelines' in text
+    assert '<a href="untrimmed/x.csv">' in text
+    assert 'href="timelines"' not in text and 'href="PR"' not in text
 
 
 def test_the_timeline_shown_has_a_false_and_a_missed_detection(tmp_path) -> None:

@@ -518,11 +518,12 @@ class Section:
     ) -> Section:
         """Where each result is: a table of description -> relative path; with ``link``, each
         path is a link to the file beside the page (paths separated by ", " are linked one
-        by one; a path with ``{a,b}`` stays text)."""
+        by one; a path with ``{a,b}`` stays text, and so do the words of a parenthesis: in
+        "events/ (scores, timelines)" only ``events/`` is a path)."""
         rows = []
         for what, where in paths.items():
             links = []
-            for part in re.split(r"(, (?![^{]*\}))", where):
+            for part in re.split(r"(, (?![^{(]*[})]))", where):
                 plain = re.match(r"^([\w./-]+)(.*)$", part)
                 if not link or part == ", " or plain is None or "{" in part:
                     links.append(_esc(part))
