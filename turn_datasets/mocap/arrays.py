@@ -41,6 +41,7 @@ __all__ = [
     "iter_arrays",
     "load_numpy",
     "read_arrays",
+    "npy_header",
     "read_h5_dataset",
     "read_npz_member",
 ]
@@ -172,7 +173,7 @@ def _check_numpy_container(path: Path, suffix: str) -> None:
         )
 
 
-def _npy_header(fh) -> tuple[tuple[int, ...], np.dtype]:
+def npy_header(fh) -> tuple[tuple[int, ...], np.dtype]:
     """The shape and dtype an ``.npy`` stream's header declares (the stream is left after
     the header): read before NumPy allocates what they add up to."""
     version = np.lib.format.read_magic(fh)
@@ -190,7 +191,7 @@ def _np_load(p: Path, suffix: str):
     ``.npy``'s declared size is checked first (:func:`~turn_datasets.mocap.checks.check_declared_size`)."""
     if suffix == ".npy":
         with unreadable("the .npy header", p), open(p, "rb") as fh:
-            shape, dtype = _npy_header(fh)
+            shape, dtype = npy_header(fh)
         check_declared_size(shape, dtype, path=p, item=None)
     with unreadable(suffix, p):
         return np.load(p, allow_pickle=False)
@@ -203,7 +204,7 @@ def read_npz_member(archive, key: str, path: Path) -> np.ndarray:
     name = f"{key}.npy" if f"{key}.npy" in archive.zip.namelist() else key
     with unreadable("this array", path, item=key, guess="pickled, truncated or corrupt?"):
         with archive.zip.open(name) as fh:
-            shape, dtype = _npy_header(fh)
+            shape, dtype = npy_header(fh)
     check_declared_size(shape, dtype, path=path, item=key)
     with unreadable("this array", path, item=key, guess="pickled, truncated or corrupt?"):
         return archive[key]

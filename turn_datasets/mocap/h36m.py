@@ -44,7 +44,7 @@ import numpy as np
 
 from turn_datasets import limits
 from turn_datasets.errors import TurnbenchError
-from turn_datasets.mocap.arrays import read_h5_dataset
+from turn_datasets.mocap.arrays import npy_header, read_h5_dataset
 from turn_datasets.mocap.checks import (
     CORRUPT,
     OnBadSequence,
@@ -402,13 +402,7 @@ def _plain(obj: object) -> object:
 def _read_object_header(fh, path: Path) -> None:
     """Read the member's ``.npy`` header; it must be what VideoPose3D writes, a 0-d object
     array (a pickled dict)."""
-    version = np.lib.format.read_magic(fh)
-    read_header = (
-        np.lib.format.read_array_header_1_0
-        if version == (1, 0)
-        else np.lib.format.read_array_header_2_0
-    )
-    shape, _, dtype = read_header(fh)
+    shape, dtype = npy_header(fh)
     if dtype != np.dtype(object) or shape != ():
         raise TurnbenchError(
             f"{VIDEOPOSE_KEY!r} is a {dtype} array of shape {shape}, not "
