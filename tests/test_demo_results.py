@@ -91,6 +91,11 @@ def test_results_block_by_hand(tmp_path: Path) -> None:
             }
         )
     )
+    (tmp_path / "untrimmed" / "detections.csv").write_text(
+        "session,subject,start_s,end_s,angle_deg,direction,steps,turn_type\n"
+        "s1,P1,1.0,2.5,90.004,left,,\n",
+        encoding="utf-8",
+    )
     ag = tmp_path / "remap" / "agreement" / "agreement.json"
     ag.parent.mkdir(parents=True)
     ag.write_text(
@@ -111,6 +116,10 @@ def test_results_block_by_hand(tmp_path: Path) -> None:
     assert "| Turn-H3.6M-like | 10 | net | 70.0% | 10.0° | 75.0% | – |" in block
     assert "finds 9 of the 10 labelled turns with 1 false detections (F1 90.0%)" in block
     assert "kappa 0.968 (95% CI 0.950 to 0.980) over 674 matched turns, and 0.925" in block
+    import hashlib
+
+    print_ = hashlib.sha256(b"s1|P1|30|75|left|90.00||").hexdigest()[:12]
+    assert f"have the fingerprint `{print_}` in every supported environment." in block
     readme = f"intro\n{START}\nold\n{END}\nrest\n"
     assert replace_block(readme, block) == f"intro\n{START}\n{block}{END}\nrest\n"
     with pytest.raises(TurnbenchError, match="no demo-results markers"):
