@@ -263,7 +263,14 @@ from turn_eval.cli import main as evaluation
 try:
     (datasets if sys.argv[1] == "turn-datasets" else evaluation)(sys.argv[2:])
 finally:
-    print(f"peak_kb={{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss}}", file=sys.stderr)
+    # this process's own high-water mark (VmHWM): ru_maxrss of a process started by
+    # vfork + exec also counts the parent's resident memory at the fork
+    try:
+        with open("/proc/self/status", encoding="ascii") as fh:
+            hwm = [ln.split()[1] for ln in fh if ln.startswith("VmHWM:")][0]
+    except (OSError, IndexError):
+        hwm = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    print(f"peak_kb={{hwm}}", file=sys.stderr)
 """
 
 
