@@ -360,3 +360,19 @@ def test_scoring_workers_run_at_a_lower_priority_than_the_server():
         theirs = pool.submit(os.nice, 0).result(timeout=60)
     assert WORKER_NICENESS == 10
     assert theirs == min(ours + 10, 19)
+
+
+def test_server_init_checks_by_as_score_does(tmp_path, capsys):
+    # one grouping check for score and the server: commas split, a value column is no group
+    pytest.importorskip("sqlalchemy", reason="needs the server extra")
+    from turn_eval.server.datadir import open_challenge
+
+    write_reference(tmp_path / "labels.csv")
+    ok = ["server", "init", tmp_path / "c", "-r", tmp_path / "labels.csv", "--name", "x"]
+    assert run([*ok, "--by", "cohort, scenario"], capsys)[0] == 0
+    assert open_challenge(tmp_path / "c").by == ("cohort", "scenario")
+    bad = ["server", "init", tmp_path / "d", "-r", tmp_path / "labels.csv", "--name", "x"]
+    code, out, err = run([*bad, "--by", "angle_deg"], capsys)
+    assert code == 2 and out == "" and not (tmp_path / "d").exists()
+    assert err.count("\n") == 1 and "--by 'angle_deg': the reference has no such group" in err
+    assert "it has bin_deg, subject, cohort, scenario, notes" in err and "angle_deg," not in err

@@ -32,6 +32,7 @@ from turn_datasets import __version__
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.fileio import sha256_file, to_json_text
 from turn_eval.clips.submission import read_reference
+from turn_eval.scoring.groups import check_groupings
 from turn_eval.server.datadir import (
     SETTINGS_FILE,
     Challenge,
@@ -82,19 +83,10 @@ _NOT_GROUPS = ("clip_id", "angle_deg", "duration_s", "speed_deg_s")
 
 
 def _check_by(reference_columns: Sequence[str], by: Sequence[str], path: str) -> tuple[str, ...]:
-    out: list[str] = []
+    """``score``'s own check of the groupings (:func:`check_groupings`), over the reference's
+    columns that may be shown as groups."""
     allowed = [c for c in reference_columns if c not in _NOT_GROUPS]
-    for name in by:
-        col = name.strip().lower()
-        if col not in allowed:
-            raise TurnbenchError(
-                f"--by {name!r}: the reference has no such group column; it has "
-                f"{', '.join(allowed)}",
-                file=path,
-            )
-        if col not in out:
-            out.append(col)
-    return tuple(out)
+    return tuple(check_groupings(by, allowed, default=(), file=path))
 
 
 def _fresh_target(root: Path) -> None:
