@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import io
+import pickle
 import zipfile
 from pathlib import Path
 
@@ -168,6 +170,57 @@ def test_videopose_npz_round_trip_in_metres(tmp_path: Path) -> None:
         np.testing.assert_array_equal(seq.positions, want.astype(np.float32).astype(np.float64))
         assert (seq.units, seq.fps, seq.layout) == ("m", 50.0, H36M32)
     assert seqs[1].meta["key"] == "S9/TakingPhoto 1"
+
+
+def _videopose_npz_pickled(path: Path, data: dict, protocol: int) -> None:
+    """``data_3d_h36m.npz`` as ``np.savez_compressed`` writes it, its pickle in ``protocol``
+    (NumPy 1 wrote 3, NumPy 2 writes 4: large arrays outside the 64 KiB frames)."""
+    obj = np.empty((), dtype=object)
+    obj[()] = data
+    head = io.BytesIO()
+    np.lib.format.write_array_header_1_0(head, {"descr": "|O", "fortran_order": False, "shape": ()})
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as zf:
+        zf.writestr("positions_3d.npy", head.getvalue() + pickle.dumps(obj, protocol=protocol))
+
+
+@pytest.mark.parametrize("protocol", [3, 4])
+def test_videopose_npz_reads_as_numpy_does_in_either_pickle_protocol(tmp_path, protocol) -> None:
+    # arrays in and out of frames, names and an action with a space (SHORT_BINUNICODE), the
+    # memo (BINPUT/BINGET) shared by the dtype and the reconstructor
+    data = {
+        f"S{k}": {name: (_walking_h36m(n, seed=k * n) / 1000).astype(np.float32) for name, n in
+                  (("Walking", 3), ("Walking 1", 700), ("Eating", 4000))}
+        for k in (1, 5, 11)
+    }  # fmt: skip
+    path = tmp_path / "data_3d_h36m.npz"
+    _videopose_npz_pickled(path, data, protocol)
+    raw = np.load(path, allow_pickle=True)["positions_3d"].item()
+    seqs = list(readers.read_source(path))
+    assert len(seqs) == 9
+    for seq in seqs:
+        subject, name = seq.meta["key"].split("/")
+        np.testing.assert_array_equal(seq.positions, raw[subject][name].astype(np.float64))
+
+
+def test_videopose_pickle_is_unpickled_as_it_is_inflated_never_held_whole(
+    tmp_path, monkeypatch
+) -> None:
+    # four arrays of 153,600 bytes: no read of the member may return more than one of them
+    # (reading the whole pickle first holds it twice over, inflated and unpickled)
+    data = {f"S{k}": {"Walking": _walking_h36m(400, seed=k) / 1000} for k in (1, 5, 6, 7)}
+    path = h36m_files.write_videopose_npz(tmp_path / "data_3d_h36m.npz", data)
+    read = zipfile.ZipExtFile.read
+    sizes: list[int] = []
+
+    def recording(self, n=-1):
+        out = read(self, n)
+        sizes.append(len(out))
+        return out
+
+    monkeypatch.setattr(zipfile.ZipExtFile, "read", recording)
+    seqs = list(readers.read_source(path))
+    assert [s.subject for s in seqs] == ["S1", "S5", "S6", "S7"]
+    assert 400 * 32 * 3 * 4 == max(sizes)
 
 
 def test_writers_are_reproducible(tmp_path: Path) -> None:

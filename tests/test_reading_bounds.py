@@ -400,13 +400,18 @@ def test_a_pickled_array_declaring_gigabytes_is_refused_before_numpy_allocates_i
     assert_refused(tool, path, message, tmp_path)
 
 
-def deflate_bomb_npz(path, n_bytes: int) -> None:
+def deflate_bomb_npz(
+    path, n_bytes: int, *, opcode: bytes = b"\x80\x03B", declared: int | None = None
+) -> None:
     """A ``data_3d_h36m.npz`` whose pickle is one bytes object of ``n_bytes`` zeros, truly
     deflated (about a thousandth of its size): each 16 MiB block of zeros is deflated once,
-    with a full flush, and its identical output repeated."""
+    with a full flush, and its identical output repeated. ``opcode`` (after the protocol)
+    takes ``n_bytes`` as its 4-byte length, or 8-byte with ``\\x95`` (a frame); the zip
+    declares the member's true size, or ``declared`` (a lie)."""
     head = io.BytesIO()
     np.lib.format.write_array_header_1_0(head, {"descr": "|O", "fortran_order": False, "shape": ()})
-    prefix = head.getvalue() + b"\x80\x03B" + struct.pack("<I", n_bytes)
+    length = struct.pack("<Q" if opcode.endswith(b"\x95") else "<I", n_bytes)
+    prefix = head.getvalue() + opcode + length
     block = bytes(1 << 24)
     blocks, rest = divmod(n_bytes, len(block))
     deflate = zlib.compressobj(9, zlib.DEFLATED, -15)
@@ -417,7 +422,7 @@ def deflate_bomb_npz(path, n_bytes: int) -> None:
     for _ in range(blocks):
         crc = zlib.crc32(block, crc)
     crc = zlib.crc32(bytes(rest) + b".", crc)
-    size = len(prefix) + n_bytes + 1
+    size = len(prefix) + n_bytes + 1 if declared is None else declared
     name = b"positions_3d.npy"
     local = struct.pack(
         "<IHHHHHIIIHH", 0x04034B50, 20, 0, 8, 0, 33, crc, len(data), size, len(name), 0
@@ -462,6 +467,45 @@ def test_a_memo_index_far_past_the_pickle_is_refused_before_it_runs(tmp_path) ->
     videopose_npz(path, b"\x80\x03}r" + struct.pack("<I", 2**30) + b".")
     message = f"{path}, positions_3d: the pickle stores an object at memo index 1,073,741,824"
     assert_refused("detect", path, message, tmp_path)
+
+
+@pytest.mark.parametrize(
+    "pickled, index",
+    [
+        (b"(lp1073741824\n.", "1,073,741,824"),  # PUT, protocol 0: the index as text
+        (b"\x80\x02]q\xff.", "255"),  # BINPUT: one byte
+    ],
+    ids=["PUT", "BINPUT"],
+)
+def test_a_memo_index_past_the_pickle_is_refused_in_every_form(tmp_path, pickled, index) -> None:
+    path = tmp_path / "data_3d_h36m.npz"
+    videopose_npz(path, pickled)
+    message = f"{path}, positions_3d: the pickle stores an object at memo index {index} after"
+    assert_refused("mine", path, message, tmp_path)
+
+
+def test_a_bytes_object_longer_than_its_member_is_refused_before_it_is_allocated(
+    tmp_path,
+) -> None:
+    # BINBYTES8 of 8 GiB in a pickle of a dozen bytes: the unpickler allocates the bytes
+    # object whole before it reads any of it
+    path = tmp_path / "data_3d_h36m.npz"
+    videopose_npz(path, b"\x80\x04\x8e" + struct.pack("<Q", 2**33) + b".")
+    message = (
+        f"{path}, positions_3d: the pickle's opcode 2 declares 8,589,934,592 bytes in a member"
+    )
+    assert_refused("mine", path, message, tmp_path)
+
+
+def test_a_frame_longer_than_a_lying_member_is_refused_before_it_is_inflated(tmp_path) -> None:
+    # the zip declares 10 MB for a member that inflates to 1.2 GB, whose pickle opens a
+    # frame of all of it: asked for the frame's length at once, zipfile inflates that much
+    # before it cuts the data at the declared size (and finds the CRC wrong)
+    path = tmp_path / "data_3d_h36m.npz"
+    deflate_bomb_npz(path, 1_200_000_000, opcode=b"\x80\x04\x95", declared=10_000_000)
+    assert path.stat().st_size < 2_000_000
+    message = f"{path}, positions_3d: the pickle's opcode 2 declares 1,200,000,000 bytes in a"
+    assert_refused("mine", path, message, tmp_path)
 
 
 @pytest.mark.parametrize("compressed", ["variable", "file"])

@@ -16,8 +16,9 @@
     first (a 0-d object array), and the pickle is read by an unpickler that builds NumPy
     arrays, dtypes and plain containers only, so a file whose pickle would import anything
     else (``os.system``) is refused before any of it runs. What the pickle may build is
-    bounded first: the size the zip declares for it, its opcodes, and every array's shape
-    before NumPy allocates it. It is loaded once and its sequences yielded one by one.
+    bounded: the size the zip declares for it before it is inflated, each opcode before the
+    unpickler acts on it, and every array's shape before NumPy allocates it. It is inflated
+    once, as it is unpickled, and its sequences yielded one by one.
 
 The subject comes from the ``S<n>`` folder (or the npz key) and the action and trial from
 the name on disk (:func:`parse_h36m_action`). The three share these names and the frame
@@ -27,7 +28,6 @@ rate, so they live together.
 from __future__ import annotations
 
 import importlib
-import io
 import os
 import pickle
 import pickletools
@@ -36,7 +36,7 @@ import zipfile
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any
+from typing import Any, NamedTuple
 
 import cdflib
 import h5py
@@ -411,30 +411,147 @@ def _read_object_header(fh, path: Path) -> None:
         )
 
 
-def _check_pickle_opcodes(fh) -> None:
-    """Walk the pickle's opcodes without running them (``pickletools.genops``): at most
-    :data:`turn_datasets.limits.MAX_PICKLE_OPCODES`, and no object stored at a memo index
-    past the opcodes before it (the unpickler sizes its memo by the index: six bytes could
-    ask for gigabytes)."""
-    for n, (opcode, arg, _) in enumerate(pickletools.genops(fh), 1):
-        if n > limits.MAX_PICKLE_OPCODES:
+class _Argument(NamedTuple):
+    """How an opcode's argument is laid out in the stream (pickletools' table)."""
+
+    #: Bytes of a fixed argument, or of the length before a counted payload.
+    size: int
+    #: Newline-ended lines instead (GLOBAL and INST take two: module and name).
+    lines: int
+    #: ``size`` bytes are the length of a payload that follows.
+    counted: bool
+    #: That length is signed.
+    signed: bool
+
+
+def _argument(arg: pickletools.ArgumentDescriptor | None) -> _Argument:
+    if arg is None:
+        return _Argument(0, 0, False, False)
+    if arg.n >= 0:
+        return _Argument(arg.n, 0, False, False)
+    if arg.n == pickletools.UP_TO_NEWLINE:
+        return _Argument(0, 2 if arg is pickletools.stringnl_noescape_pair else 1, False, False)
+    size, signed = {
+        pickletools.TAKEN_FROM_ARGUMENT1: (1, False),
+        pickletools.TAKEN_FROM_ARGUMENT4: (4, True),
+        pickletools.TAKEN_FROM_ARGUMENT4U: (4, False),
+        pickletools.TAKEN_FROM_ARGUMENT8U: (8, False),
+    }[arg.n]
+    return _Argument(size, 0, True, signed)
+
+
+#: Every opcode (its byte) -> its argument's layout.
+_ARGUMENTS: Mapping[int, _Argument] = MappingProxyType(
+    {ord(op.code): _argument(op.arg) for op in pickletools.opcodes}
+)
+_PUT, _BINPUT, _LONG_BINPUT, _STOP, _FRAME = (ord(c) for c in "pqr.\x95")
+
+
+class _CheckedPickleStream:
+    """The pickle as the unpickler reads it, every opcode checked before it is handed over.
+
+    At most :data:`turn_datasets.limits.MAX_PICKLE_OPCODES` opcodes; no object stored at a
+    memo index past the opcodes before it (the unpickler sizes its memo by the index: six
+    bytes could ask for gigabytes); no counted payload (bytes, a string) or frame longer
+    than the member (the unpickler allocates a payload before reading it, and asks zipfile
+    for a frame's length at once, which it inflates up to that length whatever the member
+    declares). The opcodes are parsed as
+    pickletools lays them out, and a payload is passed over by its length, so the arrays'
+    bytes cost nothing; the pickle is inflated once, as the unpickler reads it. There is no
+    ``peek``, so the unpickler acts only on bytes :meth:`read` or :meth:`readline` returned,
+    which are checked before they are returned.
+    """
+
+    def __init__(self, raw: Any, size: int) -> None:
+        self._raw = raw
+        self._size = size
+        self._opcodes = 0
+        self._code = -1  # the opcode whose argument is still arriving; -1 between opcodes
+        self._arg = bytearray()  # that argument so far (not kept for text lines)
+        self._lines = 0  # its newlines still to come
+        self._skip = 0  # payload bytes still to pass over
+        self._stopped = False
+
+    def read(self, size: int = -1) -> bytes:
+        return self._checked(self._raw.read(size))
+
+    def readline(self, size: int = -1) -> bytes:
+        return self._checked(self._raw.readline(size))
+
+    def _checked(self, data: bytes) -> bytes:
+        at = 0
+        while at < len(data) and not self._stopped:
+            if self._skip:
+                step = min(self._skip, len(data) - at)
+                self._skip -= step
+                at += step
+            elif self._code < 0:
+                self._opcode(data[at])
+                at += 1
+            elif self._lines:
+                end = data.find(b"\n", at)
+                stop = len(data) if end < 0 else end + 1
+                if self._code == _PUT:
+                    self._arg += data[at:stop]
+                at = stop
+                if end >= 0:
+                    self._lines -= 1
+                    if not self._lines:
+                        self._done()
+            else:
+                step = min(_ARGUMENTS[self._code].size - len(self._arg), len(data) - at)
+                self._arg += data[at : at + step]
+                at += step
+                if len(self._arg) == _ARGUMENTS[self._code].size:
+                    self._done()
+        return data
+
+    def _opcode(self, code: int) -> None:
+        self._opcodes += 1
+        if self._opcodes > limits.MAX_PICKLE_OPCODES:
             raise TurnbenchError(
                 f"the pickle holds more than {limits.MAX_PICKLE_OPCODES:,} opcodes, which "
                 "no VideoPose3D dict needs (27 a sequence): corrupt or crafted",
                 item=VIDEOPOSE_KEY,
             )
-        if opcode.name in ("PUT", "BINPUT", "LONG_BINPUT") and isinstance(arg, int) and arg > n:
-            raise TurnbenchError(
-                f"the pickle stores an object at memo index {arg:,} after only {n} "
-                "opcodes: corrupt or crafted",
-                item=VIDEOPOSE_KEY,
-            )
+        arg = _ARGUMENTS.get(code)
+        if arg is None:
+            raise ValueError(f"the pickle's opcode {self._opcodes:,} ({code:#04x}) is unknown")
+        self._code, self._lines = code, arg.lines
+        if not (arg.size or arg.lines):
+            self._done()
+
+    def _done(self) -> None:
+        """The opcode's argument is complete: check it."""
+        arg = _ARGUMENTS[self._code]
+        if arg.counted or self._code == _FRAME:
+            length = int.from_bytes(self._arg, "little", signed=arg.signed)
+            if not 0 <= length <= self._size:
+                raise TurnbenchError(
+                    f"the pickle's opcode {self._opcodes:,} declares {length:,} "
+                    f"bytes in a member of {self._size:,}: corrupt or crafted",
+                    item=VIDEOPOSE_KEY,
+                )
+            if arg.counted:  # a frame holds opcodes
+                self._skip = length
+        elif self._code in (_PUT, _BINPUT, _LONG_BINPUT):
+            index = int(self._arg) if self._code == _PUT else int.from_bytes(self._arg, "little")
+            if index > self._opcodes:
+                raise TurnbenchError(
+                    f"the pickle stores an object at memo index {index:,} after only "
+                    f"{self._opcodes} opcodes: corrupt or crafted",
+                    item=VIDEOPOSE_KEY,
+                )
+        self._stopped = self._code == _STOP
+        self._code = -1
+        self._arg.clear()
 
 
 def _unpickle_member(zf: zipfile.ZipFile, info: zipfile.ZipInfo, path: Path) -> object:
     """The member's pickled object, after what bounds the memory unpickling takes: the
     size the zip declares for the inflated pickle (zipfile inflates no more) checked as the
-    float32 values it can hold, then its opcodes, then every array's shape as it is built."""
+    float32 values it can hold, then each opcode as it is read
+    (:class:`_CheckedPickleStream`), then every array's shape as it is built."""
     check_declared_size(
         (-(-info.file_size // 4),),
         np.dtype(np.float32),
@@ -442,13 +559,14 @@ def _unpickle_member(zf: zipfile.ZipFile, info: zipfile.ZipInfo, path: Path) -> 
         item=VIDEOPOSE_KEY,
         what="the pickled dict, inflated and counted as float32 (as VideoPose3D stores it),",
     )
-    # Inflated once (the size is bounded above): walking the opcodes and then unpickling
-    # from the zip stream inflated it twice, 1.5 times np.load's whole time on a corpus.
+    # One pass, inflated once and never held whole: a walk of the opcodes before
+    # unpickling needs the pickle twice (inflated twice, or held in one buffer).
     with zf.open(info) as fh:
         _read_object_header(fh, path)
-        pickled = fh.read()
-    _check_pickle_opcodes(io.BytesIO(pickled))
-    return _ArraysOnly(io.BytesIO(pickled)).load()
+        obj = _ArraysOnly(_CheckedPickleStream(fh, info.file_size)).load()
+        while fh.read(1 << 20):  # to the member's end, where zipfile checks its CRC
+            pass
+    return obj
 
 
 def load_videopose_dict(path: Path) -> object:
@@ -458,7 +576,8 @@ def load_videopose_dict(path: Path) -> object:
     0-d object array (a pickled dict); the size the zip declares for the pickle, its opcodes
     and every array's declared shape are checked before they take memory
     (:func:`~turn_datasets.mocap.checks.check_declared_size`, the one check of every
-    reader); the pickle is read by :class:`_ArraysOnly`.
+    reader); the pickle is read by :class:`_ArraysOnly` as it is inflated, each opcode
+    checked first (:class:`_CheckedPickleStream`).
 
     Raises
     ------
