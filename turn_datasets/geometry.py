@@ -120,9 +120,13 @@ def usable_frames(
     positions: np.ndarray, layout: Layout, joints: str | Sequence[str] = ("hip",)
 ) -> np.ndarray:
     """Boolean mask of frames whose frontal vectors are usable for every chosen pair."""
-    mask = np.ones(np.asarray(positions).shape[0], dtype=bool)
-    for joint in parse_joints(joints):
-        mask &= _usable(frontal_vectors(positions, layout, joint))
+    return _all_usable([frontal_vectors(positions, layout, j) for j in parse_joints(joints)])
+
+
+def _all_usable(vectors: list[np.ndarray]) -> np.ndarray:
+    mask = np.ones(vectors[0].shape[0], dtype=bool)
+    for v in vectors:
+        mask &= _usable(v)
     return mask
 
 
@@ -140,14 +144,14 @@ def frame_yaw_deg(
     the body does. Yaw is the direction of the left-minus-right vector: a person's heading is
     this minus 90°; only differences of yaw matter here.
     """
-    names = parse_joints(joints)
-    mask = usable_frames(positions, layout, names)
+    vectors = [frontal_vectors(positions, layout, j) for j in parse_joints(joints)]
+    mask = _all_usable(vectors)  # usable_frames, on the same vectors
     out = np.full(mask.shape[0], np.nan)
     if not mask.any():
         return out
     series: list[np.ndarray] = []
-    for joint in names:
-        yaw = _unwrapped_yaw_rad(frontal_vectors(positions, layout, joint)[mask])
+    for v in vectors:
+        yaw = _unwrapped_yaw_rad(v[mask])
         if series:
             yaw = yaw - 2 * np.pi * np.round((yaw[0] - series[0][0]) / (2 * np.pi))
         series.append(yaw)

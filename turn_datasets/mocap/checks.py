@@ -255,11 +255,14 @@ def checked_positions(
         )
     check_magnitude(p, path=path, item=item)
     p = np.ascontiguousarray(p, dtype=np.float64)
-    hips = p[:, [layout.index("left_hip"), layout.index("right_hip")], :2]
-    if not np.isfinite(hips).all(axis=(1, 2)).any():
-        raise TurnbenchError("the left or right hip is NaN in every frame", file=path, item=item)
     n_usable = int(usable_frames(p, layout, "hip").sum())
     if n_usable < 2:
+        # a frame with a NaN hip is never usable: which is the cause is asked only here
+        hips = p[:, [layout.index("left_hip"), layout.index("right_hip")], :2]
+        if not np.isfinite(hips).all(axis=(1, 2)).any():
+            raise TurnbenchError(
+                "the left or right hip is NaN in every frame", file=path, item=item
+            )
         raise TurnbenchError(
             f"the left and right hips coincide (or are missing) in all but {n_usable} of "
             f"{p.shape[0]} frames: no hip direction to measure",
