@@ -629,7 +629,8 @@ def _onset(departure: np.ndarray, onset_deg: float) -> float:
     """
     n = departure.shape[0]
     high = departure >= 4.0 * onset_deg
-    top = int(high.argmax()) if high.any() else n
+    first = int(high.argmax()) if n else 0  # 0 also where no frame is high
+    top = first if n and high[first] else n
     low = np.flatnonzero(departure[:top] < onset_deg)
     bottom = int(low[-1]) + 1 if low.size else 0
     m = top - bottom
@@ -641,7 +642,7 @@ def _onset(departure: np.ndarray, onset_deg: float) -> float:
     slope = float(k @ r) * 12.0 / (m * (m * m - 1.0))
     if not slope > 0:
         return float(bottom)
-    root = bottom + 0.5 * (m - 1) - float(r.mean()) / slope
+    root = bottom + 0.5 * (m - 1) - float(r.sum()) / m / slope  # r.sum() / m is r.mean()
     # On an exact parabola the start lies 0.55 x (top - bottom) before the bottom; noise may
     # tilt the line, so the start is kept within one such span of the fitted frames.
     return min(max(root, bottom - m), bottom)
@@ -826,8 +827,9 @@ def _prepare_piece(
     bad = ~usable
     if bad.any():
         idx = np.arange(n)
+        gaps, known, known_xy = idx[bad], idx[usable], xy[usable]
         for c in range(4):
-            xy[bad, c] = np.interp(idx[bad], idx[usable], xy[usable, c])
+            xy[bad, c] = np.interp(gaps, known, known_xy[:, c])
     if position_filter_applies(cutoff_hz, fps_hz) and n > 3:
         xy = _zero_phase_lowpass(xy, cutoff_hz, fps_hz)
     out = np.zeros((n, 2, 3))
