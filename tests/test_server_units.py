@@ -273,6 +273,47 @@ def test_team_and_receipt_commands(tmp_path, capsys):
         assert code == 0 and "Example:" in out, command
 
 
+def test_reads_do_not_wait_for_a_writer(tmp_path, capsys):
+    """Under WAL a read sees the last commit while another connection holds the write lock:
+    the store's reads (a token's team, the phase, the queue) must not ask for that lock."""
+    pytest.importorskip("sqlalchemy", reason="needs the server extra")
+    import sqlite3
+    import threading
+
+    from turn_eval.server.datadir import open_challenge
+    from turn_eval.server.service import open_store
+
+    write_reference(tmp_path / "labels.csv")
+    root = tmp_path / "c"
+    assert (
+        run(["server", "init", root, "-r", tmp_path / "labels.csv", "--name", "x"], capsys)[0] == 0
+    )
+    assert run(["server", "add-team", root, "A"], capsys)[0] == 0
+    store = open_store(open_challenge(root))
+    holder = sqlite3.connect(root / "turnbench.db", isolation_level=None)
+    holder.execute("BEGIN IMMEDIATE")
+    # written, not committed: no read may see it
+    holder.execute("insert into phase (key, value) values ('closed', '0')")
+    seen: dict = {}
+
+    def read() -> None:
+        seen["team"] = store.team(1)
+        seen["closed"] = store.is_closed()
+        seen["queued"] = store.queued()
+
+    reader = threading.Thread(target=read, daemon=True)
+    try:
+        reader.start()
+        reader.join(timeout=10)
+        assert not reader.is_alive(), "a read waited for the write lock"
+    finally:
+        holder.execute("ROLLBACK")
+        holder.close()
+        reader.join()
+        store.engine.dispose()
+    assert seen["team"].name == "A" and seen["closed"] is False and seen["queued"] == []
+
+
 def test_the_core_never_imports_the_server_packages(tmp_path):
     ref = write_reference(tmp_path / "labels.csv")
     write_predictions(tmp_path / "p.csv", ref, noise_deg=5, seed=0)
