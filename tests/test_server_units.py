@@ -246,6 +246,15 @@ def test_team_and_receipt_commands(tmp_path, capsys):
     assert con.execute("pragma journal_mode").fetchone() == ("wal",)
     (stored,) = con.execute("select token_hash from teams where name = 'A'").fetchone()
     con.close()
+    from turn_eval.server.datadir import open_challenge
+    from turn_eval.server.service import open_store
+
+    store = open_store(open_challenge(root))
+    with store.engine.connect() as conn:
+        # the server's connections: 1 is NORMAL (SQLite's PRAGMA synchronous: 0 OFF, 1
+        # NORMAL, 2 FULL, the default), no sync at each commit under WAL
+        assert conn.exec_driver_sql("pragma synchronous").scalar() == 1
+    store.engine.dispose()
     # only the hash is kept
     assert stored == hashlib.sha256(token.strip().encode()).hexdigest()
     code, _, err = run(["server", "add-team", root, "A"], capsys)
