@@ -42,6 +42,7 @@ from sqlalchemy import (
     String,
     Table,
     Text,
+    case,
     create_engine,
     event,
     func,
@@ -271,15 +272,15 @@ class Store:
             if not self.is_sqlite:
                 # the team's row lock serialises this team's quota transactions
                 conn.execute(select(teams.c.id).where(teams.c.id == team_id).with_for_update())
-            mine = submissions.c.team_id == team_id
-            if total is not None:
-                n_total = conn.execute(select(func.count()).where(mine)).scalar_one()
-                if n_total >= total:
+            if total is not None or daily is not None:
+                # both counts in one statement (COUNT of a CASE counts its non-null values)
+                today = case((submissions.c.created >= day_start(now), 1))
+                n_total, n_today = conn.execute(
+                    select(func.count(), func.count(today)).where(submissions.c.team_id == team_id)
+                ).one()
+                if total is not None and n_total >= total:
                     raise QuotaUsed(f"the total quota of {total} submissions is used")
-            if daily is not None:
-                since = submissions.c.created >= day_start(now)
-                n_today = conn.execute(select(func.count()).where(mine, since)).scalar_one()
-                if n_today >= daily:
+                if daily is not None and n_today >= daily:
                     raise QuotaUsed(
                         f"the daily quota of {daily} submissions is used (it resets at 00:00 UTC)"
                     )
