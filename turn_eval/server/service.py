@@ -43,12 +43,12 @@ from turn_eval.server.datadir import (
 from turn_eval.server.ranking import gated_ranks, order_key
 from turn_eval.server.receipts import sign_receipt
 from turn_eval.server.scoring import (
+    check_upload,
     reference_of,
     score_job,
     score_upload,
     scoring_worker_init,
     side_arrays,
-    validate_upload,
     warm_job,
 )
 from turn_eval.server.split import PRIVATE, PUBLIC, draw_split
@@ -219,7 +219,8 @@ def new_id() -> str:
 def accept_upload(
     challenge: Challenge, store: Store, team: Team, received: Path, shown_name: str, sha256: str
 ) -> str:
-    """Validate a received upload, store it under a new id and take the team's quota.
+    """Check a received upload (:func:`check_upload`), store it under a new id and take the
+    team's quota.
 
     Raises
     ------
@@ -228,7 +229,7 @@ def accept_upload(
     QuotaUsed
         The team's quota is used; nothing is kept.
     """
-    joined = validate_upload(challenge, received, shown_name)
+    n_clips = check_upload(challenge, received, shown_name)
     submission_id = new_id()
     stored = challenge.upload_path(submission_id)
     os.replace(received, stored)
@@ -237,7 +238,7 @@ def accept_upload(
             team.id,
             submission_id,
             sha256=sha256,
-            n_rows=len(joined),
+            n_rows=n_clips,
             now=time.time(),
             daily=None if team.is_baseline else challenge.params.daily_quota,
             total=None if team.is_baseline else challenge.params.total_quota,
@@ -251,7 +252,7 @@ def accept_upload(
 def add_baseline(challenge: Challenge, store: Store, name: str, predictions: Path) -> str:
     """Add a baseline team with one submission, scored here and now; return its id."""
     reference_of(challenge)  # a broken data directory fails before anything is added
-    validate_upload(challenge, predictions, str(predictions))
+    check_upload(challenge, predictions, str(predictions))
     add_team(store, name, baseline=True)
     team = store.team_by_name(name.strip())
     assert team is not None
