@@ -167,6 +167,49 @@ def test_a_worker_crash_fails_that_submission_alone(tmp_path, capsys):
     assert subs["crash"]["error"] == "the scorer crashed while scoring this submission"
 
 
+def test_the_dispatcher_reads_the_queue_only_for_free_workers(tmp_path, capsys):
+    pytest.importorskip("sqlalchemy", reason="needs the server extra")
+    import concurrent.futures as cf
+
+    from turn_eval.server.datadir import open_challenge
+    from turn_eval.server.service import Scorer, open_store
+
+    write_reference(tmp_path / "labels.csv")
+    root = tmp_path / "c"
+    assert (
+        run(["server", "init", root, "-r", tmp_path / "labels.csv", "--name", "x"], capsys)[0] == 0
+    )
+    challenge = open_challenge(root)
+    store = open_store(challenge)
+    store.add_team("T", lambda i: "0" * 64, baseline=False, now=time.time())
+    for k, n in enumerate(["e", "a", "d", "b", "c"]):
+        store.take_quota(1, n, sha256="0", n_rows=1, now=1000.0 + k, daily=None, total=None)
+    # oldest first, as many as asked
+    assert store.queued(limit=2) == [("e", 0), ("a", 0)]
+    assert [sid for sid, _ in store.queued()] == ["e", "a", "d", "b", "c"]
+    reads: list[int | None] = []
+    queued = store.queued
+
+    def counted(limit: int | None = None) -> list[tuple[str, int]]:
+        reads.append(limit)
+        return queued(limit)
+
+    store.queued = counted  # type: ignore[method-assign]
+    submitted: list[str] = []
+    scorer = Scorer(challenge, store, workers=3)
+    scorer._submit = submitted.append  # type: ignore[method-assign]
+    # every worker busy (each upload wakes the dispatcher): no read at all
+    scorer._inflight = {n: cf.Future() for n in ("x", "y", "z")}
+    scorer._dispatch()
+    assert reads == [] and submitted == []
+    # one free worker: the oldest queued one is claimed, and only it was read
+    del scorer._inflight["z"]
+    scorer._dispatch()
+    assert reads == [1] and submitted == ["e"]
+    assert [sid for sid, _ in queued()] == ["a", "d", "b", "c"]
+    store.engine.dispose()
+
+
 # --- the command line -----------------------------------------------------------------------
 def test_init_refusals_leave_nothing(tmp_path, capsys):
     pytest.importorskip("sqlalchemy", reason="needs the server extra")

@@ -376,7 +376,12 @@ class Scorer:
         if self._solo and self._inflight:
             return
         self._solo = False
-        for submission_id, attempts in self.store.queued():
+        free = self.workers - len(self._inflight)
+        if free <= 0:
+            # every worker is busy: nothing to read (each upload wakes the dispatcher, and
+            # this runs in the server's process, beside the uploads)
+            return
+        for submission_id, attempts in self.store.queued(limit=free):
             if len(self._inflight) >= self.workers:
                 return
             if attempts >= 1:

@@ -322,12 +322,13 @@ class Store:
             out.append(d)
         return out
 
-    def queued(self) -> list[tuple[str, int]]:
-        """Queued submissions, oldest first: (id, attempts so far)."""
+    def queued(self, limit: int | None = None) -> list[tuple[str, int]]:
+        """Queued submissions, oldest first (the first ``limit``): (id, attempts so far)."""
         query = (
             select(submissions.c.id, submissions.c.attempts)
             .where(submissions.c.status == QUEUED)
             .order_by(submissions.c.created, submissions.c.id)
+            .limit(limit)
         )
         with self._reading() as conn:
             return [(r.id, r.attempts) for r in conn.execute(query).all()]
