@@ -366,6 +366,43 @@ def test_reads_do_not_wait_for_a_writer(tmp_path, capsys):
     assert seen["team"].name == "A" and seen["closed"] is False and seen["queued"] == []
 
 
+def test_a_team_read_once_is_kept_and_its_tokens_still_checked(tmp_path, capsys):
+    pytest.importorskip("sqlalchemy", reason="needs the server extra")
+    import sqlite3
+
+    from turn_eval.server.datadir import open_challenge
+    from turn_eval.server.service import authenticate, open_store, token_team_id
+
+    write_reference(tmp_path / "labels.csv")
+    root = tmp_path / "c"
+    assert (
+        run(["server", "init", root, "-r", tmp_path / "labels.csv", "--name", "x"], capsys)[0] == 0
+    )
+    token = run(["server", "add-team", root, "A"], capsys)[1].strip()
+    store = open_store(open_challenge(root))
+    team_id = int(token.split(".")[0])
+    assert token_team_id(f"Bearer {token}") == team_id
+    assert token_team_id("Bearer nope") is None and token_team_id(None) is None
+    assert store.known_team(team_id) is None
+    assert authenticate(store, f"Bearer {token}").name == "A"
+    assert store.known_team(team_id).name == "A"
+    # a wrong secret for a kept team is refused as before
+    assert authenticate(store, f"Bearer {team_id}.{'x' * 43}") is None
+    # a team's row never changes once written, so what was read is kept (here the file is
+    # changed behind the store's back, which nothing of ours does, to show no read is made)
+    con = sqlite3.connect(root / "turnbench.db")
+    con.execute("update teams set name = 'changed' where id = ?", (team_id,))
+    con.commit()
+    con.close()
+    assert authenticate(store, f"Bearer {token}").name == "A"
+    # a team the store did not find is not kept as missing: added later, it is found
+    assert authenticate(store, f"Bearer {team_id + 1}.{'y' * 43}") is None
+    other = run(["server", "add-team", root, "B"], capsys)[1].strip()
+    assert int(other.split(".")[0]) == team_id + 1
+    assert authenticate(store, f"Bearer {other}").name == "B"
+    store.engine.dispose()
+
+
 def test_the_core_never_imports_the_server_packages(tmp_path):
     ref = write_reference(tmp_path / "labels.csv")
     write_predictions(tmp_path / "p.csv", ref, noise_deg=5, seed=0)

@@ -68,6 +68,7 @@ __all__ = [
     "add_team",
     "add_baseline",
     "authenticate",
+    "token_team_id",
     "accept_upload",
     "Scorer",
     "Leaderboard",
@@ -191,19 +192,35 @@ def add_team(store: Store, name: str, *, baseline: bool = False) -> str:
     return tokens[team_id]
 
 
-def authenticate(store: Store, header: str | None) -> Team | None:
-    """The team whose token is in ``Authorization: Bearer TOKEN``, or None.
-
-    The stored hash is compared with the token's in constant time
-    (:func:`hmac.compare_digest`); a baseline has no usable token.
-    """
+def _bearer_token(header: str | None) -> str | None:
+    """The token of ``Authorization: Bearer TOKEN`` if it has our shape
+    (``<team id>.<secret>``), else None."""
     if not header or not header.startswith("Bearer "):
         return None
     token = header[len("Bearer ") :].strip()
     team_part, _, secret_part = token.partition(".")
     if not team_part.isdigit() or not secret_part or len(token) > 200:
         return None
-    team = store.team(int(team_part))
+    return token
+
+
+def token_team_id(header: str | None) -> int | None:
+    """The team id a bearer token names, not yet checked (None: not one of our tokens)."""
+    token = _bearer_token(header)
+    return None if token is None else int(token.partition(".")[0])
+
+
+def authenticate(store: Store, header: str | None) -> Team | None:
+    """The team whose token is in ``Authorization: Bearer TOKEN``, or None.
+
+    The stored hash is compared with the token's in constant time
+    (:func:`hmac.compare_digest`); a baseline has no usable token. It reads the database
+    only for a team the store does not hold yet (:meth:`Store.team`).
+    """
+    token = _bearer_token(header)
+    if token is None:
+        return None
+    team = store.team(int(token.partition(".")[0]))
     if team is None or team.is_baseline:
         # still hash and compare, so a wrong team id costs what a wrong secret does
         hmac.compare_digest(_token_hash(token), "0" * 64)

@@ -191,6 +191,11 @@ class Store:
         self.is_sqlite = engine.dialect.name == "sqlite"
         self._reader = engine.execution_options(**{_READ_ONLY: True})
         self._write_turn = threading.Lock() if self.is_sqlite else None
+        # A team's row never changes once written (add_team sets the token's hash in the
+        # transaction that inserts it; nothing updates or deletes a team), so a team read
+        # once is kept, and checking its token again reads nothing. A team not found is not
+        # kept: `server add-team` may add it while the server runs.
+        self._teams: dict[int, Team] = {}
 
     def _reading(self) -> Connection:
         """A connection for reads only (module docstring)."""
@@ -235,9 +240,20 @@ class Store:
         return int(team_id)
 
     def team(self, team_id: int) -> Team | None:
+        """The team, from memory once read (see ``__init__``); None if there is none."""
+        known = self._teams.get(team_id)
+        if known is not None:
+            return known
         with self._reading() as conn:
             row = conn.execute(select(teams).where(teams.c.id == team_id)).first()
-        return None if row is None else Team(row.id, row.name, row.token_hash, row.is_baseline)
+        if row is None:
+            return None
+        team = self._teams[team_id] = Team(row.id, row.name, row.token_hash, row.is_baseline)
+        return team
+
+    def known_team(self, team_id: int) -> Team | None:
+        """The team if :meth:`team` has read it before, without a database read; else None."""
+        return self._teams.get(team_id)
 
     def team_by_name(self, name: str) -> Team | None:
         with self._reading() as conn:
