@@ -19,6 +19,7 @@ from turn_datasets.usertable import _has_blank_line, _plain_lines, _read_plain
 from turn_eval.clips.submission import (
     GROUP_COLUMNS,
     JOINED_COLUMNS,
+    check_predictions,
     read_predictions,
     read_reference,
 )
@@ -261,6 +262,42 @@ def test_allow_missing_scores_the_rest_and_warns(tmp_path, ref):
     assert joined.missing_ids == (IDS[1], IDS[3])
     assert joined.table["clip_id"].tolist() == [IDS[0], IDS[2]]
     assert len(warnings) == 1 and "2 of the reference's 4 clips are missing" in warnings[0]
+
+
+def test_check_places_each_row_in_the_reference_without_the_join(tmp_path, ref):
+    # rows out of reference order, one speed empty, two clips left out
+    text = f"clip_id,angle_deg,speed_deg_s\n{IDS[2]},40,20\n{IDS[0]},92.5,\n"
+    path = write(tmp_path / "p.csv", text)
+    checked = check_predictions(path, ref, allow_missing=True)
+    assert checked.position.tolist() == [2, 0]
+    assert checked.covered.tolist() == [True, False, True, False]
+    assert checked.n_clips == 2 and checked.missing_ids == (IDS[1], IDS[3])
+    assert checked.angle_deg.tolist() == [40.0, 92.5]
+    assert checked.speed_deg_s[0] == 20.0 and math.isnan(checked.speed_deg_s[1])
+    assert len(read_predictions(path, ref, allow_missing=True)) == checked.n_clips
+
+
+@pytest.mark.parametrize(
+    "text, line",
+    [
+        (preds_text(angles=("92.5", "-170", "40", "100")), 3),
+        (preds_text(angles=("92.5", "x", "40", "100")), 3),
+        (preds_text() + f"{IDS[1]},175\n", 6),
+        (preds_text() + "ghost_1,90\n", 6),
+        ("clip,angle_deg\nx,1\n", 1),
+        (f"clip_id,angle_deg\n{IDS[0]},90\n", None),
+        ("", None),
+    ],
+    ids=["negative", "not-a-number", "duplicate", "unknown", "no-clip-id", "missing", "empty"],
+)
+def test_check_refuses_what_read_refuses_in_the_same_words(tmp_path, ref, text, line):
+    path = write(tmp_path / "pred.csv", text)
+    with pytest.raises(TurnbenchError) as checked:
+        check_predictions(path, ref)
+    with pytest.raises(TurnbenchError) as read:
+        read_predictions(path, ref)
+    assert str(checked.value) == str(read.value)
+    assert checked.value.where.row == line
 
 
 def test_ids_not_in_reference_name_the_first_line(tmp_path, ref):

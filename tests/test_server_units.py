@@ -167,6 +167,49 @@ def test_a_worker_crash_fails_that_submission_alone(tmp_path, capsys):
     assert subs["crash"]["error"] == "the scorer crashed while scoring this submission"
 
 
+def test_the_dispatcher_reads_the_queue_only_for_free_workers(tmp_path, capsys):
+    pytest.importorskip("sqlalchemy", reason="needs the server extra")
+    import concurrent.futures as cf
+
+    from turn_eval.server.datadir import open_challenge
+    from turn_eval.server.service import Scorer, open_store
+
+    write_reference(tmp_path / "labels.csv")
+    root = tmp_path / "c"
+    assert (
+        run(["server", "init", root, "-r", tmp_path / "labels.csv", "--name", "x"], capsys)[0] == 0
+    )
+    challenge = open_challenge(root)
+    store = open_store(challenge)
+    store.add_team("T", lambda i: "0" * 64, baseline=False, now=time.time())
+    for k, n in enumerate(["e", "a", "d", "b", "c"]):
+        store.take_quota(1, n, sha256="0", n_rows=1, now=1000.0 + k, daily=None, total=None)
+    # oldest first, as many as asked
+    assert store.queued(limit=2) == [("e", 0), ("a", 0)]
+    assert [sid for sid, _ in store.queued()] == ["e", "a", "d", "b", "c"]
+    reads: list[int | None] = []
+    queued = store.queued
+
+    def counted(limit: int | None = None) -> list[tuple[str, int]]:
+        reads.append(limit)
+        return queued(limit)
+
+    store.queued = counted  # type: ignore[method-assign]
+    submitted: list[str] = []
+    scorer = Scorer(challenge, store, workers=3)
+    scorer._submit = submitted.append  # type: ignore[method-assign]
+    # every worker busy (each upload wakes the dispatcher): no read at all
+    scorer._inflight = {n: cf.Future() for n in ("x", "y", "z")}
+    scorer._dispatch()
+    assert reads == [] and submitted == []
+    # one free worker: the oldest queued one is claimed, and only it was read
+    del scorer._inflight["z"]
+    scorer._dispatch()
+    assert reads == [1] and submitted == ["e"]
+    assert [sid for sid, _ in queued()] == ["a", "d", "b", "c"]
+    store.engine.dispose()
+
+
 # --- the command line -----------------------------------------------------------------------
 def test_init_refusals_leave_nothing(tmp_path, capsys):
     pytest.importorskip("sqlalchemy", reason="needs the server extra")
@@ -246,6 +289,15 @@ def test_team_and_receipt_commands(tmp_path, capsys):
     assert con.execute("pragma journal_mode").fetchone() == ("wal",)
     (stored,) = con.execute("select token_hash from teams where name = 'A'").fetchone()
     con.close()
+    from turn_eval.server.datadir import open_challenge
+    from turn_eval.server.service import open_store
+
+    store = open_store(open_challenge(root))
+    with store.engine.connect() as conn:
+        # the server's connections: 1 is NORMAL (SQLite's PRAGMA synchronous: 0 OFF, 1
+        # NORMAL, 2 FULL, the default), no sync at each commit under WAL
+        assert conn.exec_driver_sql("pragma synchronous").scalar() == 1
+    store.engine.dispose()
     # only the hash is kept
     assert stored == hashlib.sha256(token.strip().encode()).hexdigest()
     code, _, err = run(["server", "add-team", root, "A"], capsys)
@@ -271,6 +323,84 @@ def test_team_and_receipt_commands(tmp_path, capsys):
     ):
         code, out, _ = run([*command.split(), "--help"], capsys)
         assert code == 0 and "Example:" in out, command
+
+
+def test_reads_do_not_wait_for_a_writer(tmp_path, capsys):
+    """Under WAL a read sees the last commit while another connection holds the write lock:
+    the store's reads (a token's team, the phase, the queue) must not ask for that lock."""
+    pytest.importorskip("sqlalchemy", reason="needs the server extra")
+    import sqlite3
+    import threading
+
+    from turn_eval.server.datadir import open_challenge
+    from turn_eval.server.service import open_store
+
+    write_reference(tmp_path / "labels.csv")
+    root = tmp_path / "c"
+    assert (
+        run(["server", "init", root, "-r", tmp_path / "labels.csv", "--name", "x"], capsys)[0] == 0
+    )
+    assert run(["server", "add-team", root, "A"], capsys)[0] == 0
+    store = open_store(open_challenge(root))
+    holder = sqlite3.connect(root / "turnbench.db", isolation_level=None)
+    holder.execute("BEGIN IMMEDIATE")
+    # written, not committed: no read may see it
+    holder.execute("insert into phase (key, value) values ('closed', '0')")
+    seen: dict = {}
+
+    def read() -> None:
+        seen["team"] = store.team(1)
+        seen["closed"] = store.is_closed()
+        seen["queued"] = store.queued()
+
+    reader = threading.Thread(target=read, daemon=True)
+    try:
+        reader.start()
+        reader.join(timeout=10)
+        assert not reader.is_alive(), "a read waited for the write lock"
+    finally:
+        holder.execute("ROLLBACK")
+        holder.close()
+        reader.join()
+        store.engine.dispose()
+    assert seen["team"].name == "A" and seen["closed"] is False and seen["queued"] == []
+
+
+def test_a_team_read_once_is_kept_and_its_tokens_still_checked(tmp_path, capsys):
+    pytest.importorskip("sqlalchemy", reason="needs the server extra")
+    import sqlite3
+
+    from turn_eval.server.datadir import open_challenge
+    from turn_eval.server.service import authenticate, open_store, token_team_id
+
+    write_reference(tmp_path / "labels.csv")
+    root = tmp_path / "c"
+    assert (
+        run(["server", "init", root, "-r", tmp_path / "labels.csv", "--name", "x"], capsys)[0] == 0
+    )
+    token = run(["server", "add-team", root, "A"], capsys)[1].strip()
+    store = open_store(open_challenge(root))
+    team_id = int(token.split(".")[0])
+    assert token_team_id(f"Bearer {token}") == team_id
+    assert token_team_id("Bearer nope") is None and token_team_id(None) is None
+    assert store.known_team(team_id) is None
+    assert authenticate(store, f"Bearer {token}").name == "A"
+    assert store.known_team(team_id).name == "A"
+    # a wrong secret for a kept team is refused as before
+    assert authenticate(store, f"Bearer {team_id}.{'x' * 43}") is None
+    # a team's row never changes once written, so what was read is kept (here the file is
+    # changed behind the store's back, which nothing of ours does, to show no read is made)
+    con = sqlite3.connect(root / "turnbench.db")
+    con.execute("update teams set name = 'changed' where id = ?", (team_id,))
+    con.commit()
+    con.close()
+    assert authenticate(store, f"Bearer {token}").name == "A"
+    # a team the store did not find is not kept as missing: added later, it is found
+    assert authenticate(store, f"Bearer {team_id + 1}.{'y' * 43}") is None
+    other = run(["server", "add-team", root, "B"], capsys)[1].strip()
+    assert int(other.split(".")[0]) == team_id + 1
+    assert authenticate(store, f"Bearer {other}").name == "B"
+    store.engine.dispose()
 
 
 def test_the_core_never_imports_the_server_packages(tmp_path):

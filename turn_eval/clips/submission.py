@@ -53,7 +53,9 @@ __all__ = [
     "BIN_COLUMN",
     "JOINED_COLUMNS",
     "Joined",
+    "Checked",
     "read_reference",
+    "check_predictions",
     "read_predictions",
 ]
 
@@ -345,6 +347,93 @@ def _checked_rows(
     return angle, speed, position, covered, missing_ids
 
 
+@dataclass(frozen=True)
+class Checked:
+    """A submission that passed every check of :func:`check_predictions`, placed in its
+    reference but not yet joined to it.
+
+    Attributes
+    ----------
+    angle_deg, speed_deg_s
+        The submission's angles and speeds (None: no ``speed_deg_s`` column), in file order,
+        as magnitudes where ``abs_angles`` was given.
+    position
+        Each submission row's row in the reference.
+    covered
+        Which reference rows the submission has.
+    missing_ids
+        The ids of the reference rows it does not have, in reference order.
+    path, sha256
+        The file read and the sha256 of its bytes as read.
+    """
+
+    angle_deg: np.ndarray
+    speed_deg_s: np.ndarray | None
+    position: np.ndarray
+    covered: np.ndarray
+    missing_ids: tuple[str, ...] = field(repr=False)
+    path: str = ""
+    sha256: str = ""
+
+    @property
+    def n_clips(self) -> int:
+        """How many reference clips the submission scores."""
+        return int(np.count_nonzero(self.covered))
+
+
+def check_predictions(
+    path: str | os.PathLike[str],
+    reference: pd.DataFrame,
+    *,
+    allow_missing: bool = False,
+    abs_angles: bool = False,
+    warn: Callable[[str], None] | None = None,
+) -> Checked:
+    """Read a submission and make every check of :func:`read_predictions` (the module
+    docstring lists them), without building the joined table.
+
+    ``read_predictions`` is this and then the join, which refuses nothing more; a caller
+    that only needs to know whether a file would be scored, and on how many clips (the
+    server, before it answers an upload), asks this. ``reference`` is a frame from
+    :func:`read_reference`; the other parameters are ``read_predictions``'.
+
+    Raises
+    ------
+    TurnbenchError
+        Every problem listed in the module docstring, with the file and line.
+    """
+    say = warn if warn is not None else (lambda message: None)
+    ref_path = str(reference.attrs.get("path", "reference"))
+    table = read_table(path, what="predictions")
+    for note in reading_notes(table):
+        say(note)
+    require(table, ("clip_id", "angle_deg"), what="the predictions")
+    angle, speed, position, covered, missing_ids = _checked_rows(
+        table,
+        reference,
+        ref_path=ref_path,
+        allow_missing=allow_missing,
+        abs_angles=abs_angles,
+        say=say,
+    )
+    ref_angle = reference["angle_deg"].to_numpy(dtype=np.float64)
+    if angle.size and float(np.max(angle)) < _TWO_PI and float(np.max(ref_angle)) >= _TWO_PI:
+        say(
+            f"{table.path}: every predicted angle is below 2π (the largest is "
+            f"{float(np.max(angle)):.4g}) while the reference's reach "
+            f"{float(np.max(ref_angle)):.4g}: are they in radians? turnbench expects degrees"
+        )
+    return Checked(
+        angle_deg=angle,
+        speed_deg_s=speed,
+        position=position,
+        covered=covered,
+        missing_ids=missing_ids,
+        path=table.path,
+        sha256=table.sha256,
+    )
+
+
 def read_predictions(
     path: str | os.PathLike[str],
     reference: pd.DataFrame | str | os.PathLike[str],
@@ -382,36 +471,42 @@ def read_predictions(
     Raises
     ------
     TurnbenchError
-        Every problem listed in the module docstring, with the file and line.
+        Every problem listed in the module docstring, with the file and line
+        (:func:`check_predictions`, which this calls).
     """
-    say = warn if warn is not None else (lambda message: None)
     ref = (
         reference
         if isinstance(reference, pd.DataFrame)
         else read_reference(reference, bin_width_deg=bin_width_deg)
     )
-    ref_path = str(ref.attrs.get("path", "reference"))
-    table = read_table(path, what="predictions")
-    for note in reading_notes(table):
-        say(note)
-    require(table, ("clip_id", "angle_deg"), what="the predictions")
-    angle, speed, position, covered, missing_ids = _checked_rows(
-        table, ref, ref_path=ref_path, allow_missing=allow_missing, abs_angles=abs_angles, say=say
+    checked = check_predictions(
+        path, ref, allow_missing=allow_missing, abs_angles=abs_angles, warn=warn
     )
-    ref_angle = ref["angle_deg"].to_numpy(dtype=np.float64)
-    if angle.size and float(np.max(angle)) < _TWO_PI and float(np.max(ref_angle)) >= _TWO_PI:
-        say(
-            f"{table.path}: every predicted angle is below 2π (the largest is "
-            f"{float(np.max(angle)):.4g}) while the reference's reach "
-            f"{float(np.max(ref_angle)):.4g}: are they in radians? turnbench expects degrees"
-        )
+    return _joined(
+        checked,
+        ref,
+        bin_width_deg=float(ref.attrs.get("bin_width_deg", bin_width_deg)),
+        abs_angles=abs_angles,
+        allow_missing=allow_missing,
+    )
 
-    # Reference order, so the output does not depend on the submission's row order.
+
+def _joined(
+    checked: Checked,
+    ref: pd.DataFrame,
+    *,
+    bin_width_deg: float,
+    abs_angles: bool,
+    allow_missing: bool,
+) -> Joined:
+    """The checked submission and its reference, one row per covered clip, in reference
+    order (so the output does not depend on the submission's row order)."""
+    covered, position = checked.covered, checked.position
     pred_angle = np.full(ref.shape[0], np.nan)
-    pred_angle[position] = angle
+    pred_angle[position] = checked.angle_deg
     pred_speed = np.full(ref.shape[0], np.nan)
-    if speed is not None:
-        pred_speed[position] = speed
+    if checked.speed_deg_s is not None:
+        pred_speed[position] = checked.speed_deg_s
     has_durations = "duration_s" in ref.columns
     duration = (
         ref["duration_s"].to_numpy(dtype=np.float64)
@@ -420,7 +515,7 @@ def read_predictions(
     )
     data: dict[str, object] = {
         "clip_id": ref["clip_id"][covered].reset_index(drop=True),
-        "ref_angle_deg": ref_angle[covered],
+        "ref_angle_deg": ref["angle_deg"].to_numpy(dtype=np.float64)[covered],
         "pred_angle_deg": pred_angle[covered],
         "ref_duration_s": duration[covered],
         "pred_speed_deg_s": pred_speed[covered],
@@ -434,14 +529,14 @@ def read_predictions(
     joined = typed_frame(pd.DataFrame(data), dtypes)
     return Joined(
         table=joined,
-        n_missing=len(missing_ids),
-        missing_ids=missing_ids,
+        n_missing=len(checked.missing_ids),
+        missing_ids=checked.missing_ids,
         has_durations=has_durations,
-        predictions_path=table.path,
-        reference_path=ref_path,
-        bin_width_deg=float(ref.attrs.get("bin_width_deg", bin_width_deg)),
+        predictions_path=checked.path,
+        reference_path=str(ref.attrs.get("path", "reference")),
+        bin_width_deg=bin_width_deg,
         abs_angles=abs_angles,
         allow_missing=allow_missing,
-        predictions_sha256=table.sha256,
+        predictions_sha256=checked.sha256,
         reference_sha256=str(ref.attrs.get("sha256", "")),
     )

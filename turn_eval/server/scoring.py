@@ -1,9 +1,12 @@
 """Validating and scoring an upload against the hidden reference: ``turn-eval score``'s code.
 
-An upload is read and validated by :func:`turn_eval.clips.submission.read_predictions`, the very
-function ``turn-eval score`` calls, against the reference read by
-:func:`turn_eval.clips.submission.read_reference`, and scored by
-:func:`turn_eval.clips.tables.build_scores`; the server adds only what a hidden reference needs:
+An upload is checked, before it is accepted, by
+:func:`turn_eval.clips.submission.check_predictions`, the checks of the very function
+``turn-eval score`` calls (:func:`~turn_eval.clips.submission.read_predictions`: those checks,
+then the join, which refuses nothing more), against the reference read by
+:func:`turn_eval.clips.submission.read_reference`; a worker reads it with ``read_predictions``
+and scores it with :func:`turn_eval.clips.tables.build_scores`. The server adds only what a
+hidden reference needs:
 
 - a refusal names the upload by the name its sender gave and the reference as
   ``reference.csv`` (never a path on the server), and lists none of the reference's clip ids
@@ -25,12 +28,25 @@ import pandas as pd
 
 from turn_datasets.errors import TurnbenchError
 from turn_eval.clips.metrics import METRICS
-from turn_eval.clips.submission import BIN_COLUMN, Joined, read_predictions, read_reference
+from turn_eval.clips.submission import (
+    BIN_COLUMN,
+    Joined,
+    check_predictions,
+    read_predictions,
+    read_reference,
+)
 from turn_eval.clips.tables import build_scores
 from turn_eval.server.datadir import REFERENCE_NAME, Challenge
 from turn_eval.server.split import PRIVATE, PUBLIC
 
-__all__ = ["reference_of", "validate_upload", "score_upload", "side_arrays", "SIDES"]
+__all__ = [
+    "reference_of",
+    "check_upload",
+    "validate_upload",
+    "score_upload",
+    "side_arrays",
+    "SIDES",
+]
 
 SIDES = (PUBLIC, PRIVATE)
 _MISSING = " missing from the predictions"
@@ -62,6 +78,21 @@ def _hidden(exc: TurnbenchError, path: Path, shown_name: str) -> TurnbenchError:
         item=where.item,
         hint=exc.hint,
     )
+
+
+def check_upload(challenge: Challenge, path: Path, shown_name: str) -> int:
+    """Check an upload exactly as ``turn-eval score`` does, without joining it to the
+    reference (what an upload waits for before its answer); how many clips it scores.
+
+    Raises
+    ------
+    TurnbenchError
+        The score command's one-line message, naming ``shown_name``.
+    """
+    try:
+        return check_predictions(path, reference_of(challenge)).n_clips
+    except TurnbenchError as exc:
+        raise _hidden(exc, path, shown_name) from None
 
 
 def validate_upload(challenge: Challenge, path: Path, shown_name: str) -> Joined:

@@ -43,12 +43,12 @@ from turn_eval.server.datadir import (
 from turn_eval.server.ranking import gated_ranks, order_key
 from turn_eval.server.receipts import sign_receipt
 from turn_eval.server.scoring import (
+    check_upload,
     reference_of,
     score_job,
     score_upload,
     scoring_worker_init,
     side_arrays,
-    validate_upload,
     warm_job,
 )
 from turn_eval.server.split import PRIVATE, PUBLIC, draw_split
@@ -68,6 +68,7 @@ __all__ = [
     "add_team",
     "add_baseline",
     "authenticate",
+    "token_team_id",
     "accept_upload",
     "Scorer",
     "Leaderboard",
@@ -191,19 +192,35 @@ def add_team(store: Store, name: str, *, baseline: bool = False) -> str:
     return tokens[team_id]
 
 
-def authenticate(store: Store, header: str | None) -> Team | None:
-    """The team whose token is in ``Authorization: Bearer TOKEN``, or None.
-
-    The stored hash is compared with the token's in constant time
-    (:func:`hmac.compare_digest`); a baseline has no usable token.
-    """
+def _bearer_token(header: str | None) -> str | None:
+    """The token of ``Authorization: Bearer TOKEN`` if it has our shape
+    (``<team id>.<secret>``), else None."""
     if not header or not header.startswith("Bearer "):
         return None
     token = header[len("Bearer ") :].strip()
     team_part, _, secret_part = token.partition(".")
     if not team_part.isdigit() or not secret_part or len(token) > 200:
         return None
-    team = store.team(int(team_part))
+    return token
+
+
+def token_team_id(header: str | None) -> int | None:
+    """The team id a bearer token names, not yet checked (None: not one of our tokens)."""
+    token = _bearer_token(header)
+    return None if token is None else int(token.partition(".")[0])
+
+
+def authenticate(store: Store, header: str | None) -> Team | None:
+    """The team whose token is in ``Authorization: Bearer TOKEN``, or None.
+
+    The stored hash is compared with the token's in constant time
+    (:func:`hmac.compare_digest`); a baseline has no usable token. It reads the database
+    only for a team the store does not hold yet (:meth:`Store.team`).
+    """
+    token = _bearer_token(header)
+    if token is None:
+        return None
+    team = store.team(int(token.partition(".")[0]))
     if team is None or team.is_baseline:
         # still hash and compare, so a wrong team id costs what a wrong secret does
         hmac.compare_digest(_token_hash(token), "0" * 64)
@@ -219,7 +236,8 @@ def new_id() -> str:
 def accept_upload(
     challenge: Challenge, store: Store, team: Team, received: Path, shown_name: str, sha256: str
 ) -> str:
-    """Validate a received upload, store it under a new id and take the team's quota.
+    """Check a received upload (:func:`check_upload`), store it under a new id and take the
+    team's quota.
 
     Raises
     ------
@@ -228,7 +246,7 @@ def accept_upload(
     QuotaUsed
         The team's quota is used; nothing is kept.
     """
-    joined = validate_upload(challenge, received, shown_name)
+    n_clips = check_upload(challenge, received, shown_name)
     submission_id = new_id()
     stored = challenge.upload_path(submission_id)
     os.replace(received, stored)
@@ -237,7 +255,7 @@ def accept_upload(
             team.id,
             submission_id,
             sha256=sha256,
-            n_rows=len(joined),
+            n_rows=n_clips,
             now=time.time(),
             daily=None if team.is_baseline else challenge.params.daily_quota,
             total=None if team.is_baseline else challenge.params.total_quota,
@@ -251,7 +269,7 @@ def accept_upload(
 def add_baseline(challenge: Challenge, store: Store, name: str, predictions: Path) -> str:
     """Add a baseline team with one submission, scored here and now; return its id."""
     reference_of(challenge)  # a broken data directory fails before anything is added
-    validate_upload(challenge, predictions, str(predictions))
+    check_upload(challenge, predictions, str(predictions))
     add_team(store, name, baseline=True)
     team = store.team_by_name(name.strip())
     assert team is not None
@@ -375,7 +393,12 @@ class Scorer:
         if self._solo and self._inflight:
             return
         self._solo = False
-        for submission_id, attempts in self.store.queued():
+        free = self.workers - len(self._inflight)
+        if free <= 0:
+            # every worker is busy: nothing to read (each upload wakes the dispatcher, and
+            # this runs in the server's process, beside the uploads)
+            return
+        for submission_id, attempts in self.store.queued(limit=free):
             if len(self._inflight) >= self.workers:
                 return
             if attempts >= 1:

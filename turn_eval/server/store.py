@@ -1,12 +1,19 @@
 """The challenge's database (SQLAlchemy 2 Core): teams, submissions, the phase.
 
-SQLite by default, in WAL mode (readers do not wait for the writer) with every transaction
-opened as ``BEGIN IMMEDIATE``, so the one that takes a quota holds the write lock from its
-first count to its insert (the pysqlite recipe of SQLAlchemy's SQLite dialect documentation,
-"Serializable isolation / Savepoints / Transactional DDL"); PostgreSQL by URL, where the
-quota transaction locks the team's row (``SELECT ... FOR UPDATE``) for the same effect.
-Either way concurrent uploads can never take more than the quota: counting and inserting
-happen in one transaction that no other upload of the team can interleave with.
+SQLite by default, in WAL mode (readers do not wait for the writer) with every writing
+transaction opened as ``BEGIN IMMEDIATE``, so the one that takes a quota holds the write lock
+from its first count to its insert (the pysqlite recipe of SQLAlchemy's SQLite dialect
+documentation, "Serializable isolation / Savepoints / Transactional DDL"); PostgreSQL by URL,
+where the quota transaction locks the team's row (``SELECT ... FOR UPDATE``) for the same
+effect. Either way concurrent uploads can never take more than the quota: counting and
+inserting happen in one transaction that no other upload of the team can interleave with.
+
+A read (a token's team, a submission, the queue, the board) opens a plain deferred
+transaction on SQLite: under WAL it sees the last commit and neither waits for the write lock
+nor holds it. The server's own writes on SQLite queue on a lock in the process before
+``BEGIN IMMEDIATE``, so its threads take turns at once instead of meeting SQLite's busy
+handler, which sleeps 1, 2, 5, 10 ms and more between tries; ``busy_timeout`` still covers
+the other processes (the ``server`` commands) that write to the same file.
 
 Times are UTC seconds since the epoch; the daily quota counts the team's submissions since
 the start of the current UTC day, so it resets by itself when the day turns (no counter to
@@ -15,9 +22,11 @@ reset, as Codabench's daily counters failed to).
 
 from __future__ import annotations
 
+import contextlib
 import datetime as dt
 import json
-from collections.abc import Callable
+import threading
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any
 
@@ -33,6 +42,7 @@ from sqlalchemy import (
     String,
     Table,
     Text,
+    case,
     create_engine,
     event,
     func,
@@ -59,6 +69,8 @@ __all__ = [
 ]
 
 QUEUED, SCORING, SCORED, FAILED = "queued", "scoring", "scored", "failed"
+#: The execution option that marks a connection as only reading (a deferred ``BEGIN`` on SQLite).
+_READ_ONLY = "turnbench_read_only"
 
 metadata = MetaData()
 teams = Table(
@@ -100,13 +112,18 @@ def _sqlite_hooks(engine: Engine) -> None:
         dbapi_connection.isolation_level = None
         cursor = dbapi_connection.cursor()
         cursor.execute("PRAGMA journal_mode=WAL")
+        # in WAL, NORMAL syncs at checkpoints, not at each commit: a commit survives the
+        # server's crash or kill, though not a power cut (nor would the upload's own bytes,
+        # which are renamed into place unsynced); the file is never corrupted either way
+        cursor.execute("PRAGMA synchronous=NORMAL")
         cursor.execute("PRAGMA busy_timeout=60000")
         cursor.execute("PRAGMA foreign_keys=ON")
         cursor.close()
 
     @event.listens_for(engine, "begin")
     def _begin(conn: Connection) -> None:
-        conn.exec_driver_sql("BEGIN IMMEDIATE")
+        reading = conn.get_execution_options().get(_READ_ONLY, False)
+        conn.exec_driver_sql("BEGIN" if reading else "BEGIN IMMEDIATE")
 
 
 def _reason(exc: BaseException) -> str:
@@ -172,12 +189,29 @@ class Store:
     def __init__(self, engine: Engine) -> None:
         self.engine = engine
         self.is_sqlite = engine.dialect.name == "sqlite"
+        self._reader = engine.execution_options(**{_READ_ONLY: True})
+        self._write_turn = threading.Lock() if self.is_sqlite else None
+        # A team's row never changes once written (add_team sets the token's hash in the
+        # transaction that inserts it; nothing updates or deletes a team), so a team read
+        # once is kept, and checking its token again reads nothing. A team not found is not
+        # kept: `server add-team` may add it while the server runs.
+        self._teams: dict[int, Team] = {}
+
+    def _reading(self) -> Connection:
+        """A connection for reads only (module docstring)."""
+        return self._reader.connect()
+
+    @contextlib.contextmanager
+    def _writing(self) -> Iterator[Connection]:
+        """A writing transaction, committed at the end (module docstring)."""
+        with self._write_turn or contextlib.nullcontext(), self.engine.begin() as conn:
+            yield conn
 
     def check(self) -> None:
         """Raise a one-line :class:`TurnbenchError` if the database cannot be reached or
         holds no challenge."""
         try:
-            with self.engine.connect() as conn:
+            with self._reading() as conn:
                 if not self.engine.dialect.has_table(conn, "teams"):
                     raise TurnbenchError("the database holds no challenge (no 'teams' table)")
         except SQLAlchemyError as exc:
@@ -190,7 +224,7 @@ class Store:
         """Insert a team and store ``hash_for(its id)`` as its token's hash, in one
         transaction (the token names its team's id)."""
         try:
-            with self.engine.begin() as conn:
+            with self._writing() as conn:
                 team_id = conn.execute(
                     insert(teams)
                     .values(name=name, token_hash="", is_baseline=baseline, created=now)
@@ -206,17 +240,28 @@ class Store:
         return int(team_id)
 
     def team(self, team_id: int) -> Team | None:
-        with self.engine.connect() as conn:
+        """The team, from memory once read (see ``__init__``); None if there is none."""
+        known = self._teams.get(team_id)
+        if known is not None:
+            return known
+        with self._reading() as conn:
             row = conn.execute(select(teams).where(teams.c.id == team_id)).first()
-        return None if row is None else Team(row.id, row.name, row.token_hash, row.is_baseline)
+        if row is None:
+            return None
+        team = self._teams[team_id] = Team(row.id, row.name, row.token_hash, row.is_baseline)
+        return team
+
+    def known_team(self, team_id: int) -> Team | None:
+        """The team if :meth:`team` has read it before, without a database read; else None."""
+        return self._teams.get(team_id)
 
     def team_by_name(self, name: str) -> Team | None:
-        with self.engine.connect() as conn:
+        with self._reading() as conn:
             row = conn.execute(select(teams).where(teams.c.name == name)).first()
         return None if row is None else Team(row.id, row.name, row.token_hash, row.is_baseline)
 
     def all_teams(self) -> list[Team]:
-        with self.engine.connect() as conn:
+        with self._reading() as conn:
             rows = conn.execute(select(teams).order_by(teams.c.id)).all()
         return [Team(r.id, r.name, r.token_hash, r.is_baseline) for r in rows]
 
@@ -239,19 +284,19 @@ class Store:
         QuotaUsed
             Inserting would exceed ``daily`` (since the UTC day's start) or ``total``.
         """
-        with self.engine.begin() as conn:
+        with self._writing() as conn:
             if not self.is_sqlite:
                 # the team's row lock serialises this team's quota transactions
                 conn.execute(select(teams.c.id).where(teams.c.id == team_id).with_for_update())
-            mine = submissions.c.team_id == team_id
-            if total is not None:
-                n_total = conn.execute(select(func.count()).where(mine)).scalar_one()
-                if n_total >= total:
+            if total is not None or daily is not None:
+                # both counts in one statement (COUNT of a CASE counts its non-null values)
+                today = case((submissions.c.created >= day_start(now), 1))
+                n_total, n_today = conn.execute(
+                    select(func.count(), func.count(today)).where(submissions.c.team_id == team_id)
+                ).one()
+                if total is not None and n_total >= total:
                     raise QuotaUsed(f"the total quota of {total} submissions is used")
-            if daily is not None:
-                since = submissions.c.created >= day_start(now)
-                n_today = conn.execute(select(func.count()).where(mine, since)).scalar_one()
-                if n_today >= daily:
+                if daily is not None and n_today >= daily:
                     raise QuotaUsed(
                         f"the daily quota of {daily} submissions is used (it resets at 00:00 UTC)"
                     )
@@ -272,7 +317,7 @@ class Store:
         query = select(submissions).where(submissions.c.id == submission_id)
         if team_id is not None:
             query = query.where(submissions.c.team_id == team_id)
-        with self.engine.connect() as conn:
+        with self._reading() as conn:
             row = conn.execute(query).first()
         if row is None:
             return None
@@ -284,7 +329,7 @@ class Store:
         query = select(submissions).order_by(submissions.c.created, submissions.c.id)
         if team_id is not None:
             query = query.where(submissions.c.team_id == team_id)
-        with self.engine.connect() as conn:
+        with self._reading() as conn:
             rows = conn.execute(query).all()
         out = []
         for row in rows:
@@ -293,20 +338,21 @@ class Store:
             out.append(d)
         return out
 
-    def queued(self) -> list[tuple[str, int]]:
-        """Queued submissions, oldest first: (id, attempts so far)."""
+    def queued(self, limit: int | None = None) -> list[tuple[str, int]]:
+        """Queued submissions, oldest first (the first ``limit``): (id, attempts so far)."""
         query = (
             select(submissions.c.id, submissions.c.attempts)
             .where(submissions.c.status == QUEUED)
             .order_by(submissions.c.created, submissions.c.id)
+            .limit(limit)
         )
-        with self.engine.connect() as conn:
+        with self._reading() as conn:
             return [(r.id, r.attempts) for r in conn.execute(query).all()]
 
     def claim(self, submission_id: str) -> bool:
         """Mark a queued submission as being scored (one more attempt); False if it was not
         queued."""
-        with self.engine.begin() as conn:
+        with self._writing() as conn:
             result = conn.execute(
                 update(submissions)
                 .where(submissions.c.id == submission_id, submissions.c.status == QUEUED)
@@ -316,7 +362,7 @@ class Store:
 
     def requeue_interrupted(self) -> int:
         """Put back in the queue what a stopped server was scoring; how many."""
-        with self.engine.begin() as conn:
+        with self._writing() as conn:
             result = conn.execute(
                 update(submissions).where(submissions.c.status == SCORING).values(status=QUEUED)
             )
@@ -335,34 +381,34 @@ class Store:
         if scores is not None:
             values["public"] = json.dumps(scores["public"], allow_nan=False)
             values["private"] = json.dumps(scores["private"], allow_nan=False)
-        with self.engine.begin() as conn:
+        with self._writing() as conn:
             conn.execute(
                 update(submissions).where(submissions.c.id == submission_id).values(**values)
             )
 
     def requeue(self, submission_id: str) -> None:
-        with self.engine.begin() as conn:
+        with self._writing() as conn:
             conn.execute(
                 update(submissions).where(submissions.c.id == submission_id).values(status=QUEUED)
             )
 
     # the phase -----------------------------------------------------------------------------
     def is_closed(self) -> bool:
-        with self.engine.connect() as conn:
+        with self._reading() as conn:
             row = conn.execute(select(phase.c.value).where(phase.c.key == "closed")).first()
         return row is not None
 
     def close_phase(self, now: float) -> bool:
         """Close the phase (reveal private scores); False if it already was."""
         try:
-            with self.engine.begin() as conn:
+            with self._writing() as conn:
                 conn.execute(insert(phase).values(key="closed", value=repr(now)))
         except IntegrityError:
             return False
         return True
 
     def counts(self) -> dict[str, int]:
-        with self.engine.connect() as conn:
+        with self._reading() as conn:
             rows = conn.execute(
                 select(submissions.c.status, func.count()).group_by(submissions.c.status)
             ).all()
