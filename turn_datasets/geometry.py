@@ -40,6 +40,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -56,6 +57,9 @@ __all__ = [
     "frontal_vectors",
     "usable_frames",
     "frame_yaw_deg",
+    "vectors_yaw_deg",
+    "FrontalLengths",
+    "frontal_lengths",
     "yaw_rate_deg_s",
     "window_means",
     "heading_change_deg",
@@ -107,13 +111,32 @@ def frontal_vectors(positions: np.ndarray, layout: Layout, joint: str = "hip") -
         return p[:, layout.index(left), :2] - p[:, layout.index(right), :2]
 
 
-def _usable(vectors: np.ndarray) -> np.ndarray:
+def _unwrapped_yaw_rad(vectors: np.ndarray) -> np.ndarray:
+    return np.unwrap(np.arctan2(vectors[:, 1], vectors[:, 0]))
+
+
+class FrontalLengths(NamedTuple):
+    """What :func:`frontal_lengths` returns for one pair's frontal vectors."""
+
+    #: The vector's length per frame (NaN where a joint is missing).
+    length: np.ndarray
+    #: Frames whose vector is usable: finite and longer than ``COINCIDENT_FRACTION`` of
+    #: the median length.
+    usable: np.ndarray
+    #: The median of the finite lengths (NaN when none is finite).
+    median: float
+
+
+def frontal_lengths(vectors: np.ndarray) -> FrontalLengths:
+    """Lengths of a pair's frontal vectors ``(frames, 2)``, which of them are usable (the
+    module docstring's rule), and their median: for a caller that weighs pairs by their
+    width and needs the lengths and the mask as well."""
     norms = np.hypot(vectors[:, 0], vectors[:, 1])
     finite = np.isfinite(norms)
     if not finite.any():
-        return finite
+        return FrontalLengths(norms, finite, float("nan"))
     scale = np.median(norms[finite])
-    return finite & (norms > COINCIDENT_FRACTION * scale)
+    return FrontalLengths(norms, finite & (norms > COINCIDENT_FRACTION * scale), float(scale))
 
 
 def usable_frames(
@@ -122,12 +145,8 @@ def usable_frames(
     """Boolean mask of frames whose frontal vectors are usable for every chosen pair."""
     mask = np.ones(np.asarray(positions).shape[0], dtype=bool)
     for joint in parse_joints(joints):
-        mask &= _usable(frontal_vectors(positions, layout, joint))
+        mask &= frontal_lengths(frontal_vectors(positions, layout, joint)).usable
     return mask
-
-
-def _unwrapped_yaw_rad(vectors: np.ndarray) -> np.ndarray:
-    return np.unwrap(np.arctan2(vectors[:, 1], vectors[:, 0]))
 
 
 def frame_yaw_deg(
@@ -140,14 +159,22 @@ def frame_yaw_deg(
     the body does. Yaw is the direction of the left-minus-right vector: a person's heading is
     this minus 90°; only differences of yaw matter here.
     """
-    names = parse_joints(joints)
-    mask = usable_frames(positions, layout, names)
+    return vectors_yaw_deg([frontal_vectors(positions, layout, j) for j in parse_joints(joints)])
+
+
+def vectors_yaw_deg(vectors: Sequence[np.ndarray]) -> np.ndarray:
+    """:func:`frame_yaw_deg` of frontal vectors already taken: one ``(frames, 2)`` array per
+    joint pair, the first pair's branch kept (a caller that reads the yaw over many stretches
+    of one stream takes the vectors once and passes slices of them)."""
+    mask = np.ones(vectors[0].shape[0], dtype=bool)
+    for v in vectors:
+        mask &= frontal_lengths(v).usable
     out = np.full(mask.shape[0], np.nan)
     if not mask.any():
         return out
     series: list[np.ndarray] = []
-    for joint in names:
-        yaw = _unwrapped_yaw_rad(frontal_vectors(positions, layout, joint)[mask])
+    for v in vectors:
+        yaw = _unwrapped_yaw_rad(v[mask])
         if series:
             yaw = yaw - 2 * np.pi * np.round((yaw[0] - series[0][0]) / (2 * np.pi))
         series.append(yaw)
