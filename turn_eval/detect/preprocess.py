@@ -145,13 +145,20 @@ def identity_pieces(
 
 
 def repair_swaps(
-    positions: np.ndarray, layout: Layout, *, fps_hz: float, max_gap_s: float
+    positions: np.ndarray,
+    layout: Layout,
+    *,
+    fps_hz: float,
+    max_gap_s: float,
+    usable: np.ndarray | None = None,
 ) -> tuple[np.ndarray, int]:
     """Undo left/right swaps (module docstring); returns the repaired positions (a copy when
     any frame was repaired, else the input itself) and the number of frames whose sides were
-    exchanged back."""
+    exchanged back. ``usable``: the frames with a usable hip vector, when the caller has
+    found them (:func:`~turn_datasets.geometry.usable_frames` of these positions' hips)."""
     positions = np.asarray(positions, dtype=float)
-    usable = usable_frames(positions, layout, ("hip",))
+    if usable is None:
+        usable = usable_frames(positions, layout, ("hip",))
     idx = np.flatnonzero(usable)
     if idx.size < 2:
         return positions, 0
@@ -170,7 +177,7 @@ def repair_swaps(
     frames = idx[swapped]
     if frames.size == 0:
         return positions, 0  # nothing to undo: no copy
-    p = positions.copy()
+    p = positions.copy(order="K")  # the input's memory order: a joint-major stream stays so
     for side in _SIDES:
         a, b = f"left_{side}", f"right_{side}"
         if a in layout.joints and b in layout.joints:
