@@ -43,7 +43,7 @@ import numpy as np
 import pandas as pd
 from scipy.ndimage import minimum_filter1d, uniform_filter1d
 
-from turn_datasets.geometry import frame_yaw_deg
+from turn_datasets.geometry import frontal_vectors, vectors_yaw_deg
 from turn_datasets.params import check_params, describe_params, param
 from turn_datasets.skeleton import Layout
 from turn_eval.events.contract import TURN_TYPES
@@ -216,9 +216,10 @@ def _stance_share(swings: np.ndarray, yaw: np.ndarray, a: int, b: int) -> float:
     return best
 
 
-def _filled_yaw(positions: np.ndarray, layout: Layout) -> np.ndarray:
-    joints = ("hip", "shoulder") if "left_shoulder" in layout.joints else ("hip",)
-    yaw = frame_yaw_deg(positions, layout, joints)
+def _filled_yaw(vectors: list[np.ndarray]) -> np.ndarray:
+    """The heading of a stretch (:func:`~turn_datasets.geometry.vectors_yaw_deg` of the hips'
+    and shoulders' frontal vectors over it), its gaps filled by linear interpolation."""
+    yaw = vectors_yaw_deg(vectors)
     seen = np.isfinite(yaw)
     if seen.any() and not seen.all():
         frames = np.arange(yaw.shape[0])
@@ -237,8 +238,11 @@ def _turn_yaw(
 ) -> np.ndarray:
     """:func:`_filled_yaw` over the turns ``[start, end)`` and ``pad`` frames either side
     (overlapping stretches merged), NaN elsewhere: a day's stream is mostly not turning,
-    and the yaw's arctangents are most of the step counter's time."""
+    and the yaw's arctangents are most of the step counter's time. The frontal vectors
+    are taken once for the stream, and each stretch reads its slice of them."""
     n = p.shape[0]
+    joints = ("hip", "shoulder") if "left_shoulder" in layout.joints else ("hip",)
+    vectors = [frontal_vectors(p, layout, j) for j in joints]
     lo = np.clip(start - pad, 0, n)
     hi = np.clip(end + pad, 0, n)
     yaw = np.full(n, np.nan)
@@ -249,7 +253,7 @@ def _turn_yaw(
             w1 = max(w1, int(hi[k]))
             continue
         if w1 > w0:
-            yaw[w0:w1] = _filled_yaw(p[w0:w1], layout)
+            yaw[w0:w1] = _filled_yaw([v[w0:w1] for v in vectors])
         if k is not None:
             w0, w1 = int(lo[k]), int(hi[k])
     return yaw
