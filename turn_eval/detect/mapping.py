@@ -102,7 +102,7 @@ def detect_file(
     """Every stream of one file through ``detector``; errors are returned, not raised, so a
     worker process hands them back as data (the caller decides: stop, or skip the file)."""
     streams: list[dict] = []
-    parts: list[pd.DataFrame] = []
+    parts: list[tuple[str, str, pd.DataFrame]] = []
     try:
         digest = sha256 or sha256_file(path)  # the caller's, when it has hashed the file
     except OSError as exc:
@@ -134,21 +134,25 @@ def detect_file(
             rejected = getattr(detector, "rejected_", None)
             if rejected is not None:
                 entry["rejected"] = dict(sorted(Counter(rejected).items()))
-            found.insert(0, "subject", s.subject)
-            found.insert(0, "session", s.session)
-            parts.append(found)
+            parts.append((s.session, s.subject, found))
     except TurnbenchError as exc:
         error = (exc.message, exc.where.item, exc.hint)
         return FileResult(str(path), digest, tuple(streams), _columns([]), error)
     return FileResult(str(path), digest, tuple(streams), _columns(parts))
 
 
-def _columns(parts: Sequence[pd.DataFrame]) -> dict[str, np.ndarray]:
-    """The tables' columns joined, by name (:data:`DETECTION_DTYPES`; none: empty arrays)."""
+def _columns(parts: Sequence[tuple[str, str, pd.DataFrame]]) -> dict[str, np.ndarray]:
+    """The streams' turns (``(session, subject, turns)`` each) joined column by column
+    (:data:`DETECTION_DTYPES`' names; none: empty arrays)."""
     out = {}
     for col, dtype in DETECTION_DTYPES.items():
         kind = object if dtype == "str" else np.dtype(dtype)
-        arrays = [np.asarray(p[col].to_numpy(), dtype=kind) for p in parts]
+        if col == "session":
+            arrays = [np.full(len(t), session, dtype=kind) for session, _, t in parts]
+        elif col == "subject":
+            arrays = [np.full(len(t), subject, dtype=kind) for _, subject, t in parts]
+        else:
+            arrays = [np.asarray(t[col].to_numpy(), dtype=kind) for *_, t in parts]
         out[col] = np.concatenate(arrays) if arrays else np.zeros(0, dtype=kind)
     return out
 
