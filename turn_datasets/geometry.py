@@ -202,7 +202,8 @@ def vectors_yaw_deg(vectors: Sequence[np.ndarray]) -> np.ndarray:
         if series:
             yaw = yaw - 2 * np.pi * np.round((yaw[0] - series[0][0]) / (2 * np.pi))
         series.append(yaw)
-    out[mask] = np.degrees(np.mean(series, axis=0))
+    # one pair's mean is itself (exactly): no stacking to average it
+    out[mask] = np.degrees(series[0] if len(series) == 1 else np.mean(series, axis=0))
     return out
 
 
