@@ -269,6 +269,7 @@ def test_checked_turns_refuses_impossible_output() -> None:
     ok = pd.DataFrame({"start_s": [2.0, 0.5], "end_s": [3.0, 1.5], "angle_deg": [90.0, 80.0]})
     got = checked_turns(ok, detector="mine", n_frames=300, fps_hz=FPS)
     assert got.start_s.tolist() == [0.5, 2.0]  # time order
+    assert got.angle_deg.tolist() == [80.0, 90.0] and got.index.tolist() == [0, 1]
     assert got.direction.tolist() == ["", ""] and got.score.isna().all()
     bad = [
         ({"start_s": [1.0], "end_s": [0.5], "angle_deg": [90.0]}, "impossible turn"),
@@ -280,3 +281,7 @@ def test_checked_turns_refuses_impossible_output() -> None:
     for table, match in bad:
         with pytest.raises(TurnbenchError, match=match):
             checked_turns(pd.DataFrame(table), detector="mine", n_frames=300, fps_hz=FPS)
+    # turns starting together are in order of their ends: the overlap named is the first pair
+    same_start = {"start_s": [1.0, 1.0], "end_s": [3.0, 2.0], "angle_deg": [90.0, 90.0]}
+    with pytest.raises(TurnbenchError, match=r"\(1\.000-2\.000 s and 1\.000-3\.000 s\)"):
+        checked_turns(pd.DataFrame(same_start), detector="mine", n_frames=300, fps_hz=FPS)

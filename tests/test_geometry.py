@@ -11,10 +11,13 @@ from hypothesis import strategies as st
 
 from turn_datasets.errors import TurnbenchError
 from turn_datasets.geometry import (
+    SMALL_MEDIAN,
     angular_speed_deg_s,
     direction_of,
     frame_yaw_deg,
+    frontal_lengths,
     frontal_vectors,
+    median,
     parse_joints,
     quantise_deg,
     turning_angle,
@@ -309,3 +312,28 @@ def test_heading_change_removes_a_sway_of_one_stride_exactly() -> None:
     got = heading_change_deg(yaw, 0, 131, before_frames=20, after_frames=20)
     assert got == pytest.approx(100.0 - yaw[0], abs=1e-9)
     np.testing.assert_allclose(window_means(k.astype(float), [0, 10], [4, 10]), [1.5, 10.0])
+
+
+def test_median_is_numpys_median_bit_for_bit() -> None:
+    # the hand-written small median stands in for np.median: the same number, odd or even
+    # counts, ties, any scale, on either side of the size where it hands over to np.median
+    rng = np.random.default_rng(0)
+    sizes = [1, 2, 3, 4, 5, 150, 151, SMALL_MEDIAN - 1, SMALL_MEDIAN, SMALL_MEDIAN + 1, 4000]
+    sizes += rng.integers(1, 2 * SMALL_MEDIAN, 300).tolist()
+    for n in sizes:
+        x = rng.random(n) * 10.0 ** rng.uniform(-4, 4)
+        if rng.random() < 0.3:
+            x = np.round(x, 1)  # ties
+        got, want = median(x), np.median(x)
+        assert got == want and type(got) is type(want), (n, got, want)
+    assert median(np.array([3.0, 1.0, 2.0])) == 2.0
+    assert median(np.array([4.0, 1.0, 3.0, 2.0])) == 2.5  # the two middle values' mean
+
+
+def test_frontal_lengths_give_the_usable_frames_and_the_median_length() -> None:
+    v = np.array([[3.0, 4.0], [0.0, 0.0], [np.nan, 1.0], [6.0, 8.0], [1e-4, 0.0]])
+    got = frontal_lengths(v)
+    np.testing.assert_array_equal(got.length, [5.0, 0.0, np.nan, 10.0, 1e-4])
+    assert got.median == (1e-4 + 5.0) / 2  # the finite lengths 0, 1e-4, 5, 10: middle two
+    # usable: finite and longer than a thousandth of that median (0.0025)
+    assert got.usable.tolist() == [True, False, False, True, False]

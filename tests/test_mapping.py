@@ -94,12 +94,13 @@ def test_a_worker_without_the_file_or_with_another_copy_refuses(tmp_path, monkey
 
     monkeypatch.setattr(distributed, "get_worker", lambda: _FakeWorker())
     missing = str(tmp_path / "elsewhere.npz")
-    got = files._on_worker(_unused, missing, "0" * 64, {}, None)
+    # a task carries a run of files: (path, sha256, keyword arguments) each, one result each
+    (got,) = files._on_worker(_unused, [(missing, "0" * 64, {})], None)
     assert isinstance(got, Failure) and got.path == missing
     assert got.message.startswith("not reachable from worker tcp://10.0.0.7:40000")
     other = tmp_path / "home.npz"
     other.write_bytes(b"the worker's own file")
-    got = files._on_worker(_unused, str(other), "a" * 64, {}, None)
+    (got,) = files._on_worker(_unused, [(str(other), "a" * 64, {})], None)
     assert isinstance(got, Failure)
     assert f"sha256 {sha256_file(other)} there, {'a' * 64} here" in got.message
 
@@ -241,3 +242,38 @@ def test_ctrl_c_with_workers_is_one_line_exit_130_and_leaves_nothing(tmp_path, t
     assert lines[-1] == "turn-eval: aborted" and len(lines) <= 2, err
     assert lines[0] in ("detecting on 2 local workers", "turn-eval: aborted"), err
     assert not out.exists()
+
+
+def test_runs_of_files_are_cut_into_about_equal_tasks_in_order() -> None:
+    assert files._batches(list(range(10)), 4) == [[0, 1], [2, 3, 4], [5, 6], [7, 8, 9]]
+    assert files._batches([3, 5, 8], 8) == [[3], [5], [8]]  # never an empty task
+    assert files._batches([], 4) == []
+
+
+KILLER = """
+import os, signal
+
+def size_unless_bad(path, *, sha256):
+    if path.endswith("bad.bin"):
+        os.kill(os.getpid(), signal.SIGKILL)
+    return os.path.getsize(path)
+"""
+
+
+def test_a_task_of_several_files_whose_worker_dies_fails_only_the_file_that_killed_it(
+    tmp_path, monkeypatch
+) -> None:
+    # one worker, one task for all four files: the worker dies on the third; each file is
+    # then sent again alone, the bad one kills its worker again and alone, the rest are done
+    import importlib
+
+    (tmp_path / "killer.py").write_text(KILLER)
+    monkeypatch.syspath_prepend(str(tmp_path))  # the spawned workers get this path too
+    killer = importlib.import_module("killer")
+    paths = []
+    for name, size in (("a", 3), ("b", 5), ("bad", 7), ("c", 11)):
+        paths.append(tmp_path / f"{name}.bin")
+        paths[-1].write_bytes(b"x" * size)
+    got = files.map_files(killer.size_unless_bad, paths, workers=1, tasks_per_worker=1)
+    assert [g if isinstance(g, int) else g.died for g in got] == [3, 5, True, 11]
+    assert got[2].path == str(paths[2])

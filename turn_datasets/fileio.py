@@ -20,6 +20,7 @@ among what the folder owns (:func:`check_owned`).
 from __future__ import annotations
 
 import contextlib
+import functools
 import hashlib
 import io
 import json
@@ -596,8 +597,19 @@ def typed_frame(df: pd.DataFrame, dtypes: Mapping[str, str]) -> pd.DataFrame:
         for col, dtype in dtypes.items():
             out[col] = out[col].astype(dtype)
         return out.reset_index(drop=True)
-    # Each column cast by pandas' own rules and the frame built once from the arrays (a
-    # copy): the same table as selecting, casting column by column and re-indexing, at a
-    # fraction of the cost (this runs several times per stream in ``turn-eval detect``).
-    columns = {col: df[col].astype(dtype).array for col, dtype in dtypes.items()}
+    # Each column cast by pandas' own rules (a column already of its dtype as it is) and the
+    # frame built once from the arrays (a copy): the same table as selecting, casting column
+    # by column and re-indexing, at a fraction of the cost (this runs several times per
+    # stream in ``turn-eval detect``).
+    columns = {}
+    for col, dtype in dtypes.items():
+        column = df[col]
+        same = column.dtype == _pandas_dtype(dtype)
+        columns[col] = (column if same else column.astype(dtype)).array
     return pd.DataFrame(columns, index=pd.RangeIndex(len(df)), copy=True)
+
+
+@functools.cache
+def _pandas_dtype(name: str) -> Any:
+    """The dtype pandas makes of ``name`` (``"str"``: this pandas' string dtype), found once."""
+    return pd.api.types.pandas_dtype(name)

@@ -40,6 +40,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -56,6 +57,10 @@ __all__ = [
     "frontal_vectors",
     "usable_frames",
     "frame_yaw_deg",
+    "vectors_yaw_deg",
+    "FrontalLengths",
+    "frontal_lengths",
+    "median",
     "yaw_rate_deg_s",
     "window_means",
     "heading_change_deg",
@@ -107,31 +112,65 @@ def frontal_vectors(positions: np.ndarray, layout: Layout, joint: str = "hip") -
         return p[:, layout.index(left), :2] - p[:, layout.index(right), :2]
 
 
-def _usable(vectors: np.ndarray) -> np.ndarray:
+def _unwrapped_yaw_rad(vectors: np.ndarray) -> np.ndarray:
+    return np.unwrap(np.arctan2(vectors[:, 1], vectors[:, 0]))
+
+
+class FrontalLengths(NamedTuple):
+    """What :func:`frontal_lengths` returns for one pair's frontal vectors."""
+
+    #: The vector's length per frame (NaN where a joint is missing).
+    length: np.ndarray
+    #: Frames whose vector is usable: finite and longer than ``COINCIDENT_FRACTION`` of
+    #: the median length.
+    usable: np.ndarray
+    #: The median of the finite lengths (NaN when none is finite).
+    median: float
+
+
+#: Up to this many values, :func:`median` partitions them itself; beyond, ``np.median``.
+SMALL_MEDIAN = 1000
+
+
+def median(values: np.ndarray) -> np.floating:
+    """``np.median`` of a one-dimensional array without NaN, the same number.
+
+    ``np.median``'s own bookkeeping costs 15-20 us a call, where partitioning a few hundred
+    values takes 1-3 us; the step counter takes the median of two pairs' lengths over
+    every turn's stretch of a stream. So up to :data:`SMALL_MEDIAN` values it is found
+    here, as ``np.median`` finds it (the middle value, or the mean of the two middle values:
+    their sum over 2), and beyond by ``np.median`` (``tests/test_geometry.py`` checks that
+    both agree bit for bit)."""
+    n = values.shape[0]
+    if n > SMALL_MEDIAN or n == 0:
+        return np.median(values)
+    k = n // 2
+    if n % 2:
+        return np.partition(values, k)[k]
+    part = np.partition(values, (k - 1, k))
+    return (part[k - 1] + part[k]) / 2
+
+
+def frontal_lengths(vectors: np.ndarray) -> FrontalLengths:
+    """Lengths of a pair's frontal vectors ``(frames, 2)``, which of them are usable (the
+    module docstring's rule), and their median: for a caller that weighs pairs by their
+    width and needs the lengths and the mask as well."""
     norms = np.hypot(vectors[:, 0], vectors[:, 1])
     finite = np.isfinite(norms)
     if not finite.any():
-        return finite
-    scale = np.median(norms[finite])
-    return finite & (norms > COINCIDENT_FRACTION * scale)
+        return FrontalLengths(norms, finite, float("nan"))
+    scale = median(norms[finite])
+    return FrontalLengths(norms, finite & (norms > COINCIDENT_FRACTION * scale), float(scale))
 
 
 def usable_frames(
     positions: np.ndarray, layout: Layout, joints: str | Sequence[str] = ("hip",)
 ) -> np.ndarray:
     """Boolean mask of frames whose frontal vectors are usable for every chosen pair."""
-    return _all_usable([frontal_vectors(positions, layout, j) for j in parse_joints(joints)])
-
-
-def _all_usable(vectors: list[np.ndarray]) -> np.ndarray:
-    mask = np.ones(vectors[0].shape[0], dtype=bool)
-    for v in vectors:
-        mask &= _usable(v)
+    mask = np.ones(np.asarray(positions).shape[0], dtype=bool)
+    for joint in parse_joints(joints):
+        mask &= frontal_lengths(frontal_vectors(positions, layout, joint)).usable
     return mask
-
-
-def _unwrapped_yaw_rad(vectors: np.ndarray) -> np.ndarray:
-    return np.unwrap(np.arctan2(vectors[:, 1], vectors[:, 0]))
 
 
 def frame_yaw_deg(
@@ -144,8 +183,16 @@ def frame_yaw_deg(
     the body does. Yaw is the direction of the left-minus-right vector: a person's heading is
     this minus 90°; only differences of yaw matter here.
     """
-    vectors = [frontal_vectors(positions, layout, j) for j in parse_joints(joints)]
-    mask = _all_usable(vectors)  # usable_frames, on the same vectors
+    return vectors_yaw_deg([frontal_vectors(positions, layout, j) for j in parse_joints(joints)])
+
+
+def vectors_yaw_deg(vectors: Sequence[np.ndarray]) -> np.ndarray:
+    """:func:`frame_yaw_deg` of frontal vectors already taken: one ``(frames, 2)`` array per
+    joint pair, the first pair's branch kept (a caller that reads the yaw over many stretches
+    of one stream takes the vectors once and passes slices of them)."""
+    mask = np.ones(vectors[0].shape[0], dtype=bool)
+    for v in vectors:
+        mask &= frontal_lengths(v).usable
     out = np.full(mask.shape[0], np.nan)
     if not mask.any():
         return out

@@ -1102,7 +1102,12 @@ def heading_runs(
 ) -> HeadingRuns:
     """:func:`mine_heading_report` as arrays, the rejected runs among them (same arguments):
     no table is built, for a caller that mines a stream piece by piece."""
-    p = replace(params or MinerParams(), **overrides)
+    # the caller's parameters as they are: a copy checks every field again, for each piece
+    p = (
+        params
+        if params is not None and not overrides
+        else replace(params or MinerParams(), **overrides)
+    )
     v = np.asarray(frontal, dtype=float)
     if v.ndim != 2 or v.shape[1] != 2:
         raise TurnbenchError(f"the frontal vector must have shape (frames, 2), got {v.shape}")

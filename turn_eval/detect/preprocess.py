@@ -31,8 +31,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import median_filter
 
-from turn_datasets.geometry import usable_frames
-from turn_datasets.skeleton import JOINT_PAIRS, Layout
+from turn_datasets.geometry import frontal_vectors, median, usable_frames
+from turn_datasets.skeleton import Layout
 
 __all__ = ["SIZE_JOINTS", "body_size", "identity_pieces", "repair_swaps", "runs"]
 
@@ -110,7 +110,7 @@ def identity_pieces(
     size = np.interp(np.arange(idx.size), np.flatnonzero(ok), size[ok])
     cuts = set()
     left, right = layout.index("left_hip"), layout.index("right_hip")
-    hips = 0.5 * (positions[idx, left, :2] + positions[idx, right, :2])
+    hips = (0.5 * (positions[:, left, :2] + positions[:, right, :2]))[idx]
     step = np.hypot(*np.diff(hips, axis=0).T)
     # a body covers at most ~2 m/s; a body size (trunk + arms) is ~1.1 m: 2 sizes per second
     allowed = jump_sizes + 2.0 * np.diff(idx) / fps_hz
@@ -132,7 +132,7 @@ def identity_pieces(
     spans = [
         (bounds[i], bounds[i + 1]) for i in range(len(bounds) - 1) if bounds[i + 1] > bounds[i]
     ]
-    sizes = np.array([np.median(size[a:b]) for a, b in spans])
+    sizes = np.array([median(size[a:b]) for a, b in spans])
     weights = np.array([b - a for a, b in spans], dtype=float)
     order = np.argsort(sizes)
     own = sizes[order][np.searchsorted(np.cumsum(weights[order]), 0.5 * weights.sum())]
@@ -145,18 +145,24 @@ def identity_pieces(
 
 
 def repair_swaps(
-    positions: np.ndarray, layout: Layout, *, fps_hz: float, max_gap_s: float
+    positions: np.ndarray,
+    layout: Layout,
+    *,
+    fps_hz: float,
+    max_gap_s: float,
+    usable: np.ndarray | None = None,
 ) -> tuple[np.ndarray, int]:
     """Undo left/right swaps (module docstring); returns the repaired positions (a copy when
     any frame was repaired, else the input itself) and the number of frames whose sides were
-    exchanged back."""
+    exchanged back. ``usable``: the frames with a usable hip vector, when the caller has
+    found them (:func:`~turn_datasets.geometry.usable_frames` of these positions' hips)."""
     positions = np.asarray(positions, dtype=float)
-    usable = usable_frames(positions, layout, ("hip",))
+    if usable is None:
+        usable = usable_frames(positions, layout, ("hip",))
     idx = np.flatnonzero(usable)
     if idx.size < 2:
         return positions, 0
-    left, right = JOINT_PAIRS["hip"]
-    v = positions[idx, layout.index(left), :2] - positions[idx, layout.index(right), :2]
+    v = frontal_vectors(positions, layout, "hip")[idx]  # every frame's, then the usable ones
     flip = np.einsum("ij,ij->i", v[1:], v[:-1]) < 0
     linked = np.diff(idx) <= max(int(round(max_gap_s * fps_hz)), 1)
     parity = np.concatenate(([0], np.cumsum(flip & linked) % 2))
@@ -170,7 +176,7 @@ def repair_swaps(
     frames = idx[swapped]
     if frames.size == 0:
         return positions, 0  # nothing to undo: no copy
-    p = positions.copy()
+    p = positions.copy(order="K")  # the input's memory order: a joint-major stream stays so
     for side in _SIDES:
         a, b = f"left_{side}", f"right_{side}"
         if a in layout.joints and b in layout.joints:

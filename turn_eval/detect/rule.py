@@ -37,14 +37,17 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
 from textwrap import indent
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
 
 from turn_datasets.fileio import typed_frame
 from turn_datasets.geometry import (
+    FrontalLengths,
     angular_speed_deg_s,
     direction_of,
+    frontal_lengths,
     frontal_vectors,
     parse_joints,
     usable_frames,
@@ -151,26 +154,68 @@ def split_overlaps(start: np.ndarray, end: np.ndarray) -> tuple[np.ndarray, np.n
     return start, end
 
 
-def _paired_joints(positions: np.ndarray, layout: Layout) -> tuple[np.ndarray, Layout]:
-    """The joints of :data:`~turn_datasets.skeleton.JOINT_PAIRS` that ``layout`` has, as a
-    contiguous ``(frames, joints, 3)`` copy, and the layout that names them."""
-    names = [n for pair in JOINT_PAIRS.values() for n in pair if n in layout.joints]
-    sub = Layout(f"{layout.name}-pairs", len(names), {n: i for i, n in enumerate(names)})
-    return positions[:, [layout.index(n) for n in names]], sub
+class _JointsRead(NamedTuple):
+    """The joints the rule reads (:func:`_joints_read`) and the layouts of its parts."""
+
+    #: float64 ``(frames, joints, 3)``, z up.
+    positions: np.ndarray
+    layout: Layout
+    #: The pairs of :data:`~turn_datasets.skeleton.JOINT_PAIRS` the layout has: a view.
+    pairs: np.ndarray
+    pair_layout: Layout
+    #: The hips, shoulders and ankles that the step counter reads: a view.
+    steps: np.ndarray
+    step_layout: Layout
 
 
-def _joints_read(positions: np.ndarray, layout: Layout) -> tuple[np.ndarray, Layout]:
-    """The joints the rule reads (the pairs, the body-size bones and the step counter's
-    ankles), gathered into one float64 ``(frames, joints, 3)`` array, and the layout that
-    names them: the stream itself (often float32, all joints) is never widened whole."""
-    wanted = [*(n for pair in JOINT_PAIRS.values() for n in pair), *SIZE_JOINTS, *STEP_JOINTS]
-    names = [n for n in dict.fromkeys(wanted) if n in layout.joints]
-    sub = Layout(f"{layout.name}-read", len(names), {n: i for i, n in enumerate(names)})
+def _joints_read(positions: np.ndarray, layout: Layout) -> _JointsRead:
+    """The joints the rule reads (the pairs, the step counter's ankles and the body-size
+    bones), gathered into one float64 ``(frames, joints, 3)`` array, with two views of it:
+    the pairs, which the miner's rule reads, and what the step counter reads. The stream
+    itself (often float32, all joints) is never widened whole.
+
+    The array is stored joint by joint (each joint's coordinate one contiguous series of
+    frames; the array is a transposed view of that store): every later pass takes a joint's
+    coordinates or the difference of two joints, which then run along contiguous memory
+    instead of stepping over the other joints three values at a time (an eighth of the time,
+    same numbers). The joints are stored knees, hips, shoulders, ankles, then the rest, so
+    that both views are slices.
+    """
+    have = layout.joints
+    side = {kind: [n for n in JOINT_PAIRS[kind] if n in have] for kind in JOINT_PAIRS}
+    ankles = [n for n in STEP_JOINTS if n in have]
+    pairs = [*side["knee"], *side["hip"], *side["shoulder"]]
+    steps = [*side["hip"], *side["shoulder"], *ankles]
+    names = list(dict.fromkeys([*pairs, *ankles, *(n for n in SIZE_JOINTS if n in have)]))
+
+    def sub(name: str, joints: list[str]) -> Layout:
+        return Layout(f"{layout.name}-{name}", len(joints), {n: i for i, n in enumerate(joints)})
+
     p = np.asarray(positions)
-    out = np.empty((p.shape[0], len(names), 3), dtype=np.float64)
+    store = np.empty((len(names), 3, p.shape[0]), dtype=np.float64)
+    by_joint = p.transpose(1, 2, 0)  # a view: (joints, 3, frames)
     for k, name in enumerate(names):  # joint by joint: no stored-precision copy in between
-        out[:, k] = p[:, layout.index(name)]
-    return out, sub
+        store[k] = by_joint[layout.index(name)]
+    read = store.transpose(2, 0, 1)
+    first = len(side["knee"])
+    return _JointsRead(
+        read,
+        sub("read", names),
+        read[:, : len(pairs)],
+        sub("pairs", pairs),
+        read[:, first : first + len(steps)],
+        sub("steps", steps),
+    )
+
+
+def _width(lengths: FrontalLengths) -> float:
+    """A pair's width: the median of its lengths, NaN frames aside (0 when none is finite);
+    an infinite length (only a caller past the readers' magnitude check has one) counts."""
+    if np.isnan(lengths.median):
+        return 0.0
+    if np.isinf(lengths.length).any():
+        return float(np.nanmedian(lengths.length))
+    return lengths.median
 
 
 class MinerRule:
@@ -186,7 +231,8 @@ class MinerRule:
 
     def detect(self, positions: np.ndarray, fps_hz: float, layout: Layout) -> pd.DataFrame:
         """The turns of one stream: :data:`~turn_eval.detect.protocol.TURN_DTYPES` columns."""
-        p, layout = _joints_read(positions, layout)
+        read = _joints_read(positions, layout)
+        p, layout = read.positions, read.layout
         prm = self.params
         self.rejected_ = []
         usable = usable_frames(p, layout, ("hip",))
@@ -199,14 +245,11 @@ class MinerRule:
             size_change=prm.identity_size_change,
             size_tolerance=prm.identity_size_tolerance,
         )
-        # The rule from here on reads only the paired joints (hips, knees, shoulders): one
-        # gather into a compact array makes every later pass (swap repair's copy, frontal
-        # vectors) walk 6 joints' memory instead of the whole skeleton's; same numbers.
-        pairs, pair_layout = _paired_joints(p, layout)
         # the pieces' clips gathered as columns (one table for the stream, not one per piece)
         cols: dict[str, list[np.ndarray]] = {"start": [], "end": [], "net": [], "seen": []}
         for a, b in pieces:
-            found = self._mine_piece(pairs[a:b], fps_hz, pair_layout)
+            # the rule reads only the paired joints (hips, knees, shoulders)
+            found = self._mine_piece(read.pairs[a:b], fps_hz, read.pair_layout)
             if found is None:
                 continue
             runs, observed = found
@@ -224,9 +267,16 @@ class MinerRule:
         duration = (end - start) / fps_hz
         min_deg = prm.miner.min_turn_deg
         # Steps, turn type and peak speed from the whole stream, its swaps undone (a swap
-        # would move both ankles by the stance width and back: two false steps).
-        unswapped, _ = repair_swaps(p, layout, fps_hz=fps_hz, max_gap_s=prm.miner.max_gap_s)
-        steps = turn_steps(unswapped, layout, fps_hz, start, end, prm.steps)
+        # would move both ankles by the stance width and back: two false steps); the swaps
+        # are found from the hips, as usable here.
+        unswapped, _ = repair_swaps(
+            read.steps,
+            read.step_layout,
+            fps_hz=fps_hz,
+            max_gap_s=prm.miner.max_gap_s,
+            usable=usable,
+        )
+        steps = turn_steps(unswapped, read.step_layout, fps_hz, start, end, prm.steps)
         table = pd.DataFrame(
             {
                 "start_s": start / fps_hz,
@@ -246,17 +296,31 @@ class MinerRule:
         """Swaps undone, frontal vectors combined, the miner's rule: its runs, with the share
         of each run's frames that were seen; None where too little of the piece was seen."""
         prm = self.params
-        fixed, _ = repair_swaps(piece, layout, fps_hz=fps_hz, max_gap_s=prm.miner.max_gap_s)
+        # A pair's lengths (and so its width and which frames are usable) are the same
+        # before and after the swaps are undone (an exchange of sides negates the vector
+        # exactly): taken once, here, and the hips' usable frames given to the repair.
+        lengths = {j: frontal_lengths(frontal_vectors(piece, layout, j)) for j in prm.joints}
+        if "hip" not in lengths:
+            lengths["hip"] = frontal_lengths(frontal_vectors(piece, layout, "hip"))
+        fixed, _ = repair_swaps(
+            piece,
+            layout,
+            fps_hz=fps_hz,
+            max_gap_s=prm.miner.max_gap_s,
+            usable=lengths["hip"].usable,
+        )
         total = np.zeros((fixed.shape[0], 2))
+        seen = np.ones(fixed.shape[0], dtype=bool)
         widths = {}
         for joint in prm.joints:
             v = frontal_vectors(fixed, layout, joint)
-            length = np.hypot(v[:, 0], v[:, 1])
-            widths[joint] = float(np.nanmedian(length)) if np.isfinite(length).any() else 0.0
+            length = lengths[joint].length
+            widths[joint] = _width(lengths[joint])
+            seen &= lengths[joint].usable
             # weight = squared width: independent joint errors turn a pair by error / width
             with np.errstate(invalid="ignore", divide="ignore"):
                 total += widths[joint] ** 2 * v / length[:, None]
-        seen = usable_frames(fixed, layout, prm.joints) & np.isfinite(total).all(axis=1)
+        seen &= np.isfinite(total).all(axis=1)
         if int(seen.sum()) < 2:
             return None
         # The combined unit vector at the hips' own width, and the knees as they are: the
@@ -264,8 +328,7 @@ class MinerRule:
         if "hip" in widths:
             width = widths["hip"]
         else:
-            hip = frontal_vectors(fixed, layout, "hip")
-            width = float(np.nanmedian(np.hypot(hip[:, 0], hip[:, 1])))
+            width = float(np.nanmedian(lengths["hip"].length))
         frontal = np.full((fixed.shape[0], 2), np.nan)
         frontal[seen] = (width * total / np.hypot(total[:, 0], total[:, 1])[:, None])[seen]
         knees = fixed[:, [layout.index("left_knee"), layout.index("right_knee")], :2]

@@ -151,7 +151,8 @@ def _quiet(level: int = logging.CRITICAL) -> Iterator[None]:
 def local_cluster(n_workers: int) -> Any:
     """A local Dask cluster of ``n_workers`` single-threaded processes, as ``--workers`` starts
     it: no dashboard, quiet logs, workers silent on the terminal that keep freed memory for the
-    next file, and a task whose worker dies reported at once (not retried on another).
+    next file, and a task whose worker dies reported at once (not retried on another), the
+    only one lost with it (no task waits queued on a worker).
 
     Dask's workers start with ``MALLOC_TRIM_THRESHOLD_`` small, handing freed memory back to
     the system at once; every file's arrays (megabytes) are then fresh pages, faulted in
@@ -170,6 +171,10 @@ def local_cluster(n_workers: int) -> Any:
         # a file whose worker died (killed, out of memory) is reported, not run again on
         # another worker to kill that one too
         "distributed.scheduler.allowed-failures": 0,
+        # a worker is given its next task only as it starts it, so a worker that dies takes
+        # down only the task it was running, not one queued behind it (by default a worker
+        # holds 1.1 x its threads, rounded up: a second task on one thread)
+        "distributed.scheduler.worker-saturation": 1.0,
     }
     pressed: list[int] = []
     try:

@@ -4,7 +4,10 @@ A file's result never depends on another's, so :func:`map_files` calls ``fn(path
 sha256=..., **kwargs)`` once per file:
 
 - serially in this process (``workers`` and ``scheduler`` None; Dask is not even imported);
-- as one task per file on a cluster (:func:`turn_eval.mapping.cluster.connect`).
+- on a cluster (:func:`turn_eval.mapping.cluster.connect`), as one task per file, or with
+  ``tasks_per_worker`` as a few tasks per worker, each a run of consecutive files (Dask's
+  own messages cost milliseconds of CPU per task, a large share of a file that takes a
+  few tens of milliseconds).
 
 Every file is hashed here first, and the task carries its *absolute* path and that sha256.
 The worker checks the copy it can see before reading it: a worker on another machine (or
@@ -101,15 +104,33 @@ class _Events:
 
 
 def _on_worker(
-    fn: Callable[..., Any], path: str, sha256: str, kwargs: dict, topic: str | None
-) -> Any:
-    """One task: check that the worker sees our file, then run ``fn`` on it."""
+    fn: Callable[..., Any], jobs: list[tuple[str, str, dict]], topic: str | None
+) -> list[Any]:
+    """One task: for each of its files ``(path, sha256, kwargs)``, check that the worker sees
+    our file, then run ``fn`` on it; the results (or :class:`Failure`) in order."""
     import socket
 
     from distributed import get_worker
 
     worker = get_worker()
     name = f"{worker.address} ({socket.gethostname()})"
+    events = _Events(worker, topic) if topic else None
+    try:
+        return [_checked_call(fn, *job, name, events) for job in jobs]
+    finally:
+        if events is not None:
+            events.flush()
+
+
+def _checked_call(
+    fn: Callable[..., Any],
+    path: str,
+    sha256: str,
+    kwargs: dict,
+    name: str,
+    events: _Events | None,
+) -> Any:
+    """``fn`` on one file on worker ``name``, once the copy there is known to be ours."""
     if not os.path.isfile(path):
         return Failure(path, f"not reachable from worker {name}", hint=_REACH_HINT)
     try:
@@ -122,12 +143,7 @@ def _on_worker(
             f"the copy on worker {name} is another file: sha256 {digest} there, {sha256} here",
             hint=_REACH_HINT,
         )
-    events = _Events(worker, topic) if topic else None
-    try:
-        return _call(fn, path, sha256, kwargs, events)
-    finally:
-        if events is not None:
-            events.flush()
+    return _call(fn, path, sha256, kwargs, events)
 
 
 class _NoDeathNotice(logging.Filter):
@@ -155,6 +171,14 @@ def _hashes(files: Sequence[str], given: Sequence[str | None] | None) -> list[st
     return out
 
 
+def _batches(indices: list[int], n_tasks: int) -> list[list[int]]:
+    """``indices`` cut into ``n_tasks`` runs of consecutive entries (at most one each), of
+    sizes that differ by one at most."""
+    n = min(len(indices), max(n_tasks, 1))
+    bounds = [len(indices) * k // n for k in range(n + 1)] if n else [0]
+    return [indices[a:b] for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+
+
 def _distributed(
     fn: Callable[..., Any],
     files: Sequence[str],
@@ -166,6 +190,7 @@ def _distributed(
     workers: int | None,
     scheduler: str | None,
     on_start: Callable[[], None],
+    tasks_per_worker: int | None,
 ) -> list[Any]:
     from dask.distributed import as_completed
     from distributed import KilledWorker
@@ -174,6 +199,7 @@ def _distributed(
 
     results: list[Any] = [None] * len(files)
     token = uuid.uuid4().hex
+    name = getattr(fn, "__name__", "task")
     logging.getLogger("distributed.scheduler").addFilter(_NO_DEATH_NOTICE)
     with connect(workers=workers, scheduler=scheduler) as client:
         on_start()
@@ -181,36 +207,50 @@ def _distributed(
         if on_progress is not None:
             topic = f"turnbench-progress-{token}"
             client.subscribe_topic(topic, lambda event: on_progress(int(event[1])))
-        order = {}
-        for i, (path, digest) in enumerate(zip(files, digests, strict=True)):
+        todo = []
+        for i, digest in enumerate(digests):
             if isinstance(digest, Failure):
                 results[i] = keep(i, digest)
-                continue
-            name = getattr(fn, "__name__", "task")
-            future = client.submit(
-                _on_worker,
-                fn,
-                path,
-                digest,
-                kwargs[i],
-                topic,
-                key=f"{name}-{i}-{token}",
-                pure=False,
-            )
-            order[future.key] = (i, future)
-        for future in as_completed([f for _, f in order.values()]):
-            i = order[future.key][0]
-            if future.status == "error" and isinstance(future.exception(), KilledWorker):
-                result: Any = Failure(
-                    files[i],
-                    "the worker running it died (killed, or out of memory)",
-                    hint="--skip-bad lists it and goes on; --resume then redoes it",
-                    died=True,
-                )
             else:
-                result = future.result()  # a bug on the worker re-raises here, with its traceback
-            future.release()  # the worker may drop it: memory stays one file per worker
-            results[i] = keep(i, result)
+                todo.append(i)
+        if tasks_per_worker is None:
+            groups = [[i] for i in todo]
+        else:
+            groups = _batches(todo, tasks_per_worker * max(sum(client.nthreads().values()), 1))
+        sent: dict[str, tuple[list[int], Any]] = {}
+
+        def submit(group: list[int]) -> Any:
+            jobs = [(files[i], digests[i], kwargs[i]) for i in group]
+            key = f"{name}-{group[0]}-{len(group)}-{token}"
+            future = client.submit(_on_worker, fn, jobs, topic, key=key, pure=False)
+            sent[future.key] = (group, future)
+            return future
+
+        finished = as_completed([submit(g) for g in groups])
+        for future in finished:
+            group, _ = sent.pop(future.key)
+            died = future.status == "error" and isinstance(future.exception(), KilledWorker)
+            if died and len(group) > 1:
+                # which of its files killed the worker is unknown: each is sent again alone,
+                # so that one dies alone and the others give their results
+                future.release()
+                for i in group:
+                    finished.add(submit([i]))
+                continue
+            if died:
+                out: list[Any] = [
+                    Failure(
+                        files[group[0]],
+                        "the worker running it died (killed, or out of memory)",
+                        hint="--skip-bad lists it and goes on; --resume then redoes it",
+                        died=True,
+                    )
+                ]
+            else:
+                out = future.result()  # a bug on the worker re-raises here, with its traceback
+            future.release()  # the worker may drop it: memory stays one task's per worker
+            for i, result in zip(group, out, strict=True):
+                results[i] = keep(i, result)
     return results
 
 
@@ -226,6 +266,7 @@ def map_files(
     on_progress: Callable[[int], None] | None = None,
     on_start: Callable[[], None] | None = None,
     per_file: Sequence[dict] | None = None,
+    tasks_per_worker: int | None = None,
 ) -> list[Any]:
     """``fn`` over every file (module docstring); its results (or :class:`Failure`) in order.
 
@@ -257,6 +298,12 @@ def map_files(
     per_file
         Keyword arguments of ``fn`` for each file (its output's name, say), added to
         ``kwargs``.
+    tasks_per_worker
+        On a cluster, send the files in about this many tasks per worker thread (runs of
+        consecutive files) instead of one task per file: for many files that each take a
+        fraction of a second, Dask's own work per task (messages between this process, the
+        scheduler and the worker) is a large share of the whole. A task whose worker dies
+        has its files sent again one per task. None (default): one task per file.
     """
     if workers is not None and workers < 1:
         raise TurnbenchError(f"workers must be at least 1, got {workers}")
@@ -279,6 +326,7 @@ def map_files(
             workers=workers,
             scheduler=scheduler,
             on_start=start,
+            tasks_per_worker=tasks_per_worker,
         )
     start()
     results = []

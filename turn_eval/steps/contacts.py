@@ -43,7 +43,7 @@ import numpy as np
 import pandas as pd
 from scipy.ndimage import minimum_filter1d, uniform_filter1d
 
-from turn_datasets.geometry import frame_yaw_deg
+from turn_datasets.geometry import frontal_vectors, vectors_yaw_deg
 from turn_datasets.params import check_params, describe_params, param
 from turn_datasets.skeleton import Layout
 from turn_eval.events.contract import TURN_TYPES
@@ -145,9 +145,9 @@ def _filled(values: np.ndarray) -> np.ndarray:
     out = np.array(values, dtype=float)
     seen = np.isfinite(out).all(axis=1)
     if seen.any() and not seen.all():
-        frames = np.arange(out.shape[0])
+        gaps, known = np.flatnonzero(~seen), np.flatnonzero(seen)
         for k in range(out.shape[1]):
-            out[~seen, k] = np.interp(frames[~seen], frames[seen], out[seen, k])
+            out[gaps, k] = np.interp(gaps, known, out[known, k])
     return out
 
 
@@ -155,9 +155,11 @@ def _pinned(p: np.ndarray, layout: Layout, leg: float) -> bool:
     """Whether the stream is root-relative (the hips never leave the origin): then a planted
     foot moves against the pelvis as fast as the person walks, and only its lift tells a
     swing."""
-    mid = 0.5 * (p[:, layout.index(_HIPS[0]), :2] + p[:, layout.index(_HIPS[1]), :2])
-    mid = mid[np.isfinite(mid).all(axis=1)]
-    return bool(mid.size) and float(np.ptp(mid, axis=0).max()) < 0.05 * leg
+    right, left = (layout.index(j) for j in _HIPS)
+    x = 0.5 * (p[:, right, 0] + p[:, left, 0])
+    y = 0.5 * (p[:, right, 1] + p[:, left, 1])
+    seen = np.isfinite(x) & np.isfinite(y)
+    return bool(seen.any()) and max(float(np.ptp(x[seen])), float(np.ptp(y[seen]))) < 0.05 * leg
 
 
 def foot_swings(
@@ -216,9 +218,10 @@ def _stance_share(swings: np.ndarray, yaw: np.ndarray, a: int, b: int) -> float:
     return best
 
 
-def _filled_yaw(positions: np.ndarray, layout: Layout) -> np.ndarray:
-    joints = ("hip", "shoulder") if "left_shoulder" in layout.joints else ("hip",)
-    yaw = frame_yaw_deg(positions, layout, joints)
+def _filled_yaw(vectors: list[np.ndarray]) -> np.ndarray:
+    """The heading of a stretch (:func:`~turn_datasets.geometry.vectors_yaw_deg` of the hips'
+    and shoulders' frontal vectors over it), its gaps filled by linear interpolation."""
+    yaw = vectors_yaw_deg(vectors)
     seen = np.isfinite(yaw)
     if seen.any() and not seen.all():
         frames = np.arange(yaw.shape[0])
@@ -237,8 +240,11 @@ def _turn_yaw(
 ) -> np.ndarray:
     """:func:`_filled_yaw` over the turns ``[start, end)`` and ``pad`` frames either side
     (overlapping stretches merged), NaN elsewhere: a day's stream is mostly not turning,
-    and the yaw's arctangents are most of the step counter's time."""
+    and the yaw's arctangents are most of the step counter's time. The frontal vectors
+    are taken once for the stream, and each stretch reads its slice of them."""
     n = p.shape[0]
+    joints = ("hip", "shoulder") if "left_shoulder" in layout.joints else ("hip",)
+    vectors = [frontal_vectors(p, layout, j) for j in joints]
     lo = np.clip(start - pad, 0, n)
     hi = np.clip(end + pad, 0, n)
     yaw = np.full(n, np.nan)
@@ -249,10 +255,25 @@ def _turn_yaw(
             w1 = max(w1, int(hi[k]))
             continue
         if w1 > w0:
-            yaw[w0:w1] = _filled_yaw(p[w0:w1], layout)
+            yaw[w0:w1] = _filled_yaw([v[w0:w1] for v in vectors])
         if k is not None:
             w0, w1 = int(lo[k]), int(hi[k])
     return yaw
+
+
+def _peak_speeds(
+    yaw: np.ndarray, first: np.ndarray, last: np.ndarray, half: int, fps_hz: float
+) -> np.ndarray:
+    """Each turn's peak speed (module docstring, step 5): the largest heading change over a
+    window of ``2 * half`` frames centred on any of its frames ``first..last`` (inclusive;
+    windows cut at the stream's ends), over that window's duration; for all turns at once."""
+    n = last - first + 1
+    offsets = np.concatenate(([0], np.cumsum(n)[:-1]))
+    centres = np.arange(int(n.sum())) - np.repeat(offsets - first, n)
+    end = yaw.shape[0] - 1
+    lo, hi = np.clip(centres - half, 0, end), np.clip(centres + half, 0, end)
+    speed = np.abs(yaw[hi] - yaw[lo]) / ((hi - lo) / fps_hz)
+    return np.maximum.reduceat(speed, offsets)
 
 
 def turn_steps(
@@ -286,21 +307,21 @@ def turn_steps(
         foot_swings(p, layout, fps_hz, prm) if all(j in layout.joints for j in _ANKLES) else None
     )
     swung = np.array(swings or [], dtype=np.int64).reshape(-1, 3)
-    landings = swung[:, 2]
+    landings = swung[:, 2]  # in order (foot_swings sorts by landing)
     margin = int(round(prm.landing_margin_s * fps_hz))
     half = max(int(round(prm.peak_window_s * fps_hz / 2)), 1)
     last = p.shape[0] - 1
-    for i in range(n):
-        a, b = int(np.clip(start[i], 0, last)), int(np.clip(end[i] - 1, 0, last))
-        if b <= a or not np.isfinite(yaw[a : b + 1]).all():
-            continue
-        centres = np.arange(a, b + 1)
-        lo, hi = np.clip(centres - half, 0, last), np.clip(centres + half, 0, last)
-        out["peak_speed_deg_s"][i] = float(np.max(np.abs(yaw[hi] - yaw[lo]) / ((hi - lo) / fps_hz)))
-        if swings is None:
-            continue
-        steps = int(((landings >= a) & (landings <= b + margin)).sum())
-        out["steps"][i] = steps
-        share = _stance_share(swung, yaw, a, b)
-        kinds[i] = _STEP if steps >= 3 and not share >= prm.pivot_share else _PIVOT
+    a, b = np.clip(start, 0, last), np.clip(end - 1, 0, last)
+    unseen = np.concatenate(([0], np.cumsum(~np.isfinite(yaw))))
+    measured = np.flatnonzero((b > a) & (unseen[b + 1] == unseen[a]))
+    if measured.size == 0:
+        return pd.DataFrame({**out, "turn_type": kinds})
+    out["peak_speed_deg_s"][measured] = _peak_speeds(yaw, a[measured], b[measured], half, fps_hz)
+    if swings is None:
+        return pd.DataFrame({**out, "turn_type": kinds})
+    steps = np.searchsorted(landings, b + margin, "right") - np.searchsorted(landings, a, "left")
+    out["steps"][measured] = steps[measured]
+    for i in measured.tolist():
+        share = _stance_share(swung, yaw, int(a[i]), int(b[i]))
+        kinds[i] = _STEP if steps[i] >= 3 and not share >= prm.pivot_share else _PIVOT
     return pd.DataFrame({**out, "turn_type": kinds})
