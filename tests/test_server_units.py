@@ -10,6 +10,7 @@ import os
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -208,6 +209,68 @@ def test_the_dispatcher_reads_the_queue_only_for_free_workers(tmp_path, capsys):
     assert reads == [1] and submitted == ["e"]
     assert [sid for sid, _ in queued()] == ["a", "d", "b", "c"]
     store.engine.dispose()
+
+
+def check_crashing_once(root: str, upload: str, shown_name: str) -> int:
+    """A check that kills its worker the first time it sees a file with a ``.crash`` mark."""
+    mark = Path(upload).with_suffix(".crash")
+    if mark.exists():
+        mark.unlink()
+        os._exit(7)
+    from turn_eval.server.scoring import check_job
+
+    return check_job(root, upload, shown_name)
+
+
+def check_crashing_always(root: str, upload: str, shown_name: str) -> int:
+    os._exit(7)
+
+
+def test_the_checker_answers_as_score_does_from_its_own_process(tmp_path, capsys):
+    pytest.importorskip("sqlalchemy", reason="needs the server extra")
+    from concurrent.futures.process import BrokenProcessPool
+
+    from turn_datasets.errors import TurnbenchError
+    from turn_eval.server.datadir import open_challenge
+    from turn_eval.server.scoring import check_upload
+    from turn_eval.server.service import Checker
+
+    ref = write_reference(tmp_path / "labels.csv")
+    root = tmp_path / "c"
+    assert (
+        run(["server", "init", root, "-r", tmp_path / "labels.csv", "--name", "x"], capsys)[0] == 0
+    )
+    challenge = open_challenge(root)
+    good = write_predictions(tmp_path / "good.csv", ref, noise_deg=5, seed=0)
+    bad = tmp_path / "bad.csv"
+    # 3 rows of the reference's 240 (line 3: a negative angle)
+    bad.write_text("clip_id,angle_deg\nclip0000,10\nclip0001,-5\nclip0002,7\n")
+    checker = Checker(challenge)
+    try:
+        assert checker.check(good, "g.csv") == 240
+        with pytest.raises(TurnbenchError) as there:
+            checker.check(bad, "mine.csv")
+        with pytest.raises(TurnbenchError) as here:
+            check_upload(challenge, bad, "mine.csv")
+        assert str(there.value) == str(here.value)
+        assert there.value.where.file == "mine.csv" and there.value.where.row == 3
+        assert str(tmp_path) not in str(there.value)
+    finally:
+        checker.stop()
+    # a worker that dies is replaced and the check tried once more; twice, it is raised
+    good.with_suffix(".crash").touch()
+    checker = Checker(challenge, job=check_crashing_once)
+    try:
+        assert checker.check(good, "g.csv") == 240
+        assert not good.with_suffix(".crash").exists()
+    finally:
+        checker.stop()
+    checker = Checker(challenge, job=check_crashing_always)
+    try:
+        with pytest.raises(BrokenProcessPool):
+            checker.check(good, "g.csv")
+    finally:
+        checker.stop()
 
 
 # --- the command line -----------------------------------------------------------------------

@@ -52,7 +52,7 @@ def serve(root: Path, host: str, port: int, workers: int) -> None:
     uvicorn = needs_extra("uvicorn")
     store = service.open_store(challenge)
     scorer = service.Scorer(challenge, store, workers=workers)
-    app = app_module.create_app(challenge, store, scorer)
+    app = app_module.create_app(challenge, store, scorer, service.Checker(challenge))
     config = uvicorn.Config(app, host=host, port=port, log_level="warning", access_log=False)
     server = uvicorn.Server(config)
     info(f"serving {challenge.name!r} from {root} on http://{host}:{port}/ (Ctrl-C stops)")

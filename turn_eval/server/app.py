@@ -34,6 +34,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from turn_datasets.errors import TurnbenchError
 from turn_eval.server.datadir import Challenge
 from turn_eval.server.service import (
+    Checker,
     Leaderboard,
     QuotaUsed,
     Scorer,
@@ -173,11 +174,16 @@ def _not_found() -> JSONResponse:
     return JSONResponse({"detail": "not found"}, status_code=404)
 
 
-def create_app(challenge: Challenge, store: Store, scorer: Scorer | None) -> FastAPI:
-    """The app; ``scorer`` is started and stopped with it (None: nothing is scored)."""
+def create_app(
+    challenge: Challenge, store: Store, scorer: Scorer | None, checker: Checker | None = None
+) -> FastAPI:
+    """The app; ``scorer`` and ``checker`` are started and stopped with it (no scorer:
+    nothing is scored; no checker: uploads are checked in the server's own process)."""
 
     @contextlib.asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        if checker is not None:
+            await run_in_threadpool(checker.start)
         if scorer is not None:
             await run_in_threadpool(scorer.start)
         try:
@@ -185,6 +191,8 @@ def create_app(challenge: Challenge, store: Store, scorer: Scorer | None) -> Fas
         finally:
             if scorer is not None:
                 await run_in_threadpool(scorer.stop)
+            if checker is not None:
+                await run_in_threadpool(checker.stop)
 
     app = FastAPI(
         title=challenge.name, docs_url=None, redoc_url=None, openapi_url=None, lifespan=lifespan
@@ -215,7 +223,7 @@ def create_app(challenge: Challenge, store: Store, scorer: Scorer | None) -> Fas
             return JSONResponse({"detail": exc.detail}, status_code=exc.status)
         try:
             submission_id = await run_in_threadpool(
-                accept_upload, challenge, store, team, path, shown, sha
+                accept_upload, challenge, store, team, path, shown, sha, checker=checker
             )
         except TurnbenchError as exc:
             return JSONResponse({"detail": str(exc)}, status_code=422)

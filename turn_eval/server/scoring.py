@@ -42,6 +42,7 @@ from turn_eval.server.split import PRIVATE, PUBLIC
 __all__ = [
     "reference_of",
     "check_upload",
+    "check_job",
     "validate_upload",
     "score_upload",
     "side_arrays",
@@ -176,6 +177,14 @@ def score_job(root: str, upload: str) -> dict[str, Any]:
     from turn_eval.server.datadir import open_challenge
 
     return score_upload(open_challenge(root), Path(upload))
+
+
+def check_job(root: str, upload: str, shown_name: str) -> int:
+    """What a check worker process runs: open the data directory, check one upload
+    (:func:`check_upload`); how many clips it scores, or its refusal."""
+    from turn_eval.server.datadir import open_challenge
+
+    return check_upload(open_challenge(root), Path(upload), shown_name)
 
 
 def warm_job(root: str) -> None:

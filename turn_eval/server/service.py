@@ -7,6 +7,11 @@ A worker that dies (a crash, the OOM killer) breaks the pool: the pool is rebuil
 submissions it held go back to the queue to be scored one at a time, so the one that kills
 its worker again is marked failed alone and the server keeps serving. On start, whatever a
 stopped server was scoring (even one killed with SIGKILL) goes back to the queue.
+
+The checks an upload waits for run in a worker process of their own too (:class:`Checker`),
+at the server's priority: the server's process keeps to the HTTP, the tokens and the
+database, on its one GIL, and the check (pandas' work, most of an upload's CPU) runs beside
+it, on another core where there is one.
 """
 
 from __future__ import annotations
@@ -43,6 +48,7 @@ from turn_eval.server.datadir import (
 from turn_eval.server.ranking import gated_ranks, order_key
 from turn_eval.server.receipts import sign_receipt
 from turn_eval.server.scoring import (
+    check_job,
     check_upload,
     reference_of,
     score_job,
@@ -50,6 +56,7 @@ from turn_eval.server.scoring import (
     scoring_worker_init,
     side_arrays,
     warm_job,
+    watch_parent,
 )
 from turn_eval.server.split import PRIVATE, PUBLIC, draw_split
 from turn_eval.server.store import (
@@ -71,6 +78,7 @@ __all__ = [
     "token_team_id",
     "accept_upload",
     "Scorer",
+    "Checker",
     "Leaderboard",
     "receipt_of",
     "submission_view",
@@ -234,10 +242,17 @@ def new_id() -> str:
 
 
 def accept_upload(
-    challenge: Challenge, store: Store, team: Team, received: Path, shown_name: str, sha256: str
+    challenge: Challenge,
+    store: Store,
+    team: Team,
+    received: Path,
+    shown_name: str,
+    sha256: str,
+    *,
+    checker: Checker | None = None,
 ) -> str:
-    """Check a received upload (:func:`check_upload`), store it under a new id and take the
-    team's quota.
+    """Check a received upload (:func:`check_upload`, in ``checker``'s process if one is
+    given), store it under a new id and take the team's quota.
 
     Raises
     ------
@@ -246,7 +261,10 @@ def accept_upload(
     QuotaUsed
         The team's quota is used; nothing is kept.
     """
-    n_clips = check_upload(challenge, received, shown_name)
+    if checker is None:
+        n_clips = check_upload(challenge, received, shown_name)
+    else:
+        n_clips = checker.check(received, shown_name)
     submission_id = new_id()
     stored = challenge.upload_path(submission_id)
     os.replace(received, stored)
@@ -304,6 +322,91 @@ def _worker_context() -> multiprocessing.context.BaseContext:
         context.set_forkserver_preload(["turn_eval.server.scoring"])
         return context
     return multiprocessing.get_context("spawn")
+
+
+class Checker:
+    """Checks uploads (:func:`check_upload`) in worker processes at the server's priority.
+
+    A worker that dies breaks the pool: the pool is rebuilt and the check tried once more
+    in the new one; a second break is raised (``BrokenProcessPool``: the request fails,
+    with nothing stored or counted).
+
+    Parameters
+    ----------
+    challenge
+        The challenge (each worker holds its reference once).
+    workers
+        Worker processes.
+    job
+        What a worker runs for one upload, ``job(root, upload, shown_name) -> clips`` (a
+        top-level function, as a process pool needs).
+    """
+
+    def __init__(
+        self,
+        challenge: Challenge,
+        *,
+        workers: int = 1,
+        job: Callable[[str, str, str], int] = check_job,
+    ) -> None:
+        self.challenge = challenge
+        self.workers = max(1, int(workers))
+        self.job = job
+        self._lock = threading.Lock()
+        self._pool: cf.ProcessPoolExecutor | None = None
+
+    def _new_pool(self) -> cf.ProcessPoolExecutor:
+        pool = cf.ProcessPoolExecutor(
+            max_workers=self.workers,
+            mp_context=_worker_context(),
+            initializer=watch_parent,
+            initargs=(os.getpid(),),
+        )
+        # start every worker and read the reference there now, not at the first upload
+        for _ in range(self.workers):
+            pool.submit(warm_job, str(self.challenge.root))
+        return pool
+
+    def _running(self) -> cf.ProcessPoolExecutor:
+        with self._lock:
+            if self._pool is None:
+                self._pool = self._new_pool()
+            return self._pool
+
+    def _discard(self, pool: cf.ProcessPoolExecutor) -> None:
+        with self._lock:
+            if self._pool is pool:  # the first caller to see it broken replaces it
+                self._pool = None
+        pool.shutdown(wait=False, cancel_futures=True)
+
+    def start(self) -> None:
+        """Start the workers (an upload that comes before they are ready waits for them)."""
+        self._running()
+
+    def stop(self) -> None:
+        with self._lock:
+            pool, self._pool = self._pool, None
+        if pool is not None:
+            pool.shutdown(wait=False, cancel_futures=True)
+
+    def check(self, path: Path, shown_name: str) -> int:
+        """:func:`check_upload` in a worker: how many clips the upload scores.
+
+        Raises
+        ------
+        TurnbenchError
+            The upload is refused (the score command's message).
+        BrokenProcessPool
+            The check broke a worker twice.
+        """
+        args = (str(self.challenge.root), str(path), shown_name)
+        pool = self._running()
+        try:
+            return pool.submit(self.job, *args).result()
+        except BrokenProcessPool:
+            self._discard(pool)
+        # once more, in a new pool; a second break is raised
+        return self._running().submit(self.job, *args).result()
 
 
 class Scorer:

@@ -42,6 +42,7 @@ from sqlalchemy import (
     String,
     Table,
     Text,
+    bindparam,
     case,
     create_engine,
     event,
@@ -103,6 +104,15 @@ phase = Table(
     Column("key", String(64), primary_key=True),
     Column("value", Text, nullable=False),
 )
+
+# What every upload runs, built once: building a statement, and the key SQLAlchemy finds its
+# compiled form by, cost more than SQLite takes to run it (0.55 -> 0.21 ms per quota taken).
+_LOCK_TEAM = select(teams.c.id).where(teams.c.id == bindparam("team_id")).with_for_update()
+# both counts in one statement (COUNT of a CASE counts its non-null values)
+_COUNT_MINE = select(
+    func.count(), func.count(case((submissions.c.created >= bindparam("since"), 1)))
+).where(submissions.c.team_id == bindparam("team_id"))
+_INSERT_SUBMISSION = insert(submissions)
 
 
 def _sqlite_hooks(engine: Engine) -> None:
@@ -284,15 +294,14 @@ class Store:
         QuotaUsed
             Inserting would exceed ``daily`` (since the UTC day's start) or ``total``.
         """
+        mine = {"team_id": team_id}
         with self._writing() as conn:
             if not self.is_sqlite:
                 # the team's row lock serialises this team's quota transactions
-                conn.execute(select(teams.c.id).where(teams.c.id == team_id).with_for_update())
+                conn.execute(_LOCK_TEAM, mine)
             if total is not None or daily is not None:
-                # both counts in one statement (COUNT of a CASE counts its non-null values)
-                today = case((submissions.c.created >= day_start(now), 1))
                 n_total, n_today = conn.execute(
-                    select(func.count(), func.count(today)).where(submissions.c.team_id == team_id)
+                    _COUNT_MINE, {**mine, "since": day_start(now)}
                 ).one()
                 if total is not None and n_total >= total:
                     raise QuotaUsed(f"the total quota of {total} submissions is used")
@@ -301,15 +310,16 @@ class Store:
                         f"the daily quota of {daily} submissions is used (it resets at 00:00 UTC)"
                     )
             conn.execute(
-                insert(submissions).values(
-                    id=submission_id,
-                    team_id=team_id,
-                    created=now,
-                    status=QUEUED,
-                    sha256=sha256,
-                    n_rows=n_rows,
-                    attempts=0,
-                )
+                _INSERT_SUBMISSION,
+                {
+                    **mine,
+                    "id": submission_id,
+                    "created": now,
+                    "status": QUEUED,
+                    "sha256": sha256,
+                    "n_rows": n_rows,
+                    "attempts": 0,
+                },
             )
 
     def submission(self, submission_id: str, team_id: int | None = None) -> dict | None:
