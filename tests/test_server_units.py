@@ -22,6 +22,17 @@ from turn_eval.server.ranking import gated_ranks
 from turn_eval.server.receipts import RECEIPT_FIELDS, sign_receipt, verify_receipt
 from turn_eval.server.split import draw_split
 
+
+def init_challenge(tmp_path: Path, capsys) -> tuple[pd.DataFrame, Path]:
+    """A challenge folder made by ``server init`` from a written reference: (reference, root)."""
+    ref = write_reference(tmp_path / "labels.csv")
+    root = tmp_path / "c"
+    assert (
+        run(["server", "init", root, "-r", tmp_path / "labels.csv", "--name", "x"], capsys)[0] == 0
+    )
+    return ref, root
+
+
 SERVER_PACKAGES = ("fastapi", "uvicorn", "sqlalchemy", "jinja2", "python_multipart", "starlette")
 
 
@@ -139,11 +150,7 @@ def test_a_worker_crash_fails_that_submission_alone(tmp_path, capsys):
     from turn_eval.server.datadir import open_challenge
     from turn_eval.server.service import Scorer, open_store
 
-    ref = write_reference(tmp_path / "labels.csv")
-    root = tmp_path / "c"
-    assert (
-        run(["server", "init", root, "-r", tmp_path / "labels.csv", "--name", "x"], capsys)[0] == 0
-    )
+    ref, root = init_challenge(tmp_path, capsys)
     challenge = open_challenge(root)
     store = open_store(challenge)
     store.add_team("T", lambda i: "0" * 64, baseline=False, now=time.time())
@@ -175,11 +182,7 @@ def test_the_dispatcher_reads_the_queue_only_for_free_workers(tmp_path, capsys):
     from turn_eval.server.datadir import open_challenge
     from turn_eval.server.service import Scorer, open_store
 
-    write_reference(tmp_path / "labels.csv")
-    root = tmp_path / "c"
-    assert (
-        run(["server", "init", root, "-r", tmp_path / "labels.csv", "--name", "x"], capsys)[0] == 0
-    )
+    _, root = init_challenge(tmp_path, capsys)
     challenge = open_challenge(root)
     store = open_store(challenge)
     store.add_team("T", lambda i: "0" * 64, baseline=False, now=time.time())
@@ -235,11 +238,7 @@ def test_the_checker_answers_as_score_does_from_its_own_process(tmp_path, capsys
     from turn_eval.server.scoring import check_upload
     from turn_eval.server.service import Checker
 
-    ref = write_reference(tmp_path / "labels.csv")
-    root = tmp_path / "c"
-    assert (
-        run(["server", "init", root, "-r", tmp_path / "labels.csv", "--name", "x"], capsys)[0] == 0
-    )
+    ref, root = init_challenge(tmp_path, capsys)
     challenge = open_challenge(root)
     good = write_predictions(tmp_path / "good.csv", ref, noise_deg=5, seed=0)
     bad = tmp_path / "bad.csv"
@@ -338,11 +337,7 @@ def test_an_unreachable_database_is_one_line(tmp_path, capsys):
 
 def test_team_and_receipt_commands(tmp_path, capsys):
     pytest.importorskip("sqlalchemy", reason="needs the server extra")
-    write_reference(tmp_path / "labels.csv")
-    root = tmp_path / "c"
-    assert (
-        run(["server", "init", root, "-r", tmp_path / "labels.csv", "--name", "x"], capsys)[0] == 0
-    )
+    _, root = init_challenge(tmp_path, capsys)
     code, token, err = run(["server", "add-team", root, "A"], capsys)
     assert code == 0 and token.count("\n") == 1 and "shown once" in err
     import sqlite3
@@ -398,11 +393,7 @@ def test_reads_do_not_wait_for_a_writer(tmp_path, capsys):
     from turn_eval.server.datadir import open_challenge
     from turn_eval.server.service import open_store
 
-    write_reference(tmp_path / "labels.csv")
-    root = tmp_path / "c"
-    assert (
-        run(["server", "init", root, "-r", tmp_path / "labels.csv", "--name", "x"], capsys)[0] == 0
-    )
+    _, root = init_challenge(tmp_path, capsys)
     assert run(["server", "add-team", root, "A"], capsys)[0] == 0
     store = open_store(open_challenge(root))
     holder = sqlite3.connect(root / "turnbench.db", isolation_level=None)
@@ -436,11 +427,7 @@ def test_a_team_read_once_is_kept_and_its_tokens_still_checked(tmp_path, capsys)
     from turn_eval.server.datadir import open_challenge
     from turn_eval.server.service import authenticate, open_store, token_team_id
 
-    write_reference(tmp_path / "labels.csv")
-    root = tmp_path / "c"
-    assert (
-        run(["server", "init", root, "-r", tmp_path / "labels.csv", "--name", "x"], capsys)[0] == 0
-    )
+    _, root = init_challenge(tmp_path, capsys)
     token = run(["server", "add-team", root, "A"], capsys)[1].strip()
     store = open_store(open_challenge(root))
     team_id = int(token.split(".")[0])
