@@ -13,10 +13,10 @@ another's, so :func:`detect_files` maps :func:`detect_file` over the files with
 Each task is a run of consecutive files (about :data:`TASKS_PER_WORKER` tasks per worker:
 a 10-minute stream takes a few tens of milliseconds, and each task costs about 5 ms of
 CPU in the client and scheduler alone: 1.1 s for 120 one-file tasks, 0.55 s for 8 tasks
-of 15, hashing included); it reads them one at a time, detects and
-returns each file's turns (a few arrays) with its sha256 and frame counts; nothing is
-shared, so memory is bounded by the largest single file per worker, not by the corpus. Results are put back in input order whatever order they
-finish in, so the table is identical, row for row, to the serial run. A file that cannot be
+of 15, hashing included); it reads them one at a time, detects and returns each file's
+turns (a few arrays) with its sha256 and frame counts; nothing is shared, so memory is
+bounded by the largest single file per worker, not by the corpus. Results are put back in
+input order whatever order they finish in, so the table is identical, row for row, to the serial run. A file that cannot be
 read raises a :class:`TurnbenchError` naming it, or with ``skip_bad`` is listed in
 ``skipped`` and left out, as ``h36m mine --skip-bad`` does.
 """
