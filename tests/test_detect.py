@@ -127,6 +127,40 @@ def test_depth_error_hips_and_shoulders_halve_the_yaw_noise() -> None:
     assert len(RULE.detect(noisy, FPS, H36M17)) == 0
 
 
+def test_depth_error_along_the_ray_costs_walking_turns_less() -> None:
+    """Walking turns of 90° and 135° seen by an estimator whose error is depth (20-76 mm
+    drifting, 30-60 mm white) against 8 mm across: over 12 draws each, the depth-aware
+    heading's mean angle error is well under the plain direction's (2.7° against 6.5°)."""
+    miner = MinerParams(min_turn_deg=67.5, max_gap_s=0.5)
+    aware = MinerRule(DetectParams(miner=miner))
+    plain = MinerRule(DetectParams(miner=miner, ray_noise_ratio=1.0, ray_search_deg=0.0))
+    estimator = {
+        "depth_sd_facing_mm": 20.0,
+        "depth_sd_away_mm": 76.0,
+        "white_depth_sd_mm": 30.0,
+        "joint_noise_mm": 8.0,
+        "dropout_rate_per_s": 0.0,
+    }
+    errors: dict[str, list[float]] = {"aware": [], "plain": []}
+    for angle in (90.0, -135.0):
+        segs = [
+            sm.Segment.stand(2),
+            sm.Segment.walk(4, 1.0),
+            sm.Segment.pivot_turn(angle, 1.5 if angle > 0 else 2.0),
+            sm.Segment.walk(4, 1.0),
+            sm.Segment.stand(2),
+        ]
+        for seed in range(12):
+            p = stream(segs, seed=seed, degrade=estimator)
+            for name, rule in (("aware", aware), ("plain", plain)):
+                found = rule.detect(p, FPS, H36M17)
+                turn = found[(found.start_s < 8.0) & (found.end_s > 6.0)]  # the turn: 6-8 s
+                assert len(turn) == 1, (angle, seed, name, found)
+                errors[name].append(abs(float(turn.angle_deg.iloc[0]) - abs(angle)))
+    aware_mae, plain_mae = np.mean(errors["aware"]), np.mean(errors["plain"])
+    assert aware_mae < 0.7 * plain_mae, (aware_mae, plain_mae)
+
+
 ABSENCE = [
     sm.Segment.stand(3),
     sm.Segment.walk(4, 1.0),

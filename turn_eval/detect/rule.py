@@ -12,15 +12,19 @@ detector. It is not a second algorithm; what an estimator's stream needs on top
    size), and pieces of another body size are dropped.
 2. **Swaps.** Left/right swaps are undone.
 3. **Frontal vector.** The frontal vectors of the chosen joint pairs (``joints``; default
-   hips and shoulders, the paper's equations 1 and 2) are made unit length and averaged,
-   each weighted by its pair's squared median width. The depth error of a monocular
-   estimator is independent from joint to joint and turns a pair by about error / width,
-   so the inverse-variance weight is the squared width (the shoulders, 36 cm apart, count
-   about twice the hips, 26 cm); on the synthetic sessions two pairs cut the per-frame yaw
-   error from about 10° (hips) to 7°, and took F1 from 0.87 to 0.95. The shoulders'
-   counter-rotation in gait also cancels part of the pelvis's sway. The knees swing with
-   every step and are left out by default (with them F1 fell to 0.92); they still give the
-   miner its stride period.
+   hips and shoulders, the paper's equations 1 and 2) give one heading per frame. Their
+   plain direction is their unit vectors averaged, each weighted by its pair's squared
+   median width: the depth error of a monocular estimator is independent from joint to
+   joint and turns a pair by about error / width, so the inverse-variance weight is the
+   squared width (the shoulders, 36 cm apart, count about twice the hips, 26 cm); on the
+   synthetic sessions two pairs cut the per-frame yaw error from about 10° (hips) to 7°,
+   and took F1 from 0.87 to 0.95. The shoulders' counter-rotation in gait also cancels
+   part of the pelvis's sway. The knees swing with every step and are left out by default
+   (with them F1 fell to 0.92); they still give the miner its stride period. The heading
+   is then corrected, within ``ray_search_deg`` of that direction, by what an estimator
+   gets right: the pairs' lengths and their positions across the camera's ray, against
+   their depth (:mod:`turn_eval.detect.heading`: ``ray_noise_ratio``,
+   ``lateral_noise_widths``).
 4. **The miner's rule** on that vector (:func:`turn_datasets.h36m.miner.mine_heading`),
    with its gap bridging (``max_gap_s``: longer gaps cut the stream, so a turn is never
    followed through an absence) and its ``min_turn_deg`` (the paper's 45°; 67.5° for
@@ -55,6 +59,7 @@ from turn_datasets.geometry import (
 from turn_datasets.h36m.miner import HeadingRuns, MinerParams, heading_runs, knee_gait
 from turn_datasets.params import check_params, describe_params, param
 from turn_datasets.skeleton import JOINT_PAIRS, Layout
+from turn_eval.detect.heading import PAIR_LENGTH_CV, camera_rays, ray_weighted_direction
 from turn_eval.detect.preprocess import SIZE_JOINTS, identity_pieces, repair_swaps
 from turn_eval.detect.protocol import TURN_DTYPES, empty_turns
 from turn_eval.steps import STEP_COLUMNS, STEP_JOINTS, StepParams, turn_steps
@@ -112,6 +117,29 @@ class DetectParams:
         min=0,
         min_open=True,
         max=10.0,
+    )
+    ray_noise_ratio: float = param(
+        4.0,
+        "The pose estimator's joint error along the camera's ray over its error across it "
+        "(30 mm against 10 mm facing the camera, 60 mm with the back to it): the heading "
+        "trusts the pairs' lengths and lateral positions over their depth; 1 takes both alike.",
+        min=1.0,
+        max=100.0,
+    )
+    lateral_noise_widths: float = param(
+        0.04,
+        "The pose estimator's joint error across the camera's ray, in hip widths (10 mm of "
+        "a 260 mm hip width).",
+        min=0.0,
+        min_open=True,
+        max=1.0,
+    )
+    ray_search_deg: float = param(
+        20.0,
+        "How far the depth-aware heading may move from the plain direction of the joint "
+        "pairs, in degrees (never to its mirror image about the ray); 0 keeps the plain one.",
+        min=0.0,
+        max=90.0,
     )
     joints: tuple[str, ...] = ("hip", "shoulder")
     miner: MinerParams = field(default_factory=lambda: DETECT_MINER_DEFAULTS)
@@ -309,28 +337,33 @@ class MinerRule:
             max_gap_s=prm.miner.max_gap_s,
             usable=lengths["hip"].usable,
         )
-        total = np.zeros((fixed.shape[0], 2))
+        vectors, widths = [], []
         seen = np.ones(fixed.shape[0], dtype=bool)
-        widths = {}
         for joint in prm.joints:
-            v = frontal_vectors(fixed, layout, joint)
-            length = lengths[joint].length
-            widths[joint] = _width(lengths[joint])
+            vectors.append(frontal_vectors(fixed, layout, joint))
+            widths.append(_width(lengths[joint]))
             seen &= lengths[joint].usable
-            # weight = squared width: independent joint errors turn a pair by error / width
-            with np.errstate(invalid="ignore", divide="ignore"):
-                total += widths[joint] ** 2 * v / length[:, None]
-        seen &= np.isfinite(total).all(axis=1)
-        if int(seen.sum()) < 2:
-            return None
         # The combined unit vector at the hips' own width, and the knees as they are: the
         # miner reads the stride from the knees' fore-aft swing in hip widths.
-        if "hip" in widths:
-            width = widths["hip"]
+        if "hip" in prm.joints:
+            width = widths[prm.joints.index("hip")]
         else:
             width = float(np.nanmedian(lengths["hip"].length))
+        hips = [layout.index("left_hip"), layout.index("right_hip")]
+        heading = ray_weighted_direction(
+            vectors,
+            widths,
+            [PAIR_LENGTH_CV[j] for j in prm.joints],
+            camera_rays(fixed[:, hips, :2].mean(axis=1), width),
+            lateral_sd=prm.lateral_noise_widths * width,
+            ratio=prm.ray_noise_ratio,
+            search_deg=prm.ray_search_deg,
+        )
+        seen &= np.isfinite(heading).all(axis=1)
+        if int(seen.sum()) < 2:
+            return None
         frontal = np.full((fixed.shape[0], 2), np.nan)
-        frontal[seen] = (width * total / np.hypot(total[:, 0], total[:, 1])[:, None])[seen]
+        frontal[seen] = width * heading[seen]
         knees = fixed[:, [layout.index("left_knee"), layout.index("right_knee")], :2]
         gait = knee_gait(frontal, knees[:, 0].astype(float), knees[:, 1].astype(float))
         runs = heading_runs(frontal, fps_hz=fps_hz, gait=gait, params=prm.miner)
