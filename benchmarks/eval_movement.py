@@ -11,6 +11,8 @@ and with one part of it switched off at a time:
 - ``identity``: no split where the skeleton jumps to someone else;
 - ``swaps``: left/right swaps not undone;
 - ``shoulders``: the hips' frontal vector alone;
+- ``depth model``: the plain direction of the pairs, every error taken alike
+  (:mod:`turn_eval.detect.heading` off: ``ray_noise_ratio`` 1, ``ray_search_deg`` 0);
 - ``pauses``: continuous turning not split at its pauses (``pause_speed_deg_s`` 0);
 - ``bounds``: no circling or speed bound (``max_turn_s`` and ``max_turn_speed_deg_s`` lifted).
 
@@ -63,6 +65,7 @@ def _variants() -> dict[str, tuple[DetectParams, list]]:
             [mock.patch("turn_eval.detect.rule.repair_swaps", lambda p, *a, **k: (p, 0))],
         ),
         "no shoulders": (replace(full, joints=("hip",)), []),
+        "no depth model": (replace(full, ray_noise_ratio=1.0, ray_search_deg=0.0), []),
         "no pauses": (DetectParams(miner=replace(miner, pause_speed_deg_s=0.0)), []),
         "no bounds": (
             DetectParams(
