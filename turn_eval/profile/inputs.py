@@ -52,11 +52,11 @@ class ProfileInputs:
     ----------
     detections
         The detections (:mod:`turn_eval.events.contract`) plus ``unit``, the row number of their
-        session in ``sessions``.
+        session in ``sessions``; ``attrs`` as read (``path``, ``lines``, ``sha256``).
     sessions
         ``session, subject, duration_s`` plus ``local_start_s``: the session's start in local
         wall-clock seconds since 1970-01-01 (UTC seconds plus the start's offset), NaN where
-        ``start_time`` is empty or absent.
+        ``start_time`` is empty or absent; ``attrs`` as read.
     subjects
         Every participant of ``sessions``, in natural order.
     groups
@@ -251,6 +251,7 @@ def read_inputs(
     frame.attrs = dict(det.attrs)
     out_sessions = table.loc[:, ["session", "subject", "duration_s"]].copy()
     out_sessions["local_start_s"] = local
+    out_sessions.attrs = dict(table.attrs)
     return ProfileInputs(
         detections=frame,
         sessions=out_sessions,
