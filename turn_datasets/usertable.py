@@ -292,15 +292,21 @@ def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.nd
 
 @dataclass(frozen=True)
 class _Body:
-    """The rows' text as UTF-8 for pandas' C parser: ``data`` from byte ``start`` on, after
-    ``skip`` lines (the header's, when ``data`` is the file's own bytes: no copy of them)."""
+    """The rows' text as UTF-8 for pandas' C parser: ``data`` from byte ``start`` on (the
+    file's own bytes after its header: no copy of them)."""
 
     data: bytes
     start: int = 0
-    skip: int = 0
 
     def holds(self, byte: bytes) -> bool:
         return self.data.find(byte, self.start) >= 0
+
+    def stream(self) -> io.BytesIO:
+        # A stream over the bytes themselves, positioned at the rows (pandas' ``skiprows``
+        # would test every line against a set of rows to skip).
+        out = io.BytesIO(self.data)
+        out.seek(self.start)
+        return out
 
 
 #: Bytes compared at a time when counting line ends and delimiters: the comparison's mask
@@ -346,7 +352,7 @@ def _well_formed_body(
         end = len(body.data)
     else:
         # The header's line end is the bytes' first newline (a byte-order mark before it).
-        body = _Body(raw, start=raw.index(b"\n") + 1, skip=1)
+        body = _Body(raw, start=raw.index(b"\n") + 1)
         end = len(raw) - 1 if raw.endswith(b"\n") else len(raw)
     data = np.frombuffer(body.data, dtype=np.uint8)[body.start : end]
     newlines, delimiters = _count_two(data, 10, ord(delimiter))
@@ -372,7 +378,6 @@ def _parse_body(
         "keep_default_na": False,
         "quoting": csv.QUOTE_NONE,
         "skip_blank_lines": False,
-        "skiprows": body.skip,
         "engine": "c",
     }
     numeric = {i for i, col in enumerate(header) if col in numeric_columns}
@@ -381,7 +386,7 @@ def _parse_body(
         # ("nan", an empty cell, a word) sends the file through the strict text path.
         try:
             frame = pd.read_csv(
-                io.BytesIO(body.data),
+                body.stream(),
                 # Text as object columns of str, as the table keeps them: pandas' str dtype
                 # would be made only to be turned back into objects.
                 dtype={
@@ -396,7 +401,7 @@ def _parse_body(
         else:
             if all(np.isfinite(frame[i].to_numpy(dtype=np.float64)).all() for i in numeric):
                 return frame, numeric
-    return pd.read_csv(io.BytesIO(body.data), dtype=object, **options), set()
+    return pd.read_csv(body.stream(), dtype=object, **options), set()
 
 
 def _read_plain(
