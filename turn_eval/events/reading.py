@@ -261,8 +261,12 @@ def _check_intervals(
     # order (what a detector or the labels write) is already sorted: no sort needed.
     step = np.diff(unit_code)
     in_order = bool(((step > 0) | ((step == 0) & (np.diff(start) >= 0))).all())
-    order = np.arange(start.shape[0]) if in_order else np.lexsort((start, unit_code))
-    u, s, e = unit_code[order], start[order], end[order]
+    if in_order:
+        order = np.arange(start.shape[0])
+        u, s, e = unit_code, start, end
+    else:
+        order = np.lexsort((start, unit_code))
+        u, s, e = unit_code[order], start[order], end[order]
     same = u[1:] == u[:-1]
     # In start order, any two overlapping intervals imply an overlapping adjacent pair.
     overlap = same & (s[1:] < e[:-1])
