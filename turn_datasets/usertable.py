@@ -17,8 +17,9 @@ empty, NaN, infinite, beyond its plausible bound, negative), naming the first ba
 counting the others.
 
 A file without quotes is split by pandas' C parser, which reads the numeric columns in the
-same pass (:func:`read_table`'s ``numeric_columns``); a quoted file goes through the csv
-module; both give the same :class:`Table`.
+same pass (:func:`read_table`'s ``numeric_columns``) and numbers the text columns of few
+distinct values a reader asks for (``coded_columns``); a quoted file goes through the csv
+module; both give the same :class:`Table` (the csv module's without codes).
 """
 
 from __future__ import annotations
