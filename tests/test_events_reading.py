@@ -10,14 +10,17 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from turn_datasets.errors import TurnbenchError
+from turn_datasets.usertable import read_table
 from turn_eval.events.reading import (
     Pairs,
     check_context,
     check_detections,
+    check_detections_pairs,
     check_event_reference,
     check_sessions,
     read_context,
     read_detections,
+    read_detections_pairs,
     read_event_reference,
     read_sessions,
     units_of,
@@ -136,3 +139,62 @@ def test_pairs_number_a_missing_name_as_a_name():
     assert pairs.code.tolist() == [0, 1, 0, 1]
     assert pairs.sessions[0] == "s1" and pd.isna(pairs.sessions[1])
     assert pairs.subjects.tolist() == ["P1", "P1"]
+
+
+# Every number given (the C parser's fast path, which numbers the name and kind columns as it
+# reads them); names padded so that " s1 " and "s1" are one session; kinds in any case.
+CODED_DETECTIONS = """session,subject,start_s,end_s,angle_deg,direction,steps,turn_type
+ s1 ,P1,0.0,2.0,80,LEFT,3,Step
+s2,P2 ,0.5,3,135,left,1,pivot
+s1,P1,10.5,12,200,Right,2,PIVOT
+s1, P1,30,31,90,,4,step
+s2,P2,5,6,45,right,0,
+"""
+
+
+def test_the_readers_codes_are_the_columns_numbered(tmp_path):
+    path = tmp_path / "det.csv"
+    path.write_text(CODED_DETECTIONS, encoding="utf-8")
+    table = read_table(
+        path,
+        what="detections",
+        numeric_columns=("start_s", "end_s", "angle_deg", "steps"),
+        coded_columns=("session", "subject", "direction", "turn_type"),
+    )
+    expected = {
+        "session": ["s1", "s2", "s1", "s1", "s2"],
+        "subject": ["P1", "P2", "P1", "P1", "P2"],
+        "direction": ["LEFT", "left", "Right", "", "right"],
+        "turn_type": ["Step", "pivot", "PIVOT", "step", ""],
+    }
+    assert set(table.codes) == set(expected)
+    for col, cells in expected.items():
+        codes, names = table.codes[col]
+        assert table.columns[col].tolist() == cells
+        assert names[codes].tolist() == cells
+        assert sorted(names.tolist()) == sorted(set(cells)), col  # each text numbered once
+    assert table.padded == {"session": 1, "subject": 2}
+
+
+def test_detections_checked_with_the_readers_codes_equal_those_checked_without(tmp_path):
+    # The reader's codes only spare a factorisation: the frame, its pairs and a refusal are
+    # those of the same file's cells checked as a frame.
+    path = tmp_path / "det.csv"
+    path.write_text(CODED_DETECTIONS, encoding="utf-8")
+    read, pairs = read_detections_pairs(path)
+    checked, checked_pairs = check_detections_pairs(_as_text_frame(path))
+    pd.testing.assert_frame_equal(read, checked, check_dtype=False)
+    assert read["turn_type"].tolist() == ["step", "pivot", "pivot", "step", ""]
+    assert read["direction"].tolist() == ["left", "left", "right", "", "right"]
+    assert pairs.code.tolist() == checked_pairs.code.tolist() == [0, 1, 0, 0, 1]
+    assert pairs.sessions.tolist() == checked_pairs.sessions.tolist() == ["s1", "s2"]
+    assert pairs.subjects.tolist() == checked_pairs.subjects.tolist() == ["P1", "P2"]
+    for col, bad in (("turn_type", "Spin"), ("direction", "Up")):
+        path.write_text(CODED_DETECTIONS.replace("PIVOT" if col == "turn_type" else "Right", bad))
+        with pytest.raises(TurnbenchError) as from_file:
+            read_detections_pairs(path)
+        with pytest.raises(TurnbenchError) as from_frame:
+            check_detections_pairs(_as_text_frame(path), str(path))
+        assert f"{col} {bad!r} is not one of" in str(from_file.value)
+        assert str(from_file.value) == str(from_frame.value)
+        assert from_file.value.where.row == 4

@@ -521,6 +521,41 @@ def test_reader_without_a_count_per_line_reads_as_with_one(widths, cells, delimi
     )
 
 
+@settings(max_examples=300, deadline=None)
+@given(
+    # mostly rows of the header's width: the file the bytes are read from as they are
+    widths=st.lists(st.sampled_from([3, 3, 3, 3, 2, 0]), min_size=1, max_size=8),
+    cells=st.lists(
+        st.sampled_from(["1", "2.5", "x", "", " 3 ", "é", "\u00a0", "nan"]),
+        min_size=24,
+        max_size=24,
+    ),
+    delimiter=st.sampled_from([",", ";", "\t"]),
+    header=st.sampled_from(["angle_deg,note,speed_deg_s", " Angle_deg , note,speed_deg_s"]),
+    final_newlines=st.integers(0, 2),
+    bom=st.booleans(),
+)
+def test_reader_of_the_files_bytes_reads_as_from_its_text(
+    widths, cells, delimiter, header, final_newlines, bom
+):
+    # The rows taken from the file's own bytes (a byte-order mark, padded header names,
+    # non-ASCII cells, no, one or two final newlines) read exactly as the text encoded again
+    # and counted line by line: same cells, numbers, line numbers, padding, or the same error.
+    header = header.replace(",", delimiter)
+    it = iter(cells)
+    rows = [delimiter.join(next(it) for _ in range(w)) if w else "" for w in widths]
+    text = header + "\n" + "\n".join(rows) + "\n" * final_newlines
+    raw = (b"\xef\xbb\xbf" if bom else b"") + text.encode("utf-8")
+
+    def outcome(read):
+        got = _outcome(read)
+        return got if got[0] == "error" else (*got, read().padded)
+
+    assert outcome(lambda: _read_plain(text, "f.csv", delimiter, raw=raw)) == outcome(
+        lambda: _read_plain(text, "f.csv", delimiter, count_each_line=True)
+    )
+
+
 @pytest.mark.parametrize(
     "rows",
     [

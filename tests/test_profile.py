@@ -520,3 +520,28 @@ def test_bad_step_columns_name_their_line(inputs, tmp_path, capsys, column, valu
     det.to_csv(path, index=False)
     err = _bad(inputs, tmp_path, capsys, detections=path)
     assert message in err and "detections.csv:6" in err
+
+
+def test_signature_hashes_the_bytes_read_without_reading_again(inputs, monkeypatch):
+    """The detections and sessions are hashed from the bytes their reader read (the
+    detections are the profile's largest input); only the participants file, read by the csv
+    module, is hashed from the file. The digests are the files' own sha256."""
+    import hashlib
+
+    import turn_eval.profile.run as profile_run
+
+    hashed = []
+
+    def hash_file(path):
+        hashed.append(Path(path).name)
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+    monkeypatch.setattr(profile_run, "sha256_file", hash_file)
+    res = turning_profile(
+        inputs["detections"], inputs["sessions"], inputs["participants"], n_resamples=0
+    )
+    assert hashed == ["participants.csv"]
+    sig = res.doc["signature"]
+    for role in ("detections", "sessions", "participants"):
+        digest = hashlib.sha256(inputs[role].read_bytes()).hexdigest()
+        assert sig[f"{role}_sha256"] == digest

@@ -17,8 +17,9 @@ empty, NaN, infinite, beyond its plausible bound, negative), naming the first ba
 counting the others.
 
 A file without quotes is split by pandas' C parser, which reads the numeric columns in the
-same pass (:func:`read_table`'s ``numeric_columns``); a quoted file goes through the csv
-module; both give the same :class:`Table`.
+same pass (:func:`read_table`'s ``numeric_columns``) and numbers the text columns of few
+distinct values a reader asks for (``coded_columns``); a quoted file goes through the csv
+module; both give the same :class:`Table` (the csv module's without codes).
 """
 
 from __future__ import annotations
@@ -88,6 +89,10 @@ class Table:
     #: The sha256 of the file's bytes as read (a signature names the input by it, without
     #: reading the file again).
     sha256: str = ""
+    #: Each of :func:`read_table`'s ``coded_columns`` as the C parser numbered it: each row's
+    #: number (int64) and each number's text, ``columns[col] == names[codes]`` (a column the
+    #: fast path did not read is absent: its reader numbers it itself).
+    codes: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
 
 def _sniff_delimiter(header_line: str) -> str:
@@ -97,9 +102,9 @@ def _sniff_delimiter(header_line: str) -> str:
     return best if counts[best] > 0 else ","
 
 
-def _read_text(name: str, *, what: str) -> tuple[str, str]:
-    """The file's text (UTF-8, a byte-order mark dropped) and the sha256 of its bytes: one
-    read serves both."""
+def _read_text(name: str, *, what: str) -> tuple[str, bytes, str]:
+    """The file's text (UTF-8, a byte-order mark dropped), its bytes and their sha256: one
+    read serves all three."""
     try:
         with open(name, "rb") as fh:
             data = fh.read()
@@ -113,7 +118,7 @@ def _read_text(name: str, *, what: str) -> tuple[str, str]:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         raise TurnbenchError(f"{what} file is not UTF-8 text ({exc.reason})", file=name) from None
-    return text, hashlib.sha256(data).hexdigest()
+    return text, data, hashlib.sha256(data).hexdigest()
 
 
 def _one_newline(text: str, name: str, *, what: str) -> str:
@@ -286,33 +291,87 @@ def _plain_lines(text: str, delimiter: str) -> tuple[str, int, np.ndarray, np.nd
     )
 
 
-def _well_formed_body(text: str, delimiter: str) -> tuple[str, bytes, int] | None:
-    """The header's text, the body as UTF-8 and its number of lines, when the body holds
-    exactly the delimiters of that many lines of the header's width (two or more fields, the
-    delimiter not white space); else None.
+@dataclass(frozen=True)
+class _Body:
+    """The rows' text as UTF-8 for pandas' C parser: ``data`` from byte ``start`` on (the
+    file's own bytes after its header: no copy of them)."""
+
+    data: bytes
+    start: int = 0
+
+    def holds(self, byte: bytes) -> bool:
+        return self.data.find(byte, self.start) >= 0
+
+    def stream(self) -> io.BytesIO:
+        # A stream over the bytes themselves, positioned at the rows (pandas' ``skiprows``
+        # would test every line against a set of rows to skip).
+        out = io.BytesIO(self.data)
+        out.seek(self.start)
+        return out
+
+
+#: Bytes compared at a time when counting line ends and delimiters: the comparison's mask
+#: stays in cache instead of being a second copy of a large file.
+_COUNT_CHUNK = 1 << 18
+
+
+def _count_two(data: np.ndarray, first: int, second: int) -> tuple[int, int]:
+    """How many bytes of ``data`` (uint8) equal ``first``, and how many ``second``."""
+    mask = np.empty(min(_COUNT_CHUNK, data.size), dtype=bool)
+    n_first = n_second = 0
+    for at in range(0, data.size, _COUNT_CHUNK):
+        part = data[at : at + _COUNT_CHUNK]
+        out = mask[: part.size]
+        n_first += int(np.count_nonzero(np.equal(part, first, out=out)))
+        n_second += int(np.count_nonzero(np.equal(part, second, out=out)))
+    return n_first, n_second
+
+
+def _well_formed_body(
+    text: str, delimiter: str, raw: bytes | None = None
+) -> tuple[str, _Body, int] | None:
+    """The header's text, the body and its number of lines, when the body holds exactly the
+    delimiters of that many lines of the header's width (two or more fields, the delimiter
+    not white space); else None. ``raw``: the file's bytes, when ``text`` is exactly what
+    they decode to (then the body is read from them, not encoded again).
 
     Then no line is blank (each would hold a delimiter), and no line has fewer fields than
     the header unless another has more, which pandas' C parser refuses (or, on the first
     line, takes as an index): :func:`_read_plain` checks that instead of counting each
     line's fields, which costs more than the parse of a clean file's numbers.
     """
-    last = text[:-1] if text.endswith("\n") else text
-    header_text, _, body = last.partition("\n")
+    stop = len(text) - 1 if text.endswith("\n") else len(text)
+    cut = text.find("\n", 0, stop)
+    if cut < 0:
+        return None
+    header_text = text[:cut]
     fields = header_text.count(delimiter) + 1
-    if not body or not header_text.strip() or delimiter.isspace() or fields < 2:
+    if cut + 1 >= stop or not header_text.strip() or delimiter.isspace() or fields < 2:
         return None
-    encoded = body.encode("utf-8")
-    data = np.frombuffer(encoded, dtype=np.uint8)
-    n_lines = int(np.count_nonzero(data == 10)) + 1
-    if int(np.count_nonzero(data == ord(delimiter))) != (fields - 1) * n_lines:
+    if raw is None:
+        body = _Body(text[cut + 1 : stop].encode("utf-8"))
+        end = len(body.data)
+    else:
+        # The header's line end is the bytes' first newline (a byte-order mark before it).
+        body = _Body(raw, start=raw.index(b"\n") + 1)
+        end = len(raw) - 1 if raw.endswith(b"\n") else len(raw)
+    data = np.frombuffer(body.data, dtype=np.uint8)[body.start : end]
+    newlines, delimiters = _count_two(data, 10, ord(delimiter))
+    n_lines = newlines + 1
+    if delimiters != (fields - 1) * n_lines:
         return None
-    return header_text, encoded, n_lines
+    return header_text, body, n_lines
 
 
 def _parse_body(
-    joined: bytes, header: Sequence[str], delimiter: str, numeric_columns: Sequence[str]
+    body: _Body,
+    header: Sequence[str],
+    delimiter: str,
+    numeric_columns: Sequence[str],
+    coded_columns: Sequence[str] = (),
 ) -> tuple[pd.DataFrame, set[int]]:
-    """The body's fields by pandas' C parser, and which columns it gave as numbers."""
+    """The body's fields by pandas' C parser, and which columns it gave as numbers (then the
+    ``coded_columns`` are categorical: numbered as they are split, no object made per cell)."""
     options = {
         "sep": delimiter,
         "header": None,
@@ -328,10 +387,13 @@ def _parse_body(
         # ("nan", an empty cell, a word) sends the file through the strict text path.
         try:
             frame = pd.read_csv(
-                io.BytesIO(joined),
+                body.stream(),
                 # Text as object columns of str, as the table keeps them: pandas' str dtype
                 # would be made only to be turned back into objects.
-                dtype={i: ("float64" if i in numeric else object) for i in range(len(header))},
+                dtype={
+                    i: "float64" if i in numeric else "category" if col in coded_columns else object
+                    for i, col in enumerate(header)
+                },
                 decimal="," if delimiter != "," else ".",
                 **options,
             )
@@ -340,7 +402,7 @@ def _parse_body(
         else:
             if all(np.isfinite(frame[i].to_numpy(dtype=np.float64)).all() for i in numeric):
                 return frame, numeric
-    return pd.read_csv(io.BytesIO(joined), dtype=object, **options), set()
+    return pd.read_csv(body.stream(), dtype=object, **options), set()
 
 
 def _read_plain(
@@ -350,18 +412,22 @@ def _read_plain(
     numeric_columns: Sequence[str] = NUMERIC,
     *,
     count_each_line: bool = False,
+    raw: bytes | None = None,
+    coded_columns: Sequence[str] = (),
 ) -> Table:
     """The fast reader, for files without quotes: one record per line, so every row's line
     number is known before pandas' C parser splits the fields (``numeric_columns`` as
     numbers where they all parse). Each line's fields are counted when the body's total
     says some line may be blank or of the wrong width (:func:`_well_formed_body`), or
-    ``count_each_line``."""
-    well_formed = None if count_each_line else _well_formed_body(text, delimiter)
+    ``count_each_line``. ``raw``: the file's bytes, when ``text`` is what they decode to;
+    ``coded_columns``: as :func:`read_table`'s."""
+    well_formed = None if count_each_line else _well_formed_body(text, delimiter, raw)
     if well_formed is not None:
-        header_text, joined, n_lines = well_formed
+        header_text, body, n_lines = well_formed
         header_line, lines, widths = 1, np.arange(2, 2 + n_lines, dtype=np.int64), None
     else:
         header_text, header_line, lines, widths, joined = _plain_lines(text, delimiter)
+        body = _Body(joined)
     header = [cell.strip().lower() for cell in header_text.split(delimiter)]
     _check_header(header, name=name, line=header_line)
     if widths is not None:
@@ -384,7 +450,7 @@ def _read_plain(
         table.columns = {col: np.empty(0, dtype=object) for col in header if col}
         return table
     try:
-        frame, numeric = _parse_body(joined, header, delimiter, numeric_columns)
+        frame, numeric = _parse_body(body, header, delimiter, numeric_columns, coded_columns)
     except pd.errors.ParserError:
         if widths is not None:
             raise
@@ -392,15 +458,24 @@ def _read_plain(
     if widths is None and (frame is None or not isinstance(frame.index, pd.RangeIndex)):
         # A line with more fields than the header (and so one with fewer): counted line by
         # line to name the first.
-        return _read_plain(text, name, delimiter, numeric_columns, count_each_line=True)
+        return _read_plain(
+            text,
+            name,
+            delimiter,
+            numeric_columns,
+            count_each_line=True,
+            coded_columns=coded_columns,
+        )
     assert frame is not None
     # White space around cells only matters when there is some; finding none is cheap.
-    padded = b"\r" in joined or b" " in joined or (delimiter != "\t" and b"\t" in joined)
+    padded = body.holds(b"\r") or body.holds(b" ") or (delimiter != "\t" and body.holds(b"\t"))
     for i, col in enumerate(header):
         if not col:
             continue
         if i in numeric:
             table.numbers[col] = frame[i].to_numpy(dtype=np.float64)
+        elif isinstance(frame[i].dtype, pd.CategoricalDtype):
+            _coded_column(table, col, frame[i].array, padded=padded)
         else:
             cells = frame[i].to_numpy(dtype=object)
             table.columns[col] = _stripped(cells) if padded else cells
@@ -411,20 +486,42 @@ def _read_plain(
     return table
 
 
+def _coded_column(table: Table, col: str, values: pd.Categorical, *, padded: bool) -> None:
+    """A categorical column of the parser into ``table``: its cells (stripped when
+    ``padded``; names that strip to the same text become one) and its codes."""
+    names = np.asarray(values.categories, dtype=object)
+    codes = np.asarray(values.codes, dtype=np.int64)
+    if padded:
+        trimmed = _stripped(names)
+        n_padded = int(np.count_nonzero((trimmed != names)[codes]))
+        if n_padded:
+            table.padded[col] = n_padded
+            merged, unique = pd.factorize(trimmed)
+            codes = merged.astype(np.int64)[codes]
+            names = np.asarray(unique, dtype=object)
+    table.columns[col] = names[codes]
+    table.codes[col] = (codes, names)
+
+
 def read_table(
     path: str | os.PathLike[str],
     *,
     what: str,
     numeric_columns: Sequence[str] = NUMERIC,
     allow_no_rows: bool = False,
+    coded_columns: Sequence[str] = (),
 ) -> Table:
     """Read a CSV as :class:`Table`; ``numeric_columns`` are parsed as numbers by the C
     parser when every cell of them is a finite number (else :func:`numbers` parses them).
     A header without rows is refused unless ``allow_no_rows`` (a detector that found no
-    turns writes one; a clip index of a corpus without turns)."""
+    turns writes one; a clip index of a corpus without turns). ``coded_columns``: text
+    columns of few distinct values (names, kinds) that the C parser numbers as it reads
+    them (:attr:`Table.codes`), so that their readers need not factorise them again."""
     name = os.fspath(path)
-    text, sha256 = _read_text(name, what=what)
-    text = _one_newline(text, name, what=what)
+    read, raw, sha256 = _read_text(name, what=what)
+    text = _one_newline(read, name, what=what)
+    # Line ends as read (the text unchanged): the file's bytes are the text's UTF-8.
+    lines_as_read = text is read
     if not text or text.isspace():  # blank (strip would copy the whole text to say so)
         raise TurnbenchError(f"empty {what} file: no header and no rows", file=name)
     # The first line with something on it, found without splitting the whole text.
@@ -438,7 +535,14 @@ def read_table(
     table = (
         _read_quoted(text, name, delimiter)
         if quoted
-        else _read_plain(text, name, delimiter, numeric_columns)
+        else _read_plain(
+            text,
+            name,
+            delimiter,
+            numeric_columns,
+            raw=raw if lines_as_read else None,
+            coded_columns=coded_columns,
+        )
     )
     table.ascii = text.isascii()
     table.sha256 = sha256

@@ -20,7 +20,7 @@ the line they would have in a CSV with a header (row 0 is line 2).
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from functools import partial
 from typing import Any
@@ -72,6 +72,11 @@ _UNIT = ("session", "subject")
 #: The detections' required and optional numeric columns; an optional one may be empty.
 _DETECTION_NUMBERS = tuple(c for c, t in DETECTION_REQUIRED.items() if t == "float64")
 _OPTIONAL_NUMBERS = tuple(c for c, t in DETECTION_OPTIONAL.items() if t != "str")
+#: The detections' text columns of few distinct values, numbered by the file reader as it
+#: reads them (:attr:`turn_datasets.usertable.Table.codes`) rather than factorised after.
+_DETECTION_CODED = ("session", "subject", "direction", "turn_type")
+#: A text column's codes: each row's number and each number's text.
+Codes = Mapping[str, tuple[np.ndarray, np.ndarray]]
 
 
 def _texts(frame: pd.DataFrame, col: str) -> np.ndarray:
@@ -147,9 +152,15 @@ class Pairs:
     subjects: np.ndarray
 
     @classmethod
-    def of(cls, frame: pd.DataFrame) -> Pairs:
-        a, uniq_a = _factorize_names(frame["session"].to_numpy(dtype=object))
-        b, uniq_b = _factorize_names(frame["subject"].to_numpy(dtype=object))
+    def of(cls, frame: pd.DataFrame, codes: Codes | None = None) -> Pairs:
+        """The pairs of ``frame``'s rows; ``codes``: its ``session`` and ``subject`` as the
+        file reader numbered them (any numbering: the pairs are numbered here)."""
+        known = codes or {}
+        if "session" in known and "subject" in known:
+            (a, uniq_a), (b, uniq_b) = known["session"], known["subject"]
+        else:
+            a, uniq_a = _factorize_names(frame["session"].to_numpy(dtype=object))
+            b, uniq_b = _factorize_names(frame["subject"].to_numpy(dtype=object))
         width = max(len(uniq_b), 1)
         code, pairs = pd.factorize(a.astype(np.int64) * width + b)
         return cls(
@@ -250,8 +261,12 @@ def _check_intervals(
     # order (what a detector or the labels write) is already sorted: no sort needed.
     step = np.diff(unit_code)
     in_order = bool(((step > 0) | ((step == 0) & (np.diff(start) >= 0))).all())
-    order = np.arange(start.shape[0]) if in_order else np.lexsort((start, unit_code))
-    u, s, e = unit_code[order], start[order], end[order]
+    if in_order:
+        order = np.arange(start.shape[0])
+        u, s, e = unit_code, start, end
+    else:
+        order = np.lexsort((start, unit_code))
+        u, s, e = unit_code[order], start[order], end[order]
     same = u[1:] == u[:-1]
     # In start order, any two overlapping intervals imply an overlapping adjacent pair.
     overlap = same & (s[1:] < e[:-1])
@@ -282,10 +297,21 @@ def _check_intervals(
         )
 
 
-def _check_direction(frame: pd.DataFrame, what: str) -> None:
+def _coded(
+    frame: pd.DataFrame, col: str, coded: tuple[np.ndarray, np.ndarray] | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """A text column's codes and distinct values: the file reader's, else factorised."""
+    if coded is not None:
+        return coded
+    codes, uniq = pd.factorize(_texts(frame, col))
+    return codes, np.asarray(uniq, dtype=object)
+
+
+def _check_direction(
+    frame: pd.DataFrame, what: str, coded: tuple[np.ndarray, np.ndarray] | None = None
+) -> None:
     # Lower-cased and checked through the few distinct values, not per row.
-    texts = _texts(frame, "direction")
-    codes, uniq = pd.factorize(texts)
+    codes, uniq = _coded(frame, "direction", coded)
     lowered = [str(u).lower() for u in uniq]
     allowed = ("", *DIRECTIONS)
     if not all(u in allowed for u in lowered):
@@ -315,10 +341,11 @@ def _check_steps(frame: pd.DataFrame, what: str) -> None:
         raise _fail(f"steps {values[i]:g} is not a whole number", frame, what, i, count)
 
 
-def _check_turn_type(frame: pd.DataFrame, what: str) -> None:
+def _check_turn_type(
+    frame: pd.DataFrame, what: str, coded: tuple[np.ndarray, np.ndarray] | None = None
+) -> None:
     """A turn type is empty or one of :data:`TURN_TYPES` (any case; lower-cased here)."""
-    texts = _texts(frame, "turn_type")
-    codes, uniq = pd.factorize(texts)
+    codes, uniq = _coded(frame, "turn_type", coded)
     lowered = [str(u).lower() for u in uniq]
     allowed = ("", *TURN_TYPES)
     if not all(u in allowed for u in lowered):
@@ -350,9 +377,14 @@ def check_detections(frame: pd.DataFrame, *, what: str = "detections") -> pd.Dat
 
 
 def check_detections_pairs(
-    frame: pd.DataFrame, what: str = "detections"
+    frame: pd.DataFrame, what: str = "detections", *, codes: Codes | None = None
 ) -> tuple[pd.DataFrame, Pairs]:
-    """:func:`check_detections`, and the rows' (session, subject) pairs it factorised."""
+    """:func:`check_detections`, and the rows' (session, subject) pairs it factorised.
+
+    ``codes``: text columns of ``frame`` as its file reader numbered them (each row's number
+    and each number's text, :attr:`turn_datasets.usertable.Table.codes`), used instead of
+    factorising those columns again."""
+    codes = codes or {}
     _missing(frame, list(DETECTION_REQUIRED), what)
     cols = [*DETECTION_REQUIRED, *(c for c in DETECTION_OPTIONAL if c in frame.columns)]
     # Shallow: every column this changes is replaced, never written into, so the caller's
@@ -360,7 +392,7 @@ def check_detections_pairs(
     out = frame.loc[:, cols].copy(deep=False)
     out.attrs = dict(frame.attrs)
     _set_texts(out, _UNIT)
-    pairs = Pairs.of(out)
+    pairs = Pairs.of(out, codes)
     # Every kind of problem in one pass (each check's first line and count), then one error
     problems = Problems(_path_of(out, what))
     problems.run(lambda: _check_unit_names(out, what, pairs))
@@ -377,14 +409,14 @@ def check_detections_pairs(
     if "steps" in out:
         problems.run(lambda: _check_steps(out, what))
     if "turn_type" in out:
-        problems.run(lambda: _check_turn_type(out, what))
+        problems.run(lambda: _check_turn_type(out, what, codes.get("turn_type")))
     if "score" in out:
         try:
             out = _scores_given_or_none(out, what)
         except TurnbenchError as exc:
             problems.record(exc)
     if "direction" in out:
-        problems.run(lambda: _check_direction(out, what))
+        problems.run(lambda: _check_direction(out, what, codes.get("direction")))
     if times_ok:  # overlaps of unreadable times would only repeat those problems
         problems.run(lambda: _check_intervals(out, what, _UNIT, "detection", pairs.code))
     problems.raise_if_any("nothing scored")
@@ -474,10 +506,16 @@ def read_detections_pairs(path: str | os.PathLike[str]) -> tuple[pd.DataFrame, P
     numeric = (*_DETECTION_NUMBERS, *_OPTIONAL_NUMBERS)
     # A detector that finds no turn (a still person, a video with nobody in it) writes the
     # header alone: zero detections, scored as such.
-    table = read_table(path, what="detections", numeric_columns=numeric, allow_no_rows=True)
+    table = read_table(
+        path,
+        what="detections",
+        numeric_columns=numeric,
+        allow_no_rows=True,
+        coded_columns=_DETECTION_CODED,
+    )
     require(table, list(DETECTION_REQUIRED), what="the detections file")
     frame = _frame_of(table, numeric, allow_empty=_OPTIONAL_NUMBERS)
-    return check_detections_pairs(frame, what=table.path)
+    return check_detections_pairs(frame, what=table.path, codes=table.codes)
 
 
 def check_event_reference(frame: pd.DataFrame, *, what: str = "reference") -> pd.DataFrame:

@@ -98,16 +98,17 @@ def _auc(w_pd: np.ndarray, w_hc: np.ndarray, x_pd: np.ndarray, x_hc: np.ndarray)
     first-group value ``v`` beats the weight below it and ties with the weight equal to it,
     counted half: ``(C[left(v)] + C[right(v)]) / 2`` (``searchsorted`` positions). Weights
     are draw counts, so the sums are whole or half numbers, exact in float32 (which halves
-    the memory traffic of the ``(resamples, participants)`` arrays).
+    the memory traffic of the ``(resamples, participants)`` arrays): ``w_pd`` and ``w_hc``
+    come as float32, converted once for every measure.
     """
     ok_pd, ok_hc = np.isfinite(x_pd), np.isfinite(x_hc)
     a, b = x_pd[ok_pd], x_hc[ok_hc]
     if a.size == 0 or b.size == 0:
         return np.full(w_pd.shape[0], np.nan)
-    wa = (w_pd if ok_pd.all() else w_pd[:, ok_pd]).astype(np.float32)
+    wa = w_pd if ok_pd.all() else w_pd[:, ok_pd]
     order = np.argsort(b, kind="stable")
     b_sorted = b[order]
-    wb = w_hc[:, np.flatnonzero(ok_hc)[order]].astype(np.float32)
+    wb = w_hc[:, np.flatnonzero(ok_hc)[order]]
     cum = np.zeros((wb.shape[0], b.size + 1), dtype=np.float32)
     np.cumsum(wb, axis=1, out=cum[:, 1:])
     left = np.searchsorted(b_sorted, a, side="left")
@@ -135,8 +136,9 @@ def group_stats(
         pooled = np.sqrt(((n1 - 1) * v1 + (n2 - 1) * v2) / (n1 + n2 - 2))
         factor = 1.0 - 3.0 / (4.0 * (n1 + n2) - 9.0)
         g = np.where((n1 >= 2) & (n2 >= 2) & (pooled > 0), (m1 - m2) / pooled * factor, np.nan)
+    w_pd32, w_hc32 = w_pd.astype(np.float32), w_hc.astype(np.float32)
     auc = np.column_stack(
-        [_auc(w_pd, w_hc, values_pd[:, k], values_hc[:, k]) for k in range(values_pd.shape[1])]
+        [_auc(w_pd32, w_hc32, values_pd[:, k], values_hc[:, k]) for k in range(values_pd.shape[1])]
     )
     return GroupStats(n1, n2, m1, m2, m1 - m2, g, auc.reshape(w_pd.shape[0], -1))
 

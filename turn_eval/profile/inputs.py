@@ -36,7 +36,7 @@ import pandas as pd
 from turn_datasets.errors import TurnbenchError, require_columns
 from turn_datasets.remap.participants import COHORTS
 from turn_datasets.render.order import natural_key
-from turn_eval.events.reading import read_detections, read_sessions
+from turn_eval.events.reading import Pairs, read_detections_pairs, read_sessions
 
 __all__ = ["ProfileInputs", "read_inputs", "local_start_s", "read_groups"]
 
@@ -52,11 +52,11 @@ class ProfileInputs:
     ----------
     detections
         The detections (:mod:`turn_eval.events.contract`) plus ``unit``, the row number of their
-        session in ``sessions``.
+        session in ``sessions``; ``attrs`` as read (``path``, ``lines``, ``sha256``).
     sessions
         ``session, subject, duration_s`` plus ``local_start_s``: the session's start in local
         wall-clock seconds since 1970-01-01 (UTC seconds plus the start's offset), NaN where
-        ``start_time`` is empty or absent.
+        ``start_time`` is empty or absent; ``attrs`` as read.
     subjects
         Every participant of ``sessions``, in natural order.
     groups
@@ -204,24 +204,15 @@ def _check_inside(detections: pd.DataFrame, sessions: pd.DataFrame, unit: np.nda
         )
 
 
-def _units(detections: pd.DataFrame, sessions: pd.DataFrame) -> np.ndarray:
+def _units(pairs: Pairs, sessions: pd.DataFrame) -> np.ndarray:
     """Each detection's row in ``sessions``, -1 where its (session, subject) is not there.
 
-    The rows' distinct pairs are found first (two factorisations and one ``unique`` of
-    integers), and only those few are looked up among the sessions."""
-    a, uniq_a = pd.factorize(detections["session"].to_numpy(dtype=object))
-    b, uniq_b = pd.factorize(detections["subject"].to_numpy(dtype=object))
-    width = max(len(uniq_b), 1)
-    pairs, inverse = np.unique(a.astype(np.int64) * width + b, return_inverse=True)
+    Only the detections' distinct pairs (the reader's factorisation) are looked up among the
+    sessions, then spread to their rows."""
     keys = pd.MultiIndex.from_arrays([sessions["session"], sessions["subject"]])
-    wanted = pd.MultiIndex.from_arrays(
-        [
-            np.asarray(uniq_a, dtype=object)[pairs // width],
-            np.asarray(uniq_b, dtype=object)[pairs % width],
-        ]
-    )
+    wanted = pd.MultiIndex.from_arrays([pairs.sessions, pairs.subjects])
     found = np.asarray(keys.get_indexer(wanted), dtype=np.int64)
-    return found[inverse.reshape(-1)]
+    return found[pairs.code]
 
 
 def read_inputs(
@@ -236,8 +227,11 @@ def read_inputs(
     table = read_sessions(sessions)
     local = local_start_s(table)
     groups_of = read_groups(participants, by)
-    det = detections if isinstance(detections, pd.DataFrame) else read_detections(detections)
-    unit = _units(det, table)
+    if isinstance(detections, pd.DataFrame):
+        det, pairs = detections, Pairs.of(detections)
+    else:
+        det, pairs = read_detections_pairs(detections)
+    unit = _units(pairs, table)
     _check_inside(det, table, unit)
     subject_col = table["subject"].to_numpy(dtype=object)
     ungrouped = np.flatnonzero([s not in groups_of for s in subject_col])
@@ -257,6 +251,7 @@ def read_inputs(
     frame.attrs = dict(det.attrs)
     out_sessions = table.loc[:, ["session", "subject", "duration_s"]].copy()
     out_sessions["local_start_s"] = local
+    out_sessions.attrs = dict(table.attrs)
     return ProfileInputs(
         detections=frame,
         sessions=out_sessions,

@@ -95,11 +95,15 @@ def turn_values(detections: pd.DataFrame) -> dict[str, np.ndarray]:
     return out
 
 
-def _group_mean(code: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
-    """The mean of ``values`` per group, NaN values left out (NaN for a group with none)."""
+def _group_mean(
+    code: np.ndarray, values: np.ndarray, n: int, count: np.ndarray | None = None
+) -> np.ndarray:
+    """The mean of ``values`` per group, NaN values left out (NaN for a group with none);
+    ``count``: each group's rows, as float64, if already counted."""
     ok = np.isfinite(values)
     if ok.all():  # the usual case: no copy of the codes
-        count = np.bincount(code, minlength=n).astype(np.float64)
+        if count is None:
+            count = np.bincount(code, minlength=n).astype(np.float64)
         total = np.bincount(code, weights=values, minlength=n)
     else:
         count = np.bincount(code[ok], minlength=n).astype(np.float64)
@@ -108,11 +112,20 @@ def _group_mean(code: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
         return np.where(count > 0, total / np.maximum(count, 1), np.nan)
 
 
-def _group_cv(code: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
+def _group_cv(
+    code: np.ndarray,
+    values: np.ndarray,
+    n: int,
+    count: np.ndarray | None = None,
+    mean: np.ndarray | None = None,
+) -> np.ndarray:
     """Per group, the standard deviation (ddof=1) over the mean, computed in two passes
-    (deviations from the group's mean: no cancellation); NaN below two values or at mean 0."""
-    count = np.bincount(code, minlength=n).astype(np.float64)
-    mean = _group_mean(code, values, n)
+    (deviations from the group's mean: no cancellation); NaN below two values or at mean 0.
+    ``count`` (float64) and ``mean``: the groups' rows and :func:`_group_mean`, if known."""
+    if count is None:
+        count = np.bincount(code, minlength=n).astype(np.float64)
+    if mean is None:
+        mean = _group_mean(code, values, n, count)
     dev = values - mean[code]
     ss = np.bincount(code, weights=dev * dev, minlength=n)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -167,15 +180,18 @@ def profile_table(inputs: ProfileInputs, *, min_turns: int = 5) -> pd.DataFrame:
     code = session_code[unit]
     values = turn_values(det)
     turns = np.bincount(code, minlength=n)
+    # Counted and averaged once, for the means and again for the CVs.
+    count = turns.astype(np.float64)
+    means = {key: _group_mean(code, values[key], n, count) for key in ("angle", "speed")}
     columns: dict[str, Sequence[object] | np.ndarray] = {
         "subject": subjects,
         inputs.by: inputs.groups,
         "recorded_h": recorded_h,
         "turns": turns,
         "turns_per_hour": turns / recorded_h,
-        "mean_angle_deg": _group_mean(code, values["angle"], n),
+        "mean_angle_deg": means["angle"],
         "median_duration_s": _group_median(code, values["duration"], n),
-        "mean_speed_deg_s": _group_mean(code, values["speed"], n),
+        "mean_speed_deg_s": means["speed"],
     }
     for name, key in (
         ("peak_speed_deg_s", "peak"),
@@ -183,7 +199,7 @@ def profile_table(inputs: ProfileInputs, *, min_turns: int = 5) -> pd.DataFrame:
         ("pivot_share", "pivot"),
     ):
         if key in values:
-            columns[name] = _group_mean(code, values[key], n)
+            columns[name] = _group_mean(code, values[key], n, count)
     # Each turn's bin (0 for the first bin and below ... 4 for the last and above), then one
     # count of turns per (participant, bin).
     k = len(BIN_EDGES_DEG)
@@ -193,9 +209,9 @@ def profile_table(inputs: ProfileInputs, *, min_turns: int = 5) -> pd.DataFrame:
         shares = per_bin / turns[:, None]
     for j, name in enumerate(_SHARES):
         columns[name] = np.where(turns > 0, shares[:, j], np.nan)
-    columns["cv_angle"] = _group_cv(code, values["angle"], n)
-    columns["cv_duration"] = _group_cv(code, values["duration"], n)
-    columns["cv_speed"] = _group_cv(code, values["speed"], n)
+    columns["cv_angle"] = _group_cv(code, values["angle"], n, count, means["angle"])
+    columns["cv_duration"] = _group_cv(code, values["duration"], n, count)
+    columns["cv_speed"] = _group_cv(code, values["speed"], n, count, means["speed"])
     local = sessions["local_start_s"].to_numpy(dtype=np.float64)[unit] + values["start"]
     columns.update(_day_cvs(code, np.floor(local / _DAY_S), values, n))
     table = pd.DataFrame(columns)

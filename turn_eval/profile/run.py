@@ -62,8 +62,15 @@ def contrast_measures(profile: pd.DataFrame, by: str) -> list[str]:
     return [c for c in profile.columns if c not in (*_FIXED, by)]
 
 
-def _sha(path: str | os.PathLike[str] | pd.DataFrame) -> str | None:
-    return None if isinstance(path, pd.DataFrame) else sha256_file(path)
+def _sha(
+    path: str | os.PathLike[str] | pd.DataFrame, read: pd.DataFrame | None = None
+) -> str | None:
+    """The sha256 of an input file: the one its reader took of the bytes it read (``read``'s
+    ``attrs``), else the file's, hashed here; None for a frame given in memory."""
+    if isinstance(path, pd.DataFrame):
+        return None
+    digest = None if read is None else read.attrs.get("sha256")
+    return str(digest) if digest else sha256_file(path)
 
 
 def turning_profile(
@@ -147,8 +154,8 @@ def turning_profile(
         "signature": {
             "version": __version__,
             "options": f"by={inputs.by} min_turns={min_turns} resamples={n_resamples} seed={seed}",
-            "detections_sha256": _sha(detections),
-            "sessions_sha256": _sha(sessions),
+            "detections_sha256": _sha(detections, inputs.detections),
+            "sessions_sha256": _sha(sessions, inputs.sessions),
             "participants_sha256": _sha(participants),
         },
     }
