@@ -33,7 +33,16 @@ def init_challenge(tmp_path: Path, capsys) -> tuple[pd.DataFrame, Path]:
     return ref, root
 
 
-SERVER_PACKAGES = ("fastapi", "uvicorn", "sqlalchemy", "jinja2", "python_multipart", "starlette")
+SERVER_PACKAGES = (
+    "fastapi",
+    "uvicorn",
+    "httptools",
+    "uvloop",
+    "sqlalchemy",
+    "jinja2",
+    "python_multipart",
+    "starlette",
+)
 
 
 # --- the split ------------------------------------------------------------------------------
