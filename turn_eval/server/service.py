@@ -11,7 +11,8 @@ stopped server was scoring (even one killed with SIGKILL) goes back to the queue
 The checks an upload waits for run in a worker process of their own too (:class:`Checker`),
 at the server's priority: the server's process keeps to the HTTP, the tokens and the
 database, on its one GIL, and the check (pandas' work, most of an upload's CPU) runs beside
-it, on another core where there is one.
+it, on another core where there is one. The request's thread talks to that worker over a
+pipe of its own, with no executor's threads in between to wake.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ import hashlib
 import hmac
 import multiprocessing
 import os
+import queue
 import secrets
 import shutil
 import sys
@@ -54,9 +56,9 @@ from turn_eval.server.scoring import (
     score_job,
     score_upload,
     scoring_worker_init,
+    serve_checks,
     side_arrays,
     warm_job,
-    watch_parent,
 )
 from turn_eval.server.split import PRIVATE, PUBLIC, draw_split
 from turn_eval.server.store import (
@@ -324,12 +326,48 @@ def _worker_context() -> multiprocessing.context.BaseContext:
     return multiprocessing.get_context("spawn")
 
 
+class _CheckWorker:
+    """One check worker process (:func:`serve_checks`) and the server's end of its pipe."""
+
+    def __init__(
+        self,
+        context: multiprocessing.context.BaseContext,
+        root: str,
+        job: Callable[[str, str, str], int],
+    ) -> None:
+        ours, theirs = context.Pipe()
+        self.process = context.Process(  # type: ignore[attr-defined]
+            target=serve_checks,
+            args=(theirs, root, os.getpid(), job),
+            name="turnbench-checker",
+            daemon=True,
+        )
+        self.process.start()
+        theirs.close()
+        self.conn = ours
+
+    def ask(self, args: tuple[str, str, str]) -> tuple[bool, Any]:
+        """Send one check and wait for its answer (``EOFError``/``OSError``: the worker
+        died)."""
+        self.conn.send(args)
+        return self.conn.recv()
+
+    def end(self) -> None:
+        """Close the pipe (the worker's next read ends it) and reap the process."""
+        self.conn.close()
+        self.process.join(timeout=5)
+        if self.process.is_alive():
+            self.process.kill()
+            self.process.join(timeout=5)
+
+
 class Checker:
     """Checks uploads (:func:`check_upload`) in worker processes at the server's priority.
 
-    A worker that dies breaks the pool: the pool is rebuilt and the check tried once more
-    in the new one; a second break is raised (``BrokenProcessPool``: the request fails,
-    with nothing stored or counted).
+    Each worker has a pipe of its own: the thread that checks an upload sends it on the
+    pipe of an idle worker and waits there for the answer. A worker that dies is replaced
+    and the check tried once more, in the new one; a second death is raised
+    (``BrokenProcessPool``: the request fails, with nothing stored or counted).
 
     Parameters
     ----------
@@ -339,7 +377,7 @@ class Checker:
         Worker processes.
     job
         What a worker runs for one upload, ``job(root, upload, shown_name) -> clips`` (a
-        top-level function, as a process pool needs).
+        top-level function, as another process needs).
     """
 
     def __init__(
@@ -353,41 +391,46 @@ class Checker:
         self.workers = max(1, int(workers))
         self.job = job
         self._lock = threading.Lock()
-        self._pool: cf.ProcessPoolExecutor | None = None
+        self._idle: queue.SimpleQueue[_CheckWorker] = queue.SimpleQueue()
+        self._started = 0
 
-    def _new_pool(self) -> cf.ProcessPoolExecutor:
-        pool = cf.ProcessPoolExecutor(
-            max_workers=self.workers,
-            mp_context=_worker_context(),
-            initializer=watch_parent,
-            initargs=(os.getpid(),),
-        )
-        # start every worker and read the reference there now, not at the first upload
-        for _ in range(self.workers):
-            pool.submit(warm_job, str(self.challenge.root))
-        return pool
-
-    def _running(self) -> cf.ProcessPoolExecutor:
+    def _take(self) -> _CheckWorker:
+        """An idle worker: a new one while fewer than ``workers`` run, else the next to be
+        given back."""
         with self._lock:
-            if self._pool is None:
-                self._pool = self._new_pool()
-            return self._pool
+            new = self._started < self.workers
+            if new:
+                self._started += 1
+        if not new:
+            return self._idle.get()
+        try:
+            return _CheckWorker(_worker_context(), str(self.challenge.root), self.job)
+        except BaseException:
+            with self._lock:
+                self._started -= 1
+            raise
 
-    def _discard(self, pool: cf.ProcessPoolExecutor) -> None:
+    def _lost(self, worker: _CheckWorker) -> None:
+        worker.end()
         with self._lock:
-            if self._pool is pool:  # the first caller to see it broken replaces it
-                self._pool = None
-        pool.shutdown(wait=False, cancel_futures=True)
+            self._started -= 1
 
     def start(self) -> None:
-        """Start the workers (an upload that comes before they are ready waits for them)."""
-        self._running()
+        """Start the workers (each reads the reference before its first check; an upload
+        that comes before that waits for it)."""
+        with self._lock:
+            missing = self.workers - self._started
+        for _ in range(missing):
+            self._idle.put(self._take())
 
     def stop(self) -> None:
-        with self._lock:
-            pool, self._pool = self._pool, None
-        if pool is not None:
-            pool.shutdown(wait=False, cancel_futures=True)
+        """End the idle workers (call it when no check is under way)."""
+        while True:
+            try:
+                worker = self._idle.get_nowait()
+            except queue.Empty:
+                return
+            self._lost(worker)
 
     def check(self, path: Path, shown_name: str) -> int:
         """:func:`check_upload` in a worker: how many clips the upload scores.
@@ -397,16 +440,21 @@ class Checker:
         TurnbenchError
             The upload is refused (the score command's message).
         BrokenProcessPool
-            The check broke a worker twice.
+            The check killed a worker twice.
         """
         args = (str(self.challenge.root), str(path), shown_name)
-        pool = self._running()
-        try:
-            return pool.submit(self.job, *args).result()
-        except BrokenProcessPool:
-            self._discard(pool)
-        # once more, in a new pool; a second break is raised
-        return self._running().submit(self.job, *args).result()
+        for _ in range(2):
+            worker = self._take()
+            try:
+                ok, value = worker.ask(args)
+            except (EOFError, OSError):
+                self._lost(worker)  # the next try starts a new worker
+                continue
+            self._idle.put(worker)
+            if ok:
+                return int(value)
+            raise value
+        raise BrokenProcessPool("the upload's check killed its worker twice")
 
 
 class Scorer:
