@@ -78,6 +78,7 @@ __all__ = [
     "add_baseline",
     "authenticate",
     "token_team_id",
+    "new_id",
     "accept_upload",
     "Scorer",
     "Checker",
@@ -252,9 +253,11 @@ def accept_upload(
     sha256: str,
     *,
     checker: Checker | None = None,
+    submission_id: str | None = None,
 ) -> str:
     """Check a received upload (:func:`check_upload`, in ``checker``'s process if one is
-    given), store it under a new id and take the team's quota.
+    given), store it under its id (``submission_id``, else a new one) and take the team's
+    quota. ``received`` is moved into ``uploads/`` or removed, whatever happens.
 
     Raises
     ------
@@ -263,13 +266,17 @@ def accept_upload(
     QuotaUsed
         The team's quota is used; nothing is kept.
     """
-    if checker is None:
-        n_clips = check_upload(challenge, received, shown_name)
-    else:
-        n_clips = checker.check(received, shown_name)
-    submission_id = new_id()
+    submission_id = submission_id or new_id()
     stored = challenge.upload_path(submission_id)
-    os.replace(received, stored)
+    try:
+        if checker is None:
+            n_clips = check_upload(challenge, received, shown_name)
+        else:
+            n_clips = checker.check(received, shown_name)
+        os.replace(received, stored)
+    except BaseException:
+        received.unlink(missing_ok=True)
+        raise
     try:
         store.take_quota(
             team.id,
