@@ -17,12 +17,12 @@ pipe of its own, with no executor's threads in between to wake.
 
 from __future__ import annotations
 
+import collections
 import concurrent.futures as cf
 import hashlib
 import hmac
 import multiprocessing
 import os
-import queue
 import secrets
 import shutil
 import sys
@@ -31,7 +31,7 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures.process import BrokenProcessPool
-from dataclasses import asdict
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -368,6 +368,14 @@ class _CheckWorker:
             self.process.join(timeout=5)
 
 
+@dataclass
+class _Handoff:
+    """A thread's place in the queue for a check worker."""
+
+    ready: threading.Event = field(default_factory=threading.Event)
+    worker: _CheckWorker | None = None
+
+
 class Checker:
     """Checks uploads (:func:`check_upload`) in worker processes at the server's priority.
 
@@ -398,29 +406,51 @@ class Checker:
         self.workers = max(1, int(workers))
         self.job = job
         self._lock = threading.Lock()
-        self._idle: queue.SimpleQueue[_CheckWorker] = queue.SimpleQueue()
+        self._idle: list[_CheckWorker] = []
+        # threads waiting for a worker, first come first served (a lock's waiters are woken
+        # in no particular order, and an upload could wait behind many later ones)
+        self._waiting: collections.deque[_Handoff] = collections.deque()
         self._started = 0
 
     def _take(self) -> _CheckWorker:
-        """An idle worker: a new one while fewer than ``workers`` run, else the next to be
-        given back."""
-        with self._lock:
-            new = self._started < self.workers
-            if new:
-                self._started += 1
-        if not new:
-            return self._idle.get()
+        """An idle worker; else a new one while fewer than ``workers`` run; else the next
+        one given back, in the order the threads asked."""
+        while True:
+            with self._lock:
+                if self._idle:
+                    return self._idle.pop()
+                if self._started < self.workers:
+                    self._started += 1
+                    break
+                handoff = _Handoff()
+                self._waiting.append(handoff)
+            handoff.ready.wait()
+            if handoff.worker is not None:
+                return handoff.worker
+            # a worker was lost: this thread may start the next one
         try:
             return _CheckWorker(_worker_context(), str(self.challenge.root), self.job)
         except BaseException:
-            with self._lock:
-                self._started -= 1
+            self._lost(None)
             raise
 
-    def _lost(self, worker: _CheckWorker) -> None:
-        worker.end()
+    def _give_back(self, worker: _CheckWorker | None) -> None:
+        """Hand ``worker`` to the first waiting thread, else keep it idle (None: a worker
+        was lost, and the first waiting thread may start another)."""
         with self._lock:
-            self._started -= 1
+            if worker is None:
+                self._started -= 1
+            if self._waiting:
+                handoff = self._waiting.popleft()
+                handoff.worker = worker
+                handoff.ready.set()
+            elif worker is not None:
+                self._idle.append(worker)
+
+    def _lost(self, worker: _CheckWorker | None) -> None:
+        if worker is not None:
+            worker.end()
+        self._give_back(None)
 
     def start(self) -> None:
         """Start the workers (each reads the reference before its first check; an upload
@@ -428,16 +458,15 @@ class Checker:
         with self._lock:
             missing = self.workers - self._started
         for _ in range(missing):
-            self._idle.put(self._take())
+            self._give_back(self._take())
 
     def stop(self) -> None:
         """End the idle workers (call it when no check is under way)."""
-        while True:
-            try:
-                worker = self._idle.get_nowait()
-            except queue.Empty:
-                return
-            self._lost(worker)
+        with self._lock:
+            idle, self._idle = self._idle, []
+            self._started -= len(idle)
+        for worker in idle:
+            worker.end()
 
     def check(self, path: Path, shown_name: str) -> int:
         """:func:`check_upload` in a worker: how many clips the upload scores.
@@ -457,7 +486,7 @@ class Checker:
             except (EOFError, OSError):
                 self._lost(worker)  # the next try starts a new worker
                 continue
-            self._idle.put(worker)
+            self._give_back(worker)
             if ok:
                 return int(value)
             raise value
