@@ -9,6 +9,7 @@ import json
 import os
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -33,7 +34,16 @@ def init_challenge(tmp_path: Path, capsys) -> tuple[pd.DataFrame, Path]:
     return ref, root
 
 
-SERVER_PACKAGES = ("fastapi", "uvicorn", "sqlalchemy", "jinja2", "python_multipart", "starlette")
+SERVER_PACKAGES = (
+    "fastapi",
+    "uvicorn",
+    "httptools",
+    "uvloop",
+    "sqlalchemy",
+    "jinja2",
+    "python_multipart",
+    "starlette",
+)
 
 
 # --- the split ------------------------------------------------------------------------------
@@ -227,6 +237,48 @@ def check_crashing_once(root: str, upload: str, shown_name: str) -> int:
 
 def check_crashing_always(root: str, upload: str, shown_name: str) -> int:
     os._exit(7)
+
+
+def check_slowly_then_crash(root: str, upload: str, shown_name: str) -> int:
+    time.sleep(0.5)
+    os._exit(7)
+
+
+def test_a_check_waiting_for_a_worker_that_dies_is_answered(tmp_path, capsys):
+    """Two uploads at once on one check worker that each check kills: the one waiting for
+    the worker is not left waiting when the worker dies (it starts the next one), and each
+    gets the broken-worker error."""
+    pytest.importorskip("sqlalchemy", reason="needs the server extra")
+    from concurrent.futures.process import BrokenProcessPool
+
+    from turn_eval.server.datadir import open_challenge
+    from turn_eval.server.service import Checker
+
+    ref, root = init_challenge(tmp_path, capsys)
+    good = write_predictions(tmp_path / "good.csv", ref, noise_deg=5, seed=0)
+    checker = Checker(open_challenge(root), job=check_slowly_then_crash)
+    checker.start()
+    outcomes: dict[str, str] = {}
+
+    def upload(name: str) -> None:
+        try:
+            checker.check(good, name)
+            outcomes[name] = "answered"
+        except BrokenProcessPool:
+            outcomes[name] = "broken"
+
+    first = threading.Thread(target=upload, args=("first",))
+    second = threading.Thread(target=upload, args=("second",))
+    try:
+        first.start()
+        time.sleep(0.2)  # the first holds the only worker; the second waits for it
+        second.start()
+        first.join(timeout=30)
+        second.join(timeout=30)
+        assert not first.is_alive() and not second.is_alive()
+        assert outcomes == {"first": "broken", "second": "broken"}
+    finally:
+        checker.stop()
 
 
 def test_the_checker_answers_as_score_does_from_its_own_process(tmp_path, capsys):

@@ -18,7 +18,6 @@ import contextlib
 import hashlib
 import os
 import re
-import tempfile
 from collections.abc import AsyncIterator
 from pathlib import Path
 from typing import Any
@@ -40,6 +39,7 @@ from turn_eval.server.service import (
     Scorer,
     accept_upload,
     authenticate,
+    new_id,
     receipt_of,
     submission_view,
     submissions_of,
@@ -121,8 +121,9 @@ class _FilePart:
             self.out.write(chunk)
 
 
-async def _receive(request: Request, challenge: Challenge) -> tuple[Path, str, str]:
-    """Stream the upload's ``file`` field to ``incoming/``; its path, shown name, sha256."""
+async def _receive(request: Request, challenge: Challenge, path: Path) -> tuple[str, str]:
+    """Stream the upload's ``file`` field to ``path`` (a new file, in ``incoming/``); its
+    shown name and sha256. Refused: nothing is left at ``path``."""
     limit = int(challenge.params.max_upload_mb * _MIB)
     content_type, options = parse_options_header(request.headers.get("content-type", ""))
     boundary = options.get(b"boundary")
@@ -131,8 +132,7 @@ async def _receive(request: Request, challenge: Challenge) -> tuple[Path, str, s
     announced = request.headers.get("content-length", "")
     if announced.isdigit() and int(announced) > limit + _FRAMING_BYTES:
         raise _Refused(413, f"the upload is larger than {limit} bytes")
-    fd, tmp = tempfile.mkstemp(suffix=".csv", dir=challenge.incoming_dir)
-    path = Path(tmp)
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
     try:
         with os.fdopen(fd, "wb") as out:
             part = _FilePart(out, limit)
@@ -152,7 +152,7 @@ async def _receive(request: Request, challenge: Challenge) -> tuple[Path, str, s
     except Exception:
         path.unlink(missing_ok=True)
         raise _Refused(400, "the multipart body is malformed") from None
-    return path, _shown_name(part.filename), part.sha.hexdigest()
+    return _shown_name(part.filename), part.sha.hexdigest()
 
 
 def _templates() -> Environment:
@@ -206,7 +206,6 @@ def create_app(
         detail = "not found" if exc.status_code == 404 else "not allowed"
         return JSONResponse({"detail": detail}, status_code=exc.status_code)
 
-    @app.post("/api/submissions", status_code=202)
     async def submit(request: Request) -> JSONResponse:
         header = request.headers.get("authorization")
         team_id = token_team_id(header)
@@ -217,23 +216,35 @@ def create_app(
             team = await run_in_threadpool(authenticate, store, header)
         if team is None:
             return _unauthorised()
+        submission_id = new_id()
+        received = challenge.incoming_dir / f"{submission_id}.csv"
         try:
-            path, shown, sha = await _receive(request, challenge)
+            shown, sha = await _receive(request, challenge, received)
         except _Refused as exc:
             return JSONResponse({"detail": exc.detail}, status_code=exc.status)
         try:
-            submission_id = await run_in_threadpool(
-                accept_upload, challenge, store, team, path, shown, sha, checker=checker
+            await run_in_threadpool(
+                accept_upload,
+                challenge,
+                store,
+                team,
+                received,
+                shown,
+                sha,
+                checker=checker,
+                submission_id=submission_id,
             )
         except TurnbenchError as exc:
             return JSONResponse({"detail": str(exc)}, status_code=422)
         except QuotaUsed as exc:
             return JSONResponse({"detail": str(exc)}, status_code=429)
-        finally:
-            path.unlink(missing_ok=True)
         if scorer is not None:
             scorer.wake()
         return JSONResponse({"id": submission_id, "status": "queued"}, status_code=202)
+
+    # a plain Starlette route: it reads the request itself (streamed, above), so FastAPI's
+    # parameter and dependency machinery would run for every upload with nothing to do
+    app.router.add_route("/api/submissions", submit, methods=["POST"])
 
     @app.get("/api/submissions")
     def list_submissions(request: Request) -> JSONResponse:

@@ -18,8 +18,11 @@ hidden reference needs:
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
+import pickle
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +46,7 @@ __all__ = [
     "reference_of",
     "check_upload",
     "check_job",
+    "serve_checks",
     "validate_upload",
     "score_upload",
     "side_arrays",
@@ -192,6 +196,35 @@ def warm_job(root: str) -> None:
     from turn_eval.server.datadir import open_challenge
 
     reference_of(open_challenge(root))
+
+
+def serve_checks(
+    conn: Any, root: str, parent_pid: int, job: Callable[[str, str, str], int] = check_job
+) -> None:
+    """A check worker's life: ``job(*args)`` for each ``args`` received on ``conn`` (one end
+    of a :func:`multiprocessing.Pipe`), answered on it as ``(True, clips)`` or ``(False,
+    exception)``, until the server closes its end (or is gone: :func:`watch_parent`).
+
+    The server's thread that asks waits on the pipe itself: no executor threads in the
+    server's process between the request and the answer.
+    """
+    watch_parent(parent_pid)
+    with contextlib.suppress(Exception):
+        # a data directory that cannot be read is the first check's refusal, not a crash
+        warm_job(root)
+    while True:
+        try:
+            args = conn.recv()
+        except EOFError:
+            return
+        try:
+            reply: tuple[bool, Any] = (True, job(*args))
+        except Exception as exc:
+            reply = (False, exc)
+        try:
+            conn.send(reply)
+        except (pickle.PicklingError, TypeError, AttributeError):
+            conn.send((False, RuntimeError(f"the check failed ({type(reply[1]).__name__})")))
 
 
 #: How much lower the scoring workers' CPU priority is than the server's (``nice``): scoring

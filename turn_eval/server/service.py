@@ -11,11 +11,13 @@ stopped server was scoring (even one killed with SIGKILL) goes back to the queue
 The checks an upload waits for run in a worker process of their own too (:class:`Checker`),
 at the server's priority: the server's process keeps to the HTTP, the tokens and the
 database, on its one GIL, and the check (pandas' work, most of an upload's CPU) runs beside
-it, on another core where there is one.
+it, on another core where there is one. The request's thread talks to that worker over a
+pipe of its own, with no executor's threads in between to wake.
 """
 
 from __future__ import annotations
 
+import collections
 import concurrent.futures as cf
 import hashlib
 import hmac
@@ -29,7 +31,7 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures.process import BrokenProcessPool
-from dataclasses import asdict
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -54,9 +56,9 @@ from turn_eval.server.scoring import (
     score_job,
     score_upload,
     scoring_worker_init,
+    serve_checks,
     side_arrays,
     warm_job,
-    watch_parent,
 )
 from turn_eval.server.split import PRIVATE, PUBLIC, draw_split
 from turn_eval.server.store import (
@@ -76,6 +78,7 @@ __all__ = [
     "add_baseline",
     "authenticate",
     "token_team_id",
+    "new_id",
     "accept_upload",
     "Scorer",
     "Checker",
@@ -250,9 +253,11 @@ def accept_upload(
     sha256: str,
     *,
     checker: Checker | None = None,
+    submission_id: str | None = None,
 ) -> str:
     """Check a received upload (:func:`check_upload`, in ``checker``'s process if one is
-    given), store it under a new id and take the team's quota.
+    given), store it under its id (``submission_id``, else a new one) and take the team's
+    quota. ``received`` is moved into ``uploads/`` or removed, whatever happens.
 
     Raises
     ------
@@ -261,13 +266,17 @@ def accept_upload(
     QuotaUsed
         The team's quota is used; nothing is kept.
     """
-    if checker is None:
-        n_clips = check_upload(challenge, received, shown_name)
-    else:
-        n_clips = checker.check(received, shown_name)
-    submission_id = new_id()
+    submission_id = submission_id or new_id()
     stored = challenge.upload_path(submission_id)
-    os.replace(received, stored)
+    try:
+        if checker is None:
+            n_clips = check_upload(challenge, received, shown_name)
+        else:
+            n_clips = checker.check(received, shown_name)
+        os.replace(received, stored)
+    except BaseException:
+        received.unlink(missing_ok=True)
+        raise
     try:
         store.take_quota(
             team.id,
@@ -324,12 +333,56 @@ def _worker_context() -> multiprocessing.context.BaseContext:
     return multiprocessing.get_context("spawn")
 
 
+class _CheckWorker:
+    """One check worker process (:func:`serve_checks`) and the server's end of its pipe."""
+
+    def __init__(
+        self,
+        context: multiprocessing.context.BaseContext,
+        root: str,
+        job: Callable[[str, str, str], int],
+    ) -> None:
+        ours, theirs = context.Pipe()
+        self.process = context.Process(  # type: ignore[attr-defined]
+            target=serve_checks,
+            args=(theirs, root, os.getpid(), job),
+            name="turnbench-checker",
+            daemon=True,
+        )
+        self.process.start()
+        theirs.close()
+        self.conn = ours
+
+    def ask(self, args: tuple[str, str, str]) -> tuple[bool, Any]:
+        """Send one check and wait for its answer (``EOFError``/``OSError``: the worker
+        died)."""
+        self.conn.send(args)
+        return self.conn.recv()
+
+    def end(self) -> None:
+        """Close the pipe (the worker's next read ends it) and reap the process."""
+        self.conn.close()
+        self.process.join(timeout=5)
+        if self.process.is_alive():
+            self.process.kill()
+            self.process.join(timeout=5)
+
+
+@dataclass
+class _Handoff:
+    """A thread's place in the queue for a check worker."""
+
+    ready: threading.Event = field(default_factory=threading.Event)
+    worker: _CheckWorker | None = None
+
+
 class Checker:
     """Checks uploads (:func:`check_upload`) in worker processes at the server's priority.
 
-    A worker that dies breaks the pool: the pool is rebuilt and the check tried once more
-    in the new one; a second break is raised (``BrokenProcessPool``: the request fails,
-    with nothing stored or counted).
+    Each worker has a pipe of its own: the thread that checks an upload sends it on the
+    pipe of an idle worker and waits there for the answer. A worker that dies is replaced
+    and the check tried once more, in the new one; a second death is raised
+    (``BrokenProcessPool``: the request fails, with nothing stored or counted).
 
     Parameters
     ----------
@@ -339,7 +392,7 @@ class Checker:
         Worker processes.
     job
         What a worker runs for one upload, ``job(root, upload, shown_name) -> clips`` (a
-        top-level function, as a process pool needs).
+        top-level function, as another process needs).
     """
 
     def __init__(
@@ -353,41 +406,67 @@ class Checker:
         self.workers = max(1, int(workers))
         self.job = job
         self._lock = threading.Lock()
-        self._pool: cf.ProcessPoolExecutor | None = None
+        self._idle: list[_CheckWorker] = []
+        # threads waiting for a worker, first come first served (a lock's waiters are woken
+        # in no particular order, and an upload could wait behind many later ones)
+        self._waiting: collections.deque[_Handoff] = collections.deque()
+        self._started = 0
 
-    def _new_pool(self) -> cf.ProcessPoolExecutor:
-        pool = cf.ProcessPoolExecutor(
-            max_workers=self.workers,
-            mp_context=_worker_context(),
-            initializer=watch_parent,
-            initargs=(os.getpid(),),
-        )
-        # start every worker and read the reference there now, not at the first upload
-        for _ in range(self.workers):
-            pool.submit(warm_job, str(self.challenge.root))
-        return pool
+    def _take(self) -> _CheckWorker:
+        """An idle worker; else a new one while fewer than ``workers`` run; else the next
+        one given back, in the order the threads asked."""
+        while True:
+            with self._lock:
+                if self._idle:
+                    return self._idle.pop()
+                if self._started < self.workers:
+                    self._started += 1
+                    break
+                handoff = _Handoff()
+                self._waiting.append(handoff)
+            handoff.ready.wait()
+            if handoff.worker is not None:
+                return handoff.worker
+            # a worker was lost: this thread may start the next one
+        try:
+            return _CheckWorker(_worker_context(), str(self.challenge.root), self.job)
+        except BaseException:
+            self._lost(None)
+            raise
 
-    def _running(self) -> cf.ProcessPoolExecutor:
+    def _give_back(self, worker: _CheckWorker | None) -> None:
+        """Hand ``worker`` to the first waiting thread, else keep it idle (None: a worker
+        was lost, and the first waiting thread may start another)."""
         with self._lock:
-            if self._pool is None:
-                self._pool = self._new_pool()
-            return self._pool
+            if worker is None:
+                self._started -= 1
+            if self._waiting:
+                handoff = self._waiting.popleft()
+                handoff.worker = worker
+                handoff.ready.set()
+            elif worker is not None:
+                self._idle.append(worker)
 
-    def _discard(self, pool: cf.ProcessPoolExecutor) -> None:
-        with self._lock:
-            if self._pool is pool:  # the first caller to see it broken replaces it
-                self._pool = None
-        pool.shutdown(wait=False, cancel_futures=True)
+    def _lost(self, worker: _CheckWorker | None) -> None:
+        if worker is not None:
+            worker.end()
+        self._give_back(None)
 
     def start(self) -> None:
-        """Start the workers (an upload that comes before they are ready waits for them)."""
-        self._running()
+        """Start the workers (each reads the reference before its first check; an upload
+        that comes before that waits for it)."""
+        with self._lock:
+            missing = self.workers - self._started
+        for _ in range(missing):
+            self._give_back(self._take())
 
     def stop(self) -> None:
+        """End the idle workers (call it when no check is under way)."""
         with self._lock:
-            pool, self._pool = self._pool, None
-        if pool is not None:
-            pool.shutdown(wait=False, cancel_futures=True)
+            idle, self._idle = self._idle, []
+            self._started -= len(idle)
+        for worker in idle:
+            worker.end()
 
     def check(self, path: Path, shown_name: str) -> int:
         """:func:`check_upload` in a worker: how many clips the upload scores.
@@ -397,16 +476,21 @@ class Checker:
         TurnbenchError
             The upload is refused (the score command's message).
         BrokenProcessPool
-            The check broke a worker twice.
+            The check killed a worker twice.
         """
         args = (str(self.challenge.root), str(path), shown_name)
-        pool = self._running()
-        try:
-            return pool.submit(self.job, *args).result()
-        except BrokenProcessPool:
-            self._discard(pool)
-        # once more, in a new pool; a second break is raised
-        return self._running().submit(self.job, *args).result()
+        for _ in range(2):
+            worker = self._take()
+            try:
+                ok, value = worker.ask(args)
+            except (EOFError, OSError):
+                self._lost(worker)  # the next try starts a new worker
+                continue
+            self._give_back(worker)
+            if ok:
+                return int(value)
+            raise value
+        raise BrokenProcessPool("the upload's check killed its worker twice")
 
 
 class Scorer:
