@@ -2,12 +2,13 @@
 
 A pose estimator that sees one camera places each joint well across the image and poorly
 along the camera's ray: a lifter's 40-60 mm of error per joint on Human3.6M is mostly
-depth, and the estimator model of :mod:`turn_datasets.synthetic.untrimmed` plants 30 mm
-of depth error against 10 mm across the ray, twice that with the back to the camera. A
-pair's frontal vector (left minus right joint, on the ground) is then measured well across
-the ray and badly along it, and its direction, taken as it is, turns with every depth
-error: with hips 260 mm apart, 60 mm of depth error on each hip turns it by about 18° (one
-standard deviation).
+depth. The estimator model the detector is measured against has 30 mm of depth error
+against 10 mm across the ray, twice the depth with the back to the camera;
+:mod:`turn_datasets.synthetic.untrimmed` plants that white depth error, a drifting one
+beside it and 8 mm of jitter. A pair's frontal vector (left minus right joint, on the
+ground) is then measured well across the ray and badly along it, and its direction, taken
+as it is, turns with every depth error: with hips 260 mm apart, 60 mm of depth error on
+each hip turns it by about 18° (one standard deviation).
 
 What an estimator keeps nearly constant is a pair's length: the distance between the hips
 is a body dimension, and between the shoulders nearly one. On the real video of
@@ -35,7 +36,7 @@ is no camera and the ray means nothing, but the errors are millimetres: the CMU 
 angles move by at most 0.9°.
 
 Measured (``benchmarks/eval_detect.py``, three seeds): matched accuracy 94.3/95.8/92.5% →
-96.3/98.1/93.8% and F1 0.950-0.959 → 0.970-0.974; the detected angles' mean error against
+96.3/98.1/93.8% and F1 0.954-0.960 → 0.970-0.974; the detected angles' mean error against
 the heading change planted (``planted.csv``) 5.5-6.6° → 3.5-5.0°. On single walking turns
 of 90° and 135° under the estimator model (``tests/test_detect.py``) the mean angle error
 falls from 6.5° to 2.7°; the CMU captures move by at most 0.9°, and the real video's one
