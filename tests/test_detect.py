@@ -245,6 +245,43 @@ def test_identity_break_to_a_bystander_is_cut_out(root_relative: bool) -> None:
     assert kept[: 270 - slack].all() and kept[420 + slack :].all()
 
 
+PIVOT_180 = [sm.Segment.stand(8), sm.Segment.pivot_turn(180, 2.0), sm.Segment.stand(8)]
+
+
+@pytest.mark.parametrize("root_relative", [False, True])
+def test_a_size_change_within_the_tolerance_does_not_cut_a_turn(root_relative: bool) -> None:
+    """The depth error inflates the body's size as the back turns to the camera: here the
+    size is 8% under its usual value for the 3 s before the middle of a 180° turn (frames
+    240-300) and 8% over it for the 3 s after. Across frame 270 the median size over a
+    second changes by 17%, more than ``identity_size_change``: a cut. Either side's median
+    is the stream's size (two thirds of each side are unchanged), so both are the person's
+    own and the cut is undone: one piece, one turn of 180°, where the pieces alone would
+    give two turns of about 90°."""
+
+    def scale(body: np.ndarray, spans) -> None:
+        for a, b, k in spans:
+            pelvis = body[a:b, :1].copy()
+            body[a:b] = pelvis + k * (body[a:b] - pelvis)
+
+    kw = {"fps_hz": FPS, "jump_sizes": 0.5, "size_change": 0.15, "size_tolerance": 0.1}
+
+    def pieces(spans):
+        p = stream(PIVOT_180, edit=lambda body: scale(body, spans))
+        if root_relative:
+            p = p - p[:, :1]
+        return p, identity_pieces(p, H36M17, np.isfinite(p).all(axis=(1, 2)), **kw)
+
+    p, found = pieces([(180, 270, 0.92), (270, 360, 1.08)])
+    assert found == [(0, p.shape[0])]
+    turns = RULE.detect(p, FPS, H36M17)
+    assert len(turns) == 1 and turns.angle_deg.iloc[0] == pytest.approx(180, abs=5)
+    # 25% larger from frame 270 to 420 is someone else: cut out (within the median's
+    # half-window of each edge), the rest kept
+    p, found = pieces([(270, 420, 1.25)])
+    assert len(found) == 2 and found[0][0] == 0 and found[1][1] == p.shape[0]
+    assert abs(found[0][1] - 270) <= 16 and abs(found[1][0] - 420) <= 16
+
+
 def test_decoys_are_not_turns() -> None:
     segs = [
         sm.Segment.stand(2),
