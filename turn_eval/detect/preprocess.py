@@ -12,10 +12,12 @@ Identity breaks (:func:`identity_pieces`)
     least). The stream is split at such jumps; each piece gets its median size, and pieces
     whose size differs from the size of most of the stream's frames by more than
     ``identity_size_tolerance`` are someone else's and dropped. Two neighbouring pieces that
-    are both kept, split by a change of size alone, are joined again: the depth error
-    inflates the size as the back turns to the camera (on the synthetic sessions by 15-20%
-    within a turn), which no other person explains when both sides have the person's own
-    size; left split, the turn was cut in two. Root-relative streams (the pelvis at the
+    are both kept, split by a change of size alone, each at least the size's window long, are
+    joined again: the depth error inflates the size as the back turns to the camera (on the
+    synthetic sessions by up to a fifth within a turn), which no other person explains when
+    both sides have the person's own size; left split, the turn was cut in two. A shorter
+    piece stays apart: MediaPipe's first 11 frames on the real video, while its tracker
+    settles, are such a piece, and joined they made a false 50° turn. Root-relative streams (the pelvis at the
     origin) have no position, so only their size is used.
 Left/right swaps (:func:`repair_swaps`)
     For a few frames the estimator exchanges the left and right joints, mostly when the
@@ -101,8 +103,8 @@ def identity_pieces(
         this fraction is a jump to someone else.
     size_tolerance
         Pieces whose median size differs from the stream's by more than this fraction are
-        someone else's and left out; kept neighbours split by a change of size alone are
-        one piece.
+        someone else's and left out; kept neighbours split by a change of size alone, both at
+        least ``window_s`` long, are one piece.
     """
     n = positions.shape[0]
     idx = np.flatnonzero(usable)
@@ -150,7 +152,9 @@ def identity_pieces(
         if not k:
             continue
         # the person's own size on both sides of a change of size: no one else came between
-        if out and out[-1][1] == a and a in size_cuts:
+        # (where each side is long enough to show its size as precisely as the cut was made)
+        joined = out and out[-1][1] == a and a in size_cuts
+        if joined and min(a - out[-1][0], b - a) >= w:
             out[-1] = (out[-1][0], b)
         else:
             out.append((a, b))
