@@ -350,11 +350,14 @@ class MinerRule:
         else:
             width = float(np.nanmedian(lengths["hip"].length))
         hips = [layout.index("left_hip"), layout.index("right_hip")]
+        # the joints whose jitter shows a root-relative stream's ray (their own movement is
+        # the trunk's, slow against the estimator's error)
+        trunk = [*hips, layout.index("left_shoulder"), layout.index("right_shoulder")]
         heading = ray_weighted_direction(
             vectors,
             widths,
             [PAIR_LENGTH_CV[j] for j in prm.joints],
-            camera_rays(fixed[:, hips, :2].mean(axis=1), width),
+            camera_rays(fixed[:, hips, :2].mean(axis=1), width, fixed[:, trunk, :2], fps_hz),
             lateral_sd=prm.lateral_noise_widths * width,
             ratio=prm.ray_noise_ratio,
             search_deg=prm.ray_search_deg,
