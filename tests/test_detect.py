@@ -166,7 +166,7 @@ def test_a_root_relative_stream_reads_its_ray_from_its_error(monkeypatch) -> Non
     """The walking turns above, root-relative (pelvis at the origin, as lifting networks
     write): the person stands up to 45° off the camera's axis, which the stream no longer
     shows. The ray read from the jitter (``heading.noise_rays``) gives a mean angle error of
-    2.8° over the 24 draws, as good as the positioned streams' 2.7°; taking everyone as
+    2.7° over the 24 draws, as good as the positioned streams' 2.7°; taking everyone as
     straight ahead gives 6.0°, no better than the plain direction."""
     miner = MinerParams(min_turn_deg=67.5, max_gap_s=0.5)
     rule = MinerRule(DetectParams(miner=miner))

@@ -39,9 +39,9 @@ long axis is the ray, read over :data:`NOISE_WINDOW_S` from the hips and shoulde
 the ellipse is too round to tell (its axes' ratio under :data:`MIN_NOISE_ANISOTROPY`, or
 nothing seen), the person is taken as straight ahead. On the synthetic sessions, whose
 people stand a median 26° off the camera's axis, this brought the root-relative streams'
-detected angles' mean error against the heading planted from 6.3° to 4.8° (the positioned
+detected angles' mean error against the heading planted from 6.3° to 4.7° (the positioned
 streams' is 3.7°) and ``eval_detect``'s F1 on seeds 1/2/3 from 0.971/0.973/0.974 to
-0.983/0.975/0.979. In a world frame (motion capture) the origin is no
+0.982/0.975/0.980. In a world frame (motion capture) the origin is no
 camera and the ray means nothing, but the errors are millimetres: the CMU captures' angles
 move by at most 0.9°.
 
