@@ -13,6 +13,8 @@ and with one part of it switched off at a time:
 - ``shoulders``: the hips' frontal vector alone;
 - ``depth model``: the plain direction of the pairs, every error taken alike
   (:mod:`turn_eval.detect.heading` off: ``ray_noise_ratio`` 1, ``ray_search_deg`` 0);
+- ``noise rays``: root-relative streams' camera ray taken as straight ahead, not read from
+  their jitter (:func:`turn_eval.detect.heading.noise_rays`);
 - ``pauses``: continuous turning not split at its pauses (``pause_speed_deg_s`` 0);
 - ``bounds``: no circling or speed bound (``max_turn_s`` and ``max_turn_speed_deg_s`` lifted).
 
@@ -41,6 +43,7 @@ from turn_datasets.render.markdown import markdown_table
 from turn_datasets.skeleton import H36M17
 from turn_datasets.synthetic.untrimmed import write_untrimmed_corpus
 from turn_eval.detect import DetectParams, MinerRule, detect_files, stream_files
+from turn_eval.detect.heading import camera_rays
 from turn_eval.detect.rule import DETECT_MINER_DEFAULTS
 from turn_eval.events.matching import categorize_events
 
@@ -66,6 +69,10 @@ def _variants() -> dict[str, tuple[DetectParams, list]]:
         ),
         "no shoulders": (replace(full, joints=("hip",)), []),
         "no depth model": (replace(full, ray_noise_ratio=1.0, ray_search_deg=0.0), []),
+        "no noise rays": (
+            full,
+            [mock.patch("turn_eval.detect.rule.camera_rays", lambda m, w, *_: camera_rays(m, w))],
+        ),
         "no pauses": (DetectParams(miner=replace(miner, pause_speed_deg_s=0.0)), []),
         "no bounds": (
             DetectParams(

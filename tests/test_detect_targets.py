@@ -5,7 +5,7 @@ minutes at 30 fps, labels of 90-225°, ``min_turn_deg`` 67.5, IoU 0.5. The targe
 issue's: F1 >= 0.93 overall and >= 0.90 per cohort, matched accuracy >= 95%, matched MAE
 <= 11°, median boundary error <= 0.3 s, on the sessions they were set on (turns at corners
 and on the spot); with the movements of real life (quick successions, curved walks,
-circling, turns to sit, white depth error), F1, MAE and boundaries. Beside them, the miner's
+circling, turns to sit, white depth error), the same targets. Beside them, the miner's
 rule run raw on the same streams falls well short of the detector.
 """
 
@@ -70,13 +70,14 @@ def test_targets_on_synthetic_untrimmed_sessions(rows) -> None:
 
 def test_targets_with_the_movements_of_real_life(real_rows) -> None:
     # quick successions, curved walks, circling, turns to sit, white depth error along the
-    # ray: F1 and the angle and boundary errors hold (matched accuracy is measured in
-    # benchmarks/eval_detect.py: 92.8-95.6% on three seeds, below the 95% of plain sessions)
+    # ray: every target holds, matched accuracy included (benchmarks/eval_detect.py: 96.5,
+    # 98.3 and 95.1% on seeds 1-3)
     overall = real_rows[("detect", "overall")]
     assert overall["tp"] + overall["fn"] == N_REAL
     assert overall["F1"] >= 0.93
     for cohort in ("PD", "HC"):
         assert real_rows[("detect", cohort)]["F1"] >= 0.90
+    assert overall["acc"] >= 0.95
     assert overall["MAE"] <= 11.0
     assert max(overall["|dstart| s"], overall["|dend| s"]) <= 0.3
 
