@@ -9,7 +9,8 @@ detector. It is not a second algorithm; what an estimator's stream needs on top
 (:mod:`turn_eval.detect.preprocess`) comes first, per stream:
 
 1. **Identity.** The stream is split where the skeleton jumps to someone else (position or
-   size), and pieces of another body size are dropped.
+   size), pieces of another body size are dropped, and kept pieces split by a change of
+   size alone are joined again.
 2. **Swaps.** Left/right swaps are undone.
 3. **Frontal vector.** The frontal vectors of the chosen joint pairs (``joints``; default
    hips and shoulders, the paper's equations 1 and 2) give one heading per frame. Their
@@ -24,7 +25,7 @@ detector. It is not a second algorithm; what an estimator's stream needs on top
    is then corrected, within ``ray_search_deg`` of that direction, by what an estimator
    gets right: the pairs' lengths and their positions across the camera's ray, against
    their depth (:mod:`turn_eval.detect.heading`: ``ray_noise_ratio``,
-   ``lateral_noise_widths``).
+   ``lateral_noise_widths``; a root-relative stream's ray is read from its jitter).
 4. **The miner's rule** on that vector (:func:`turn_datasets.h36m.miner.mine_heading`),
    with its gap bridging (``max_gap_s``: longer gaps cut the stream, so a turn is never
    followed through an absence) and its ``min_turn_deg`` (the paper's 45°; 67.5° for
