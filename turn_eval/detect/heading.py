@@ -148,35 +148,34 @@ def noise_rays(joints: np.ndarray, fps_hz: float) -> np.ndarray:
     are in the ratio ``a / b``.
     """
     n = joints.shape[0]
-    d2 = np.full(joints.shape, np.nan)
-    d2[1:-1] = joints[2:] - 2.0 * joints[1:-1] + joints[:-2]
-    seen = np.isfinite(d2).all(axis=2)
-    r = np.hypot(d2[..., 0], d2[..., 1])
-    seen &= r > 0
-    x = np.where(seen, d2[..., 0] / np.where(seen, r, 1.0), 0.0)
-    y = np.where(seen, d2[..., 1] / np.where(seen, r, 1.0), 0.0)
+    # per frame, the sums over the joints of u_x^2, u_x u_y and the count of unit vectors u
+    # (u_y^2 is the count less u_x^2); frames without a second difference count nothing
+    sums = np.zeros((3, n))
+    if n > 2:
+        d2 = joints[2:] - 2.0 * joints[1:-1] + joints[:-2]
+        d2 = np.nan_to_num(d2, nan=0.0, posinf=0.0, neginf=0.0, copy=False)
+        x, y = d2[..., 0], d2[..., 1]
+        r2 = x * x + y * y
+        seen = r2 > 0.0  # NaN (set to 0 above) and an exact standstill say nothing
+        with np.errstate(divide="ignore"):
+            inv = np.where(seen, 1.0 / r2, 0.0)
+        sums[0, 1:-1] = np.einsum("ij,ij,ij->i", x, x, inv)
+        sums[1, 1:-1] = np.einsum("ij,ij,ij->i", x, y, inv)
+        sums[2, 1:-1] = seen.sum(axis=1)
     window = max(int(round(NOISE_WINDOW_S * fps_hz)), 3)
-    # the window's mean of u u^T per frame (the count cancels in the axes' ratio)
-    sxx, syy, sxy, count = (
-        uniform_filter1d(v, window, mode="constant")
-        for v in (
-            (x * x).sum(axis=1),
-            (y * y).sum(axis=1),
-            (x * y).sum(axis=1),
-            seen.sum(axis=1).astype(float),
-        )
-    )
-    half_gap = np.hypot(0.5 * (sxx - syy), sxy)
-    mean = 0.5 * (sxx + syy)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        enough = count >= NOISE_MIN_SEEN * joints.shape[1]  # count: the window's mean
-        clear = enough & (mean + half_gap >= MIN_NOISE_ANISOTROPY * (mean - half_gap))
-    theta = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)
+    # the window's mean of u u^T per frame (the count cancels in the axes' ratio): its axes
+    # are count/2 +- half_gap
+    sxx, sxy, count = uniform_filter1d(sums, window, axis=1, mode="constant")
+    diff = sxx - 0.5 * count  # (sxx - syy) / 2
+    half_gap = np.hypot(diff, sxy)
+    enough = count >= NOISE_MIN_SEEN * joints.shape[1]  # count: the window's mean
+    clear = enough & (0.5 * count + half_gap >= MIN_NOISE_ANISOTROPY * (0.5 * count - half_gap))
     out = np.zeros((n, 2))
     out[:, 1] = 1.0
+    theta = 0.5 * np.arctan2(sxy[clear], diff[clear])
     ray = np.stack([np.cos(theta), np.sin(theta)], axis=1)
     ray[ray[:, 1] < 0] *= -1.0  # the camera looks along +y
-    out[clear] = ray[clear]
+    out[clear] = ray
     return out
 
 
