@@ -133,6 +133,7 @@ from turn_datasets.geometry import (
     frame_yaw_deg,
     heading_change_deg,
     turning_angle,
+    unwrap_rad,
     usable_frames,
 )
 from turn_datasets.h36m.clip_index import SequenceClips, build_index
@@ -1149,7 +1150,7 @@ def _mine_hips(
         # interpolation fills every gap and filtering cannot make NaN: a cheap guard
         raise TurnbenchError("the hip yaw is not finite after bridging gaps")
     # step 1: the hip line, unwrapped modulo 180° (a flip of the vector is not a turn)
-    all_yaw = np.degrees(np.unwrap(np.radians(2.0 * all_yaw))) / 2.0
+    all_yaw = np.degrees(unwrap_rad(np.radians(2.0 * all_yaw))) / 2.0
     offsets = np.cumsum([0] + [p.shape[0] for _, p, _ in pieces])
     parts: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
     for (a, _, gait), lo, hi in zip(pieces, offsets[:-1], offsets[1:], strict=True):
