@@ -926,14 +926,8 @@ def _prepared_pieces(
     ``hips`` are the two hips on the ground plane, ``(frames, 2, 3)``; ``gait`` the knee gait
     (:func:`knee_gait`) or None.
     """
-    if not (np.isfinite(fps_hz) and fps_hz > 0):
-        raise TurnbenchError(f"fps must be positive, got {fps_hz}")
     usable = usable_frames(hips, _HIPS)
-    if int(usable.sum()) < 2:
-        raise TurnbenchError(
-            "fewer than two frames with a usable hip vector (hips missing or coinciding)"
-        )
-    for a, b in _pieces(usable, _frames(params.max_gap_s, fps_hz)):
+    for a, b in _checked_pieces(usable, fps_hz, params):
         piece = _prepare_piece(hips[a:b], usable[a:b], fps_hz, params.position_cutoff_hz)
         yield a, piece, None if gait is None else gait[a:b]
 
@@ -945,22 +939,26 @@ def _prepared_frontal(
     ``(first frame, bridged and filtered frontal vector, knee gait)`` per piece. The same
     numbers as the hips' pieces with the right hip at the origin, whose zero coordinates
     stay zero through the bridging and the filter and are not worked on here."""
+    usable = frontal_lengths(frontal).usable
+    out = []
+    for a, b in _checked_pieces(usable, fps_hz, params):
+        piece = _bridged(frontal[a:b].copy(), usable[a:b], fps_hz, params.position_cutoff_hz)
+        out.append((a, piece, None if gait is None else gait[a:b]))
+    return out
+
+
+def _checked_pieces(
+    usable: np.ndarray, fps_hz: float, params: MinerParams
+) -> list[tuple[int, int]]:
+    """The pieces of :func:`_pieces` (gaps up to ``max_gap_s`` bridged), after the checks
+    that the rule can run: a positive frame rate, two usable frames."""
     if not (np.isfinite(fps_hz) and fps_hz > 0):
         raise TurnbenchError(f"fps must be positive, got {fps_hz}")
-    usable = frontal_lengths(frontal).usable
     if int(usable.sum()) < 2:
         raise TurnbenchError(
             "fewer than two frames with a usable hip vector (hips missing or coinciding)"
         )
-    cutoff = params.position_cutoff_hz
-    return [
-        (a, _bridged(frontal[a:b].copy(), usable[a:b], fps_hz, cutoff), _part(gait, a, b))
-        for a, b in _pieces(usable, _frames(params.max_gap_s, fps_hz))
-    ]
-
-
-def _part(gait: np.ndarray | None, a: int, b: int) -> np.ndarray | None:
-    return None if gait is None else gait[a:b]
+    return _pieces(usable, _frames(params.max_gap_s, fps_hz))
 
 
 def mine_sequence(
