@@ -21,6 +21,7 @@ from turn_datasets.geometry import (
     parse_joints,
     quantise_deg,
     turning_angle,
+    unwrap_rad,
     usable_frames,
     yaw_rate_deg_s,
 )
@@ -328,6 +329,27 @@ def test_median_is_numpys_median_bit_for_bit() -> None:
         assert got == want and type(got) is type(want), (n, got, want)
     assert median(np.array([3.0, 1.0, 2.0])) == 2.0
     assert median(np.array([4.0, 1.0, 3.0, 2.0])) == 2.5  # the two middle values' mean
+
+
+def test_unwrap_rad_is_numpys_unwrap_bit_for_bit() -> None:
+    # headings wrapped to (-pi, pi], slow and fast, with NaN, jumps of exactly pi either way
+    # (np.unwrap's boundary rule) and of 2 pi and more; every length from none to a stream's
+    rng = np.random.default_rng(0)
+    for n in [0, 1, 2, 3, 4, 150, 18000, *rng.integers(2, 500, 200).tolist()]:
+        walk = np.cumsum(rng.normal(0.0, rng.choice([0.02, 1.0, 4.0]), n))
+        x = np.arctan2(np.sin(walk), np.cos(walk))
+        if n > 6 and rng.random() < 0.5:
+            x[rng.integers(0, n, 3)] = np.nan
+        if n > 6 and rng.random() < 0.5:
+            x[2], x[3], x[4] = x[1] + np.pi, x[1], x[1] - 3 * np.pi
+        got, want = unwrap_rad(x), np.unwrap(x)
+        assert got.tobytes() == want.tobytes(), n
+    # by hand: a crossing of the branch cut is carried on; a jump of exactly pi is kept
+    np.testing.assert_array_equal(
+        unwrap_rad(np.array([3.0, -3.0, 0.0])), [3.0, -3.0 + 2 * np.pi, 2 * np.pi]
+    )
+    np.testing.assert_array_equal(unwrap_rad(np.array([0.0, np.pi])), [0.0, np.pi])
+    np.testing.assert_array_equal(unwrap_rad(np.array([0.0, -np.pi])), [0.0, -np.pi])
 
 
 def test_frontal_lengths_give_the_usable_frames_and_the_median_length() -> None:

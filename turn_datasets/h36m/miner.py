@@ -131,9 +131,13 @@ from turn_datasets.fileio import typed_frame
 from turn_datasets.geometry import (
     direction_of,
     frame_yaw_deg,
+    frontal_lengths,
+    frontal_vectors,
     heading_change_deg,
     turning_angle,
+    unwrap_rad,
     usable_frames,
+    vectors_yaw_deg,
 )
 from turn_datasets.h36m.clip_index import SequenceClips, build_index
 from turn_datasets.params import check_params, describe_params, param
@@ -823,18 +827,25 @@ def _prepare_piece(
     projected on the ground); the height of the result is zero.
     """
     n = hips.shape[0]
-    xy = np.ascontiguousarray(hips[:, :, :2]).reshape(n, 4)
+    xy = _bridged(np.ascontiguousarray(hips[:, :, :2]).reshape(n, 4), usable, fps_hz, cutoff_hz)
+    out = np.zeros((n, 2, 3))
+    out[:, :, :2] = xy.reshape(n, 2, 2)
+    return out
+
+
+def _bridged(xy: np.ndarray, usable: np.ndarray, fps_hz: float, cutoff_hz: float) -> np.ndarray:
+    """:func:`_prepare_piece` on ground-plane coordinates ``(frames, columns)``, each column
+    on its own (``xy`` is the caller's copy, bridged in place)."""
+    n = xy.shape[0]
     bad = ~usable
     if bad.any():
         idx = np.arange(n)
         gaps, known, known_xy = idx[bad], idx[usable], xy[usable]
-        for c in range(4):
+        for c in range(xy.shape[1]):
             xy[bad, c] = np.interp(gaps, known, known_xy[:, c])
     if position_filter_applies(cutoff_hz, fps_hz) and n > 3:
         xy = _zero_phase_lowpass(xy, cutoff_hz, fps_hz)
-    out = np.zeros((n, 2, 3))
-    out[:, :, :2] = xy.reshape(n, 2, 2)
-    return out
+    return xy
 
 
 @lru_cache(maxsize=32)
@@ -915,16 +926,39 @@ def _prepared_pieces(
     ``hips`` are the two hips on the ground plane, ``(frames, 2, 3)``; ``gait`` the knee gait
     (:func:`knee_gait`) or None.
     """
+    usable = usable_frames(hips, _HIPS)
+    for a, b in _checked_pieces(usable, fps_hz, params):
+        piece = _prepare_piece(hips[a:b], usable[a:b], fps_hz, params.position_cutoff_hz)
+        yield a, piece, None if gait is None else gait[a:b]
+
+
+def _prepared_frontal(
+    frontal: np.ndarray, gait: np.ndarray | None, fps_hz: float, params: MinerParams
+) -> list[tuple[int, np.ndarray, np.ndarray | None]]:
+    """:func:`_prepared_pieces` of a frontal vector ``(frames, 2)`` (NaN where unknown):
+    ``(first frame, bridged and filtered frontal vector, knee gait)`` per piece. The same
+    numbers as the hips' pieces with the right hip at the origin, whose zero coordinates
+    stay zero through the bridging and the filter and are not worked on here."""
+    usable = frontal_lengths(frontal).usable
+    out = []
+    for a, b in _checked_pieces(usable, fps_hz, params):
+        piece = _bridged(frontal[a:b].copy(), usable[a:b], fps_hz, params.position_cutoff_hz)
+        out.append((a, piece, None if gait is None else gait[a:b]))
+    return out
+
+
+def _checked_pieces(
+    usable: np.ndarray, fps_hz: float, params: MinerParams
+) -> list[tuple[int, int]]:
+    """The pieces of :func:`_pieces` (gaps up to ``max_gap_s`` bridged), after the checks
+    that the rule can run: a positive frame rate, two usable frames."""
     if not (np.isfinite(fps_hz) and fps_hz > 0):
         raise TurnbenchError(f"fps must be positive, got {fps_hz}")
-    usable = usable_frames(hips, _HIPS)
     if int(usable.sum()) < 2:
         raise TurnbenchError(
             "fewer than two frames with a usable hip vector (hips missing or coinciding)"
         )
-    for a, b in _pieces(usable, _frames(params.max_gap_s, fps_hz)):
-        piece = _prepare_piece(hips[a:b], usable[a:b], fps_hz, params.position_cutoff_hz)
-        yield a, piece, None if gait is None else gait[a:b]
+    return _pieces(usable, _frames(params.max_gap_s, fps_hz))
 
 
 def mine_sequence(
@@ -1111,13 +1145,13 @@ def heading_runs(
     v = np.asarray(frontal, dtype=float)
     if v.ndim != 2 or v.shape[1] != 2:
         raise TurnbenchError(f"the frontal vector must have shape (frames, 2), got {v.shape}")
-    # The right hip at the origin: the left minus the right is the vector itself, bit for bit,
-    # through the bridging and filtering (both linear, so a zero column stays zero).
-    hips = np.zeros((v.shape[0], 2, 3))
-    hips[:, 0, :2] = v
+    # The vector is mined as the hips' would be with the right hip at the origin (the left
+    # minus the right is the vector itself, bit for bit, through the bridging and filtering:
+    # both linear, so a zero column stays zero), without that column.
     if valid is not None:
-        hips[~np.asarray(valid, dtype=bool), 0, :] = np.nan
-    return _with_reasons(*_mine_hips(hips, gait, fps_hz, p), fps_hz, p)
+        v = v.copy()
+        v[~np.asarray(valid, dtype=bool)] = np.nan
+    return _with_reasons(*_mine_pieces(_prepared_frontal(v, gait, fps_hz, p), fps_hz, p), fps_hz, p)
 
 
 def _sequence_frame(
@@ -1141,15 +1175,26 @@ def _mine_hips(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The rule on the hips' ground positions (:func:`_prepared_pieces`): ``(start, end,
     net_deg, hip_net_deg)``, in time order."""
-    pieces = list(_prepared_pieces(hips, gait, fps_hz, params))
+    pieces = [
+        (a, frontal_vectors(piece, _HIPS), g)
+        for a, piece, g in _prepared_pieces(hips, gait, fps_hz, params)
+    ]
+    return _mine_pieces(pieces, fps_hz, params)
+
+
+def _mine_pieces(
+    pieces: list[tuple[int, np.ndarray, np.ndarray | None]], fps_hz: float, params: MinerParams
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Steps 1 and 4 to 8 on the prepared pieces' frontal vectors ``(first frame, (frames,
+    2), knee gait)``: ``(start, end, net_deg, hip_net_deg)``, in time order."""
     # One yaw call for all pieces: unwrapping across a cut only shifts the next piece by whole
     # turns, and only differences within a piece are used.
-    all_yaw = frame_yaw_deg(np.concatenate([p for _, p, _ in pieces]), _HIPS)
+    all_yaw = vectors_yaw_deg([np.concatenate([p for _, p, _ in pieces])])
     if not np.isfinite(all_yaw).all():
         # interpolation fills every gap and filtering cannot make NaN: a cheap guard
         raise TurnbenchError("the hip yaw is not finite after bridging gaps")
     # step 1: the hip line, unwrapped modulo 180° (a flip of the vector is not a turn)
-    all_yaw = np.degrees(np.unwrap(np.radians(2.0 * all_yaw))) / 2.0
+    all_yaw = np.degrees(unwrap_rad(np.radians(2.0 * all_yaw))) / 2.0
     offsets = np.cumsum([0] + [p.shape[0] for _, p, _ in pieces])
     parts: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
     for (a, _, gait), lo, hi in zip(pieces, offsets[:-1], offsets[1:], strict=True):

@@ -245,38 +245,87 @@ def _newton(start: np.ndarray, pairs: list, q: float, search: float) -> np.ndarr
     Per pair, with ``u = a c + q b s + W/t^2`` and ``v = c^2 + q s^2 + 1/t^2``, the cost is
     ``-u^2/v`` plus what does not depend on the heading; ``u'' = -(u - W/t^2)``,
     ``v' = -(1 - q) sin 2phi`` and ``v'' = -2 (1 - q) cos 2phi``.
+
+    The frames still moving are kept packed (their pairs' values gathered once, when some
+    arrive, not every step), and each step's sums are written into buffers of their own.
     """
     phi = start.copy()
-    flat = 1.0 - q
-    todo = np.arange(start.size)  # the frames still moving
-    consts = [(a, q * b, w / t2, 1.0 / t2) for a, b, w, t2 in pairs]
+    k = -2.0 * (1.0 - q)
+    moving = None  # which frames ``at`` holds: all of them until one arrives
+    at = start
+    lo, hi = start - search, start + search
+    a_s = [a for a, _, _, _ in pairs]
+    qb_s = [q * b for _, b, _, _ in pairs]
+    g_h = [(w / t2, 1.0 / t2) for _, _, w, t2 in pairs]
     for _ in range(NEWTON_STEPS):
-        at = phi[todo]
         c, s = np.cos(at), np.sin(at)
-        cs, cc, ss = c * s, c * c, s * s
-        dv = -2.0 * flat * cs
-        ddv = -2.0 * flat * (cc - ss)
-        base = cc + q * ss
-        slope = np.zeros(todo.size)
-        bend = np.zeros(todo.size)
-        for a_all, qb_all, g, h in consts:
-            a, qb = a_all[todo], qb_all[todo]
-            u = a * c + qb * s + g
-            du = qb * c - a * s
-            v = base + h
-            uv = u / v
-            slope += uv * (uv * dv - 2.0 * du)
-            bend += (
-                -2.0 * (du * du + u * (g - u)) / v
-                + uv * (4.0 * du * dv + u * ddv) / v
-                - 2.0 * uv * uv * dv * dv / v
-            )
+        slope, bend = _slope_and_bend(c, s, a_s, qb_s, g_h, q, k)
         with np.errstate(invalid="ignore", divide="ignore"):
             step = np.where(bend > 0, slope / bend, np.sign(slope) * MAX_STEP_RAD)
-        lo, hi = start[todo] - search, start[todo] + search
         moved = np.clip(at - np.clip(step, -MAX_STEP_RAD, MAX_STEP_RAD), lo, hi)
-        phi[todo] = moved
-        todo = todo[np.abs(moved - at) > CONVERGED_RAD]
-        if todo.size == 0:
+        if moving is None:
+            phi[:] = moved
+        else:
+            phi[moving] = moved
+        going = np.abs(moved - at) > CONVERGED_RAD
+        if going.all():
+            at = moved
+            continue
+        if not going.any():
             break
+        moving = np.flatnonzero(going) if moving is None else moving[going]
+        at, lo, hi = moved[going], lo[going], hi[going]
+        a_s = [a[going] for a in a_s]
+        qb_s = [qb[going] for qb in qb_s]
     return phi
+
+
+def _slope_and_bend(
+    c: np.ndarray, s: np.ndarray, a_s: list, qb_s: list, g_h: list, q: float, k: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The cost's first and second derivatives at ``(c, s)``, summed over the pairs
+    (:func:`_newton`), each term as ``slope += uv (uv v' - 2 u')`` and ``bend += -2 (u'^2 +
+    u u'') / v + uv (4 u' v' + u v'') / v - 2 uv^2 v'^2 / v`` with ``uv = u / v``: the same
+    operations in the same order, done in place."""
+    n = c.shape[0]
+    cc, ss = c * c, s * s
+    dv = c * s
+    dv *= k
+    ddv = cc - ss
+    ddv *= k
+    base = ss * q
+    base += cc
+    slope, bend = np.zeros(n), np.zeros(n)
+    u, du, v, uv, t1, t2, t3 = (np.empty(n) for _ in range(7))
+    for a, qb, (g, h) in zip(a_s, qb_s, g_h, strict=True):
+        np.multiply(a, c, out=u)
+        u += np.multiply(qb, s, out=t1)
+        u += g
+        np.multiply(qb, c, out=du)
+        du -= np.multiply(a, s, out=t1)
+        np.add(base, h, out=v)
+        np.divide(u, v, out=uv)
+        np.multiply(uv, dv, out=t1)
+        t1 -= np.multiply(du, 2.0, out=t2)
+        t1 *= uv
+        slope += t1
+        np.subtract(g, u, out=t1)
+        t1 *= u
+        np.multiply(du, du, out=t2)
+        t2 += t1
+        t2 *= -2.0
+        t2 /= v
+        np.multiply(du, 4.0, out=t1)
+        t1 *= dv
+        t1 += np.multiply(u, ddv, out=t3)
+        t1 *= uv
+        t1 /= v
+        t2 += t1
+        np.multiply(uv, 2.0, out=t1)
+        t1 *= uv
+        t1 *= dv
+        t1 *= dv
+        t1 /= v
+        t2 -= t1
+        bend += t2
+    return slope, bend
