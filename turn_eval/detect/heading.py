@@ -123,8 +123,9 @@ def camera_rays(
     :func:`noise_rays`, when given; straight ahead (``+y``, the camera's forward axis after
     ``--up-axis -y``) where that cannot tell."""
     r = np.hypot(mid_hip[:, 0], mid_hip[:, 1])
-    far = np.isfinite(r) & (r > ROOT_RELATIVE_WIDTHS * hip_width)
-    if jitter_joints is not None and not far.all():
+    far = r > ROOT_RELATIVE_WIDTHS * hip_width  # NaN compares False
+    # (an unknown mid-hip point has no heading to correct: only seen frames need the jitter)
+    if jitter_joints is not None and (r <= ROOT_RELATIVE_WIDTHS * hip_width).any():
         out = noise_rays(jitter_joints, fps_hz)
     else:
         out = np.zeros(mid_hip.shape, dtype=float)
