@@ -17,8 +17,8 @@ Identity breaks (:func:`identity_pieces`)
     synthetic sessions by up to a fifth within a turn), which no other person explains when
     both sides have the person's own size; left split, the turn was cut in two. A shorter
     piece stays apart: MediaPipe's first 11 frames on the real video, while its tracker
-    settles, are such a piece, and joined they made a false 50° turn. Root-relative streams (the pelvis at the
-    origin) have no position, so only their size is used.
+    settles, are such a piece, and joined they made a false 50° turn. Root-relative streams
+    (the pelvis at the origin) have no position, so only their size is used.
 Left/right swaps (:func:`repair_swaps`)
     For a few frames the estimator exchanges the left and right joints, mostly when the
     person faces away: the hip vector jumps by about 180° in one frame, which no body does
