@@ -17,11 +17,12 @@ detector. It is not a second algorithm; what an estimator's stream needs on top
    plain direction is their unit vectors averaged, each weighted by its pair's squared
    median width: the depth error of a monocular estimator is independent from joint to
    joint and turns a pair by about error / width, so the inverse-variance weight is the
-   squared width (the shoulders, 36 cm apart, count about twice the hips, 26 cm); on the
-   synthetic sessions two pairs cut the per-frame yaw error from about 10° (hips) to 7°,
-   and took F1 from 0.87 to 0.95. The shoulders' counter-rotation in gait also cancels
-   part of the pelvis's sway. The knees swing with every step and are left out by default
-   (with them F1 fell to 0.92); they still give the miner its stride period. The heading
+   squared width (the shoulders, 36 cm apart, count about twice the hips, 26 cm). On the
+   synthetic sessions (``benchmarks/eval_detect.py``, three seeds) the hips alone give F1
+   0.93-0.95, the hips and shoulders 0.975-0.982. The shoulders' counter-rotation in gait
+   also cancels part of the pelvis's sway. The knees swing with every step and are left
+   out by default (with them F1 is 0.93-0.94); they still give the miner its stride
+   period. The heading
    is then corrected, within ``ray_search_deg`` of that direction, by what an estimator
    gets right: the pairs' lengths and their positions across the camera's ray, against
    their depth (:mod:`turn_eval.detect.heading`: ``ray_noise_ratio``,
@@ -74,9 +75,9 @@ __all__ = ["DetectParams", "MinerRule", "DETECT_MINER_DEFAULTS", "split_overlaps
 #: of a second, so a turn's start and end are fitted from a 12° departure (the miner's 6° is
 #: reached by the wobble alone and stretched short turns by up to a second), a turn ends
 #: below 15 °/s, and the heading before and after a turn in place is averaged over a second
-#: (the miner's 0.6 s holds less of the wobble's slow error). On the synthetic untrimmed
-#: sessions (three seeds) these took F1 from 0.95 to 0.97-0.98 and matched accuracy from
-#: 93-94% to 95-97% (``benchmarks/eval_detect.py``).
+#: (the miner's 0.6 s holds less of the wobble's slow error). With the miner's own values
+#: instead (6°, 10 °/s, 0.6 s), the synthetic untrimmed sessions (``benchmarks/eval_detect.py``,
+#: three seeds) give twice the false turns and F1 0.968-0.972 against 0.975-0.982.
 DETECT_MINER_DEFAULTS = MinerParams(
     max_gap_s=0.5, onset_deg=12.0, stop_speed_deg_s=15.0, no_sway_window_s=1.0
 )
