@@ -22,6 +22,7 @@ from turn_datasets.h36m.miner import (
     MinerParams,
     _moving_mean,
     _period,
+    _prepared_frontal,
     _zero_phase_lowpass,
     find_turns,
     heading_runs,
@@ -290,6 +291,31 @@ def test_heading_runs_are_the_reports_rows_without_the_tables() -> None:
     assert report.turns["start_frame"].tolist() == runs.start[:1].tolist()
     assert report.rejected["end_frame"].tolist() == runs.end[1:].tolist()
     assert report.turns["angle_deg"].tolist() == np.abs(runs.net_deg[:1]).tolist()
+
+
+@pytest.mark.parametrize("cutoff_hz", [0.0, 6.0])
+def test_a_flip_bridged_through_zero_is_not_a_turn_nor_an_error(cutoff_hz) -> None:
+    # The vector flips across a one-frame gap: bridging puts that frame at exactly zero (the
+    # mean of e and -e), a vector with no direction. The hip line does not flip, so the
+    # runs are those of the same heading without the flip: one 90 deg pivot (this raised
+    # "not finite" before, on 60 mm of white depth error).
+    yaw = yaw_from_rates([(2.0, 0.0), (1.0, 90.0), (4.0, 0.0)])
+    frontal = 0.3 * np.column_stack((np.cos(np.radians(yaw)), np.sin(np.radians(yaw))))
+    flipped = frontal.copy()
+    flip = int(5.0 * FPS)
+    flipped[flip] = np.nan
+    flipped[flip + 1 :] *= -1.0
+    params = MinerParams(position_cutoff_hz=cutoff_hz)
+    if cutoff_hz == 0.0:
+        bridged = _prepared_frontal(flipped, None, FPS, params)[0][1]
+        assert not np.any(bridged[flip])  # the case: a frame with no direction at all
+    runs = heading_runs(flipped, fps_hz=FPS, params=params)
+    plain = heading_runs(frontal, fps_hz=FPS, params=params)
+    assert runs.reason.tolist() == plain.reason.tolist() == [""]
+    assert runs.start.tolist() == plain.start.tolist()
+    assert runs.end.tolist() == plain.end.tolist()
+    assert runs.net_deg[0] == pytest.approx(90.0, abs=3.0)
+    assert runs.net_deg[0] == pytest.approx(plain.net_deg[0], abs=1e-9)
 
 
 def test_sequences_without_usable_hips_are_refused() -> None:
