@@ -1,8 +1,10 @@
 """Shared by ``bench_estimate_dask`` and ``bench_estimate_resume``: six copies of the bundled
-video estimated serially and on two local Dask workers, once per ``make bench`` process.
+video estimated serially and on two local Dask workers, once per process.
 
 Not a benchmark itself (no ``bench_`` prefix): the two benchmarks load it under one name, so
-the first run (minutes on 2 cores) is made once and timed by both.
+that run by hand in one process, the first run (a minute or two on 2 cores) is made once and
+timed by both. ``benchmarks/run.py`` gives each benchmark a process of its own, so there each
+makes and times its own.
 """
 
 from __future__ import annotations

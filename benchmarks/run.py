@@ -20,9 +20,14 @@ run, not a failure) and ``make bench`` runs it again in the environment that has
 
 Optional keys ``baseline`` (what the ratio divides by) and ``seconds`` (the measured time)
 are printed when given; ``wall_s`` is the benchmark's whole run, setup and baseline
-included. The table goes to stdout as Markdown, and nothing else does (what a benchmark
-prints goes to stderr); a benchmark that raises is listed as ``error`` with its message and
-does not stop the others. The exit code is 0 once
+included. Each benchmark runs in a fresh Python process of its own (its baseline beside it,
+in that process): what one leaves behind (a Dask cluster's threads, a large heap for the
+garbage collector to walk, caches) cannot slow the next, so a row does not depend on which
+ran before it (the server's upload latency read 0.75-0.84 alone, 0.91 after ``detect`` in
+one process and 1.05 last in one ``make bench``). The table goes to stdout as Markdown, and
+nothing else does (what a benchmark prints goes to stderr); a benchmark that raises, or
+whose process dies, is listed as ``error`` with its message and does not stop the others.
+The exit code is 0 once
 the table is printed (timings vary between machines; the table is the result), or 1 with
 ``--strict`` when any benchmark failed its target or raised.
 
@@ -37,14 +42,17 @@ from __future__ import annotations
 import argparse
 import contextlib
 import importlib.util
+import json
 import math
 import operator
 import re
+import subprocess
 import sys
+import tempfile
 import time
 import traceback
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from types import ModuleType
 
@@ -127,6 +135,39 @@ def parse_target(target: object) -> tuple[Callable[[float, float], bool], float,
 
 
 def run_one(path: Path) -> Row:
+    """:func:`run_here` in a fresh Python process of its own (module docstring): its row comes
+    back through a file, so nothing the benchmark or its children print can garble it; its
+    stderr is this process's."""
+    name = path.stem.removeprefix("bench_")
+    start = time.perf_counter()
+    # the child's prints go straight to this process's stderr where it is a file (live
+    # progress), else (a caller that swapped sys.stderr for an object) through it afterwards
+    try:
+        sink = sys.stderr.fileno()
+    except (AttributeError, OSError, ValueError):
+        sink = None
+    with tempfile.TemporaryDirectory(prefix="turnbench-bench-row-") as tmp:
+        out = Path(tmp) / "row.json"
+        proc = subprocess.run(
+            [sys.executable, str(Path(__file__).resolve()), "--one", str(path), "--row", str(out)],
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.PIPE if sink is None else sink,
+            stderr=subprocess.PIPE if sink is None else None,
+            text=True,
+            check=False,
+        )
+        if sink is None:
+            sys.stderr.write((proc.stdout or "") + (proc.stderr or ""))
+        if proc.returncode == 0 and out.is_file():
+            return Row(**json.loads(out.read_text(encoding="utf-8")))
+    return Row(
+        benchmark=name,
+        what=f"its process exited with code {proc.returncode} before reporting",
+        wall_s=time.perf_counter() - start,
+    )
+
+
+def run_here(path: Path) -> Row:
     """Import one benchmark file, call its ``run()`` and judge the ratio against its target."""
     name = path.stem.removeprefix("bench_")
     row = Row(benchmark=name)
@@ -196,7 +237,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--dir", type=Path, default=BENCH_DIR, help="Folder holding the bench_*.py files."
     )
+    # the child's side of run_one: one benchmark, its row written as JSON to --row
+    parser.add_argument("--one", type=Path, help=argparse.SUPPRESS)
+    parser.add_argument("--row", type=Path, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    if args.one is not None:
+        if args.row is None:
+            parser.error("--one needs --row")
+        row = run_here(args.one)
+        args.row.write_text(json.dumps(asdict(row)), encoding="utf-8")
+        return 0
     paths = discover(args.dir, args.only)
     if not paths:
         print(f"no bench_*.py in {args.dir}", file=sys.stderr)

@@ -6,6 +6,7 @@ The benchmarks here are fakes written into a temporary folder (nothing is timed)
 from __future__ import annotations
 
 import importlib.util
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -169,3 +170,47 @@ def test_a_benchmark_needing_a_missing_package_is_skipped_not_failed(
     cells = [c.strip() for c in row.split("|")[1:-1]]
     assert cells[0] == "needs" and cells[7] == "skipped"
     assert "turnbench_no_such_package" in cells[1]
+
+
+def test_each_benchmark_runs_in_a_process_of_its_own(tmp_path: Path, capsys) -> None:
+    # "a" leaves state behind in its interpreter (as a Dask cluster's threads or a large heap
+    # would); "b" would read it and fail. Run one after the other, neither sees the other.
+    _bench(
+        tmp_path,
+        "a",
+        "import builtins, os\n"
+        "def run():\n"
+        "    builtins.TURNBENCH_LEFT_BEHIND = True\n"
+        "    return {'what': str(os.getpid()), 'size': '1', 'ratio': 1.0, 'target': 1.5}\n",
+    )
+    _bench(
+        tmp_path,
+        "b",
+        "import builtins, os\n"
+        "def run():\n"
+        "    left = hasattr(builtins, 'TURNBENCH_LEFT_BEHIND')\n"
+        "    return {'what': str(os.getpid()), 'size': '1', 'ratio': 2.0 if left else 1.0,\n"
+        "            'target': 1.5}\n",
+    )
+    assert run.main(["--dir", str(tmp_path), "--strict"]) == 0
+    rows = [line.split("|")[1:-1] for line in capsys.readouterr().out.strip().splitlines()[2:]]
+    pids = {r[0].strip(): int(r[1]) for r in rows}
+    assert [r[7].strip() for r in rows] == ["pass", "pass"]
+    assert len({pids["a"], pids["b"], os.getpid()}) == 3
+
+
+def test_a_benchmark_whose_process_dies_is_an_error_row(tmp_path: Path, capsys) -> None:
+    _bench(tmp_path, "dies", "import os\ndef run():\n    os._exit(7)\n")
+    _bench(
+        tmp_path,
+        "fine",
+        "def run():\n    return {'what': 'x', 'size': '1', 'ratio': 1, 'target': 2}\n",
+    )
+    assert run.main(["--dir", str(tmp_path), "--strict"]) == 1
+    rows = {
+        line.split("|")[1].strip(): [c.strip() for c in line.split("|")[1:-1]]
+        for line in capsys.readouterr().out.strip().splitlines()[2:]
+    }
+    assert rows["dies"][7] == "error"
+    assert "exited with code 7" in rows["dies"][1]
+    assert rows["fine"][7] == "pass"
