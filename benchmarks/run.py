@@ -23,12 +23,10 @@ are printed when given; ``wall_s`` is the benchmark's whole run, setup and basel
 included. Each benchmark runs in a fresh Python process of its own (its baseline beside it,
 in that process): what one leaves behind (a Dask cluster's threads, a large heap for the
 garbage collector to walk, caches) cannot slow the next, so a row does not depend on which
-ran before it (the server's upload latency read 0.75-0.84 alone, 0.91 after ``detect`` in
-one process and 1.05 last in one ``make bench``). The table goes to stdout as Markdown, and
-nothing else does (what a benchmark prints goes to stderr); a benchmark that raises, or
-whose process dies, is listed as ``error`` with its message and does not stop the others.
-The exit code is 0 once
-the table is printed (timings vary between machines; the table is the result), or 1 with
+ran before it. The table goes to stdout as Markdown, and nothing else does (what a
+benchmark prints goes to stderr); a benchmark that raises, or whose process dies, is listed
+as ``error`` with its message and does not stop the others. The exit code is 0 once the
+table is printed (timings vary between machines; the table is the result), or 1 with
 ``--strict`` when any benchmark failed its target or raised.
 
 Example::
