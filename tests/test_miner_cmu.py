@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import run_turn_eval
+from conftest import REPO, run_turn_eval
 from scipy.spatial.transform import Rotation
 
 from turn_datasets.h36m.miner import mine_sequence
@@ -125,6 +125,30 @@ def test_every_listed_trial_mined_against_the_roots_heading(cmu_dir) -> None:
             assert abs(heading[e - 1] - after) < 0.15 * abs(t), (name, e)
         report.append((name, clips.net_deg.round(1).tolist(), truth.round(1).tolist()))
     assert len(report) >= 5
+
+
+def test_the_readmes_cmu_table_is_what_the_miner_gives(cmu_dir) -> None:
+    """Every row of the README's CMU table (mined angles, the root's heading change, the hip
+    rotation, to 0.1°) is what the miner and the root's own rotation give now."""
+    lines = (REPO / "README.md").read_text(encoding="utf-8").splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("| trial | CMU's"))
+    rows = {}
+    for line in lines[start + 2 :]:
+        if not line.startswith("|"):
+            break
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        rows[cells[0] + ".bvh"] = [
+            [float(x) for x in re.findall(r"\d+\.\d", c)] for c in cells[2:5]
+        ]
+    assert set(rows) == {name for name, _, _ in source_table(cmu_dir)}
+    for name, (mined, root, hip) in rows.items():
+        (seq,) = readers.read_source(cmu_dir / name, skip_first_frame=True)
+        clips = mine_sequence(seq.positions, layout=seq.layout, fps_hz=seq.fps)
+        starts, ends = clips.start_frame.tolist(), clips.end_frame.tolist()
+        truth = np.abs(true_angles(root_heading_deg(cmu_dir / name), starts, ends, seq.fps))
+        assert clips.angle_deg.round(1).tolist() == mined, name
+        assert truth.round(1).tolist() == root, name
+        assert clips.hip_rotation_deg.round(1).tolist() == hip, name
 
 
 def _stride_sway_amplitudes_deg(heading: np.ndarray, fps: float) -> list[float]:
