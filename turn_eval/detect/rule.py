@@ -22,10 +22,9 @@ detector. It is not a second algorithm; what an estimator's stream needs on top
    0.93-0.95, the hips and shoulders 0.975-0.982. The shoulders' counter-rotation in gait
    also cancels part of the pelvis's sway. The knees swing with every step and are left
    out by default (with them F1 is 0.93-0.94); they still give the miner its stride
-   period. The heading
-   is then corrected, within ``ray_search_deg`` of that direction, by what an estimator
-   gets right: the pairs' lengths and their positions across the camera's ray, against
-   their depth (:mod:`turn_eval.detect.heading`: ``ray_noise_ratio``,
+   period. The heading is then corrected, within ``ray_search_deg`` of that direction, by
+   what an estimator gets right: the pairs' lengths and their positions across the
+   camera's ray, against their depth (:mod:`turn_eval.detect.heading`: ``ray_noise_ratio``,
    ``lateral_noise_widths``; a root-relative stream's ray is read from its jitter).
 4. **The miner's rule** on that vector (:func:`turn_datasets.h36m.miner.mine_heading`),
    with its gap bridging (``max_gap_s``: longer gaps cut the stream, so a turn is never
