@@ -222,6 +222,18 @@ def test_generator_sway_is_what_cmus_walks_show(cmu_dir) -> None:
     assert np.median(synth) == pytest.approx(sm.SWAY_DEG / 2, abs=0.3)
 
 
+def test_the_readmes_cmu_sway_is_what_the_walks_show(cmu_dir) -> None:
+    """The README's pelvic sway of the CMU walks (per stride, on the root's own yaw, to
+    0.1°) is what the straight walks' root rotation gives now."""
+    said = []
+    for trial in ("69_01", "16_21"):
+        (seq,) = readers.read_source(cmu_dir / f"{trial}.bvh", skip_first_frame=True)
+        amps = _stride_sway_amplitudes_deg(root_heading_deg(cmu_dir / f"{trial}.bvh"), seq.fps)
+        said.append(" and ".join(f"±{a:.1f}°" for a in amps) + f" in {trial}")
+    text = " ".join((REPO / "README.md").read_text(encoding="utf-8").split())
+    assert f"measured on the root's yaw about its stride mean, is {' and '.join(said)}." in text
+
+
 def test_detect_reads_the_same_captures_and_finds_the_same_turns(cmu_dir, tmp_path, capsys) -> None:
     """``turn-eval detect --from mocap`` on the real captures: every trial's turns by count
     and direction as SOURCE.md lists them (69_17's three turns in place and 69_19's four
