@@ -7,10 +7,12 @@ artefacts), runs the built-in detector (``min_turn_deg`` 67.5, as ``eval_detect.
 matches each labelled turn to the detection of the same person with the largest temporal IoU
 (at least 0.5). On the matched turns: the share within one step of the planted count, the
 share exactly right, the share of the right turn type, and per cohort the mean planted and
-measured steps.
+measured steps. The sessions are ``eval_detect.py``'s, with its two options: ``--plain``
+leaves out the movements of real life, ``--white-depth-mm`` sets the estimator's white
+depth error per joint (0 turns it off; the ankles' speed is then no longer noise).
 
-Run: ``python benchmarks/eval_steps.py [--seeds 1 2 3] [--pairs 8] [--duration 600]``;
-prints a Markdown table.
+Run: ``python benchmarks/eval_steps.py [--seeds 1 2 3] [--pairs 8] [--duration 600] [--plain]
+[--white-depth-mm 30]``; prints a Markdown table.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ import pandas as pd
 from turn_datasets.render.markdown import markdown_table
 from turn_datasets.skeleton import H36M17
 from turn_datasets.synthetic.untrimmed import (
+    PLAIN_MOVEMENT,
     REAL_MOVEMENT,
     ArtefactParams,
     MovementMix,
@@ -110,12 +113,31 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
     parser.add_argument("--pairs", type=int, default=8)
     parser.add_argument("--duration", type=float, default=600.0)
+    parser.add_argument(
+        "--plain", action="store_true", help="sessions without the movements of real life"
+    )
+    parser.add_argument(
+        "--white-depth-mm",
+        type=float,
+        default=ArtefactParams.white_depth_sd_mm,
+        help="the estimator's white depth error per joint, facing the camera (doubled with "
+        "the back to it), mm",
+    )
     args = parser.parse_args()
+    movement = PLAIN_MOVEMENT if args.plain else REAL_MOVEMENT
+    artefacts = ArtefactParams(white_depth_sd_mm=args.white_depth_mm)
     with tempfile.TemporaryDirectory() as tmp:
         rows = [
             r
             for seed in args.seeds
-            for r in evaluate(seed, Path(tmp), n_pairs=args.pairs, duration_s=args.duration)
+            for r in evaluate(
+                seed,
+                Path(tmp),
+                n_pairs=args.pairs,
+                duration_s=args.duration,
+                movement=movement,
+                artefacts=artefacts,
+            )
         ]
     header = list(rows[0])
     cells = [[f"{v:.3f}" if isinstance(v, float) else v for v in r.values()] for r in rows]

@@ -61,6 +61,78 @@ def test_the_untrimmed_stage_finds_the_same_turns_in_every_environment(full_demo
     assert len(detections) == tp + fp
 
 
+def _readme_words() -> str:
+    """The README with every run of white space one blank (its lines wrap anywhere)."""
+    return " ".join(README.read_text(encoding="utf-8").split())
+
+
+def test_the_readmes_miner_check_is_the_full_demos(full_demo: Path) -> None:
+    """The README's planted range (step 1) and its miner figures on the demo corpus (the
+    miner's rule section), from the full demo's planted turns, clip index and matches."""
+    import numpy as np
+    import pandas as pd
+
+    from turn_datasets.render.numbers import fixed
+
+    planted = pd.read_csv(full_demo / "corpus" / "h36m" / "planted.csv")
+    matched = pd.read_csv(full_demo / "h36m" / "miner-check.csv")
+    index = pd.read_csv(full_demo / "h36m" / "turn-h36m.csv")
+    found = matched[matched["found"]]
+    big = found[found["angle_deg"] >= 60.0]
+    assert len(matched) == len(planted)
+    # the README says "100% (all N)" of both: a turn missed or a spurious clip changes it
+    assert len(found) == len(matched)
+    assert set(index["clip_id"]) <= set(found["clip_id"])
+
+    def median(frame: pd.DataFrame, column: str) -> str:
+        return fixed(np.median(np.abs(frame[column])), 2)
+
+    angle = fixed(np.median(np.abs(found["mined_angle_deg"] - found["angle_deg"])), 1)
+    low, high = (fixed(v, 0) for v in (planted["angle_deg"].min(), planted["angle_deg"].max()))
+    text = _readme_words()
+    for claim in (
+        f"Turns with heading changes of {low}° to {high}° are planted",
+        f"Measured on the demo corpus ({len(planted)} planted turns,",
+        f"recall of the planted turns: 100% (all {len(planted)});",
+        "mined clips that cover a planted turn: 100%;",
+        f"median angle error against the planted heading change: {angle}°;",
+        f"median boundary error: {median(found, 'start_error_s')} s at the start and "
+        f"{median(found, 'end_error_s')} s at the end ({median(big, 'start_error_s')} s and "
+        f"{median(big, 'end_error_s')} s for turns of 60° or more).",
+    ):
+        assert claim in text, claim
+
+
+def test_the_readmes_remap_open_and_untrimmed_figures_are_the_full_demos(full_demo: Path) -> None:
+    """The README's REMAP Open figures (step 8 and "What to expect against the paper": turns,
+    participants, the net method's scores) and the untrimmed stage's hours of streams and
+    timelines, from the full demo's own files."""
+    import json
+
+    import pandas as pd
+
+    from turn_datasets.render.numbers import fixed
+
+    labels = pd.read_csv(full_demo / "remap-open" / "data" / "labels.csv")
+    scores = json.loads((full_demo / "remap-open" / "scores" / "scores.json").read_text())
+    overall = scores["overall"]
+    turns, people = len(labels), labels["subject"].nunique()
+    assert overall["n"] == turns
+    recorded = pd.read_csv(full_demo / "untrimmed" / "recorded_sessions.csv")
+    hours = fixed(recorded["duration_s"].sum() / 3600.0, 1)
+    timelines = len(list((full_demo / "untrimmed" / "events" / "timelines").glob("*.png")))
+    text = _readme_words()
+    for claim in (
+        f"{people} participants, {turns} turns, an `.xlsx` rater spreadsheet",
+        f"({turns} turns of {people} participants, clean synthetic",
+        f"the net method scores {fixed(100 * overall['accuracy'], 1)}% accuracy, "
+        f"{fixed(overall['mae_deg'], 1)}° MAE and {fixed(100 * overall['wprec'], 1)}% WPrec",
+        f"for its {turns} turns)",
+        f"writes and scores {hours} hours of streams with {timelines} timelines",
+    ):
+        assert claim in text, claim
+
+
 def test_results_block_by_hand(tmp_path: Path) -> None:
     """The block's figures from hand-made result files: percentages with one decimal, the
     speed MAE blank where absent, the untrimmed counts and both kappas."""

@@ -696,3 +696,20 @@ def test_cmu_captures_mined_with_no_option_find_exactly_the_described_turns(cmu_
     assert len(pd.read_csv(kept)) == 0
     manifest = json.loads((tmp_path / "kept.manifest.json").read_text())
     assert [i["frame_offset"] for i in manifest["inputs"]] == [0]
+
+
+def test_the_readmes_miner_defaults_are_the_options_defaults(capsys) -> None:
+    """The README's "Defaults:" line of the miner's rule names every rule option of ``h36m
+    mine`` with its default, and no other."""
+    from dataclasses import fields
+
+    text = " ".join((REPO / "README.md").read_text(encoding="utf-8").split())
+    line = text.split("Defaults: ", 1)[1].split(". ", 1)[0]
+    said = dict(re.findall(r"`--([a-z-]+) ([0-9.]+)`", line))
+    prm = MinerParams()
+    want = {f.name.replace("_", "-"): f"{getattr(prm, f.name):g}" for f in fields(prm)}
+    assert said == want
+    code, out, err = run(["h36m", "mine", "--help"], capsys)
+    assert code == 0, err
+    for name in want:
+        assert f"--{name} " in out, name

@@ -151,6 +151,37 @@ def test_the_readmes_cmu_table_is_what_the_miner_gives(cmu_dir) -> None:
         assert clips.hip_rotation_deg.round(1).tolist() == hip, name
 
 
+def _signed(value: float) -> str:
+    """``+5.3°`` or ``−1.0°``, as the README writes a signed difference (U+2212 for minus)."""
+    return f"{value:+.1f}°".replace("-", "\u2212")
+
+
+def test_the_readmes_hip_rotation_range_is_what_the_miner_gives(cmu_dir) -> None:
+    """The miner's rule section: how far ``hip_rotation_deg`` is off the heading change
+    (``angle_deg``) on the CMU table's walking turns (the trials CMU describes as walks), from
+    its lowest to its highest, is what the miner gives now."""
+    lines = (REPO / "README.md").read_text(encoding="utf-8").splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("| trial | CMU's"))
+    walks = []
+    for line in lines[start + 2 :]:
+        if not line.startswith("|"):
+            break
+        trial, description = (c.strip() for c in line.strip("|").split("|")[:2])
+        if description.startswith("walk"):
+            walks.append(trial + ".bvh")
+    off = []
+    for name in walks:
+        (seq,) = readers.read_source(cmu_dir / name, skip_first_frame=True)
+        clips = mine_sequence(seq.positions, layout=seq.layout, fps_hz=seq.fps)
+        off += (clips.hip_rotation_deg.abs() - clips.angle_deg.abs()).tolist()
+    assert len(off) >= 5  # four corners and the curved walk
+    text = " ".join(" ".join(lines).split())
+    claim = (
+        f"it is off by {_signed(min(off))} to {_signed(max(off))} on the CMU walking turns below"
+    )
+    assert claim in text
+
+
 def _stride_sway_amplitudes_deg(heading: np.ndarray, fps: float) -> list[float]:
     """Half the peak-to-peak of the heading about its stride mean, one value per stride.
 
@@ -189,6 +220,18 @@ def test_generator_sway_is_what_cmus_walks_show(cmu_dir) -> None:
     yaw = np.degrees(np.unwrap(np.radians(walk.true_yaw_deg)))
     synth = _stride_sway_amplitudes_deg(yaw[100:-100], walk.fps)
     assert np.median(synth) == pytest.approx(sm.SWAY_DEG / 2, abs=0.3)
+
+
+def test_the_readmes_cmu_sway_is_what_the_walks_show(cmu_dir) -> None:
+    """The README's pelvic sway of the CMU walks (per stride, on the root's own yaw, to
+    0.1°) is what the straight walks' root rotation gives now."""
+    said = []
+    for trial in ("69_01", "16_21"):
+        (seq,) = readers.read_source(cmu_dir / f"{trial}.bvh", skip_first_frame=True)
+        amps = _stride_sway_amplitudes_deg(root_heading_deg(cmu_dir / f"{trial}.bvh"), seq.fps)
+        said.append(" and ".join(f"±{a:.1f}°" for a in amps) + f" in {trial}")
+    text = " ".join((REPO / "README.md").read_text(encoding="utf-8").split())
+    assert f"measured on the root's yaw about its stride mean, is {' and '.join(said)}." in text
 
 
 def test_detect_reads_the_same_captures_and_finds_the_same_turns(cmu_dir, tmp_path, capsys) -> None:

@@ -8,9 +8,11 @@ right type on at least 90%, on clean skeletons.
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
-from conftest import run_turn_eval
+from conftest import REPO, run_turn_eval
 
 from turn_datasets.skeleton import H36M17, H36M17_FROM_32, H36M32
 from turn_datasets.synthetic import mocap as sm
@@ -93,6 +95,43 @@ def test_estimator_noise_figures(clean):
     diff = got["steps"].to_numpy() - clean.planted["steps"].to_numpy()
     assert np.mean(np.abs(diff) <= 1) >= 0.85
     assert np.mean(got["turn_type"].to_numpy() == clean.planted["turn_type"].to_numpy()) >= 0.85
+
+
+def _percent_range(shares: list[float]) -> str:
+    """``97.5-100``, as the README writes a range of shares (one decimal, no trailing zero)."""
+    lo, hi = (f"{round(100 * x, 1):g}" for x in (min(shares), max(shares)))
+    return lo if lo == hi else f"{lo}-{hi}"
+
+
+def test_the_readmes_steps_figures_are_what_the_counter_gives():
+    """The README's "Measured" steps figures (profile section): seeds 1-3 of 40 turns, every
+    count exact and every type right on the clean skeletons, and the shares within one step,
+    exact and of the right type under the demo's estimator errors (degraded with the same
+    seed), against the generator's planted footsteps."""
+    within, exact, typed = [], [], []
+    for seed in (1, 2, 3):
+        seq = sm.generate_sequence(
+            seed=seed, segments=_segments(seed), noise_mm=0.0, footsteps=True
+        )
+        planted = seq.planted
+        clean = _measure(seq, seq.positions, H36M32)
+        np.testing.assert_array_equal(clean["steps"], planted["steps"])
+        assert list(clean["turn_type"]) == list(planted["turn_type"])
+        deg = degrade_skeleton(seq.positions, H36M32, seed=seed, fps=seq.fps)
+        got = _measure(seq, deg.positions, H36M32)
+        diff = got["steps"].to_numpy() - planted["steps"].to_numpy()
+        within.append(float(np.mean(np.abs(diff) <= 1)))
+        exact.append(float(np.mean(diff == 0)))
+        typed.append(float(np.mean(got["turn_type"].to_numpy() == planted["turn_type"].to_numpy())))
+    text = " ".join((REPO / "README.md").read_text(encoding="utf-8").split())
+    assert "every count is exact and every type right" in text
+    claim = re.search(
+        r"dropouts\) (\S+)% are within one step \((\S+)% exact\) and (\S+)% of the right type "
+        r"\(seeds 1-3",
+        text,
+    )
+    assert claim is not None
+    assert claim.groups() == tuple(_percent_range(v) for v in (within, exact, typed))
 
 
 def test_a_jittering_foot_makes_no_step():
