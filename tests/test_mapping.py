@@ -244,6 +244,30 @@ def test_ctrl_c_with_workers_is_one_line_exit_130_and_leaves_nothing(tmp_path, t
     assert not out.exists()
 
 
+def test_a_ctrl_c_that_something_swallows_is_still_noted() -> None:
+    # A Dask call into its event loop can catch the KeyboardInterrupt of a Ctrl-C; the run
+    # then heard only of its workers' deaths and reported a file that killed its worker
+    # (exit 2). The Ctrl-C is noted as well as raised, and the handler put back after.
+    pressed: list[int] = []
+    before = signal.getsignal(signal.SIGINT)
+    with files._noting_interrupts(pressed):
+        with pytest.raises(KeyboardInterrupt):
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(1.0)  # the handler runs at the next bytecode, well within this
+        assert pressed == [signal.SIGINT]
+    assert signal.getsignal(signal.SIGINT) is before
+    # ignored before (a job started in the background), ignored inside: neither noted nor
+    # raised
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        with files._noting_interrupts(pressed):
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.2)
+    finally:
+        signal.signal(signal.SIGINT, before)
+    assert pressed == [signal.SIGINT]
+
+
 def test_runs_of_files_are_cut_into_about_equal_tasks_in_order() -> None:
     assert files._batches(list(range(10)), 4) == [[0, 1], [2, 3, 4], [5, 6], [7, 8, 9]]
     assert files._batches([3, 5, 8], 8) == [[3], [5], [8]]  # never an empty task

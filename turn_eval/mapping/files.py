@@ -29,11 +29,14 @@ Progress: with ``on_progress``, ``fn`` is also given ``on_progress(n)`` to call 
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
+import signal
+import threading
 import time
 import uuid
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -179,6 +182,35 @@ def _batches(indices: list[int], n_tasks: int) -> list[list[int]]:
     return [indices[a:b] for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
 
 
+@contextlib.contextmanager
+def _noting_interrupts(pressed: list[int]) -> Iterator[None]:
+    """Ctrl-C is noted in ``pressed`` and then raised as before.
+
+    Ctrl-C at a terminal signals the workers too: they die, and the client may hear of
+    their deaths before its own ``KeyboardInterrupt`` surfaces (a Dask call into its event
+    loop can swallow it). A task that ends after a noted Ctrl-C, or dies as it arrives, is
+    the user's interrupt, not a file that killed its worker: a run once reported "the
+    worker process died" and exit 2 for a Ctrl-C. Signal handlers can only be set in the
+    main thread, and an ignored SIGINT stays ignored."""
+    previous = signal.getsignal(signal.SIGINT)
+    if threading.current_thread() is not threading.main_thread() or previous == signal.SIG_IGN:
+        yield  # not ours to handle, or ignored (a job started in the background)
+        return
+
+    def note(signum: int, frame: Any) -> None:
+        pressed.append(signum)
+        if callable(previous):
+            previous(signum, frame)
+        else:
+            raise KeyboardInterrupt
+
+    signal.signal(signal.SIGINT, note)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def _distributed(
     fn: Callable[..., Any],
     files: Sequence[str],
@@ -201,7 +233,8 @@ def _distributed(
     token = uuid.uuid4().hex
     name = getattr(fn, "__name__", "task")
     logging.getLogger("distributed.scheduler").addFilter(_NO_DEATH_NOTICE)
-    with connect(workers=workers, scheduler=scheduler) as client:
+    pressed: list[int] = []
+    with connect(workers=workers, scheduler=scheduler) as client, _noting_interrupts(pressed):
         on_start()
         topic = None
         if on_progress is not None:
@@ -228,8 +261,12 @@ def _distributed(
 
         finished = as_completed([submit(g) for g in groups])
         for future in finished:
+            if pressed:  # a Ctrl-C that Dask swallowed: its workers' deaths are not files'
+                raise KeyboardInterrupt
             group, _ = sent.pop(future.key)
             died = future.status == "error" and isinstance(future.exception(), KilledWorker)
+            if died and pressed:
+                raise KeyboardInterrupt
             if died and len(group) > 1:
                 # which of its files killed the worker is unknown: each is sent again alone,
                 # so that one dies alone and the others give their results
