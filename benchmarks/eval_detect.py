@@ -123,9 +123,9 @@ def evaluate(
     return out
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
+def add_session_options(parser: argparse.ArgumentParser) -> None:
+    """The sessions' two options, for this script and ``eval_steps.py``: ``--plain`` and
+    ``--white-depth-mm`` (:func:`session_settings` reads them)."""
     parser.add_argument(
         "--plain", action="store_true", help="sessions without the movements of real life"
     )
@@ -136,9 +136,20 @@ def main() -> None:
         help="the estimator's white depth error per joint, facing the camera (doubled with "
         "the back to it), mm",
     )
-    args = parser.parse_args()
+
+
+def session_settings(args: argparse.Namespace) -> tuple[MovementMix, ArtefactParams]:
+    """The movements and artefacts that :func:`add_session_options`' options ask for."""
     movement = PLAIN_MOVEMENT if args.plain else REAL_MOVEMENT
-    artefacts = ArtefactParams(white_depth_sd_mm=args.white_depth_mm)
+    return movement, ArtefactParams(white_depth_sd_mm=args.white_depth_mm)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
+    add_session_options(parser)
+    args = parser.parse_args()
+    movement, artefacts = session_settings(args)
     with tempfile.TemporaryDirectory() as tmp:
         rows = [r for seed in args.seeds for r in evaluate(seed, Path(tmp), movement, artefacts)]
     header = list(rows[0])

@@ -18,6 +18,8 @@ Run: ``python benchmarks/eval_steps.py [--seeds 1 2 3] [--pairs 8] [--duration 6
 from __future__ import annotations
 
 import argparse
+import importlib.util
+import sys
 import tempfile
 from dataclasses import replace
 from pathlib import Path
@@ -28,7 +30,6 @@ import pandas as pd
 from turn_datasets.render.markdown import markdown_table
 from turn_datasets.skeleton import H36M17
 from turn_datasets.synthetic.untrimmed import (
-    PLAIN_MOVEMENT,
     REAL_MOVEMENT,
     ArtefactParams,
     MovementMix,
@@ -108,24 +109,27 @@ def evaluate(
     return out
 
 
+def _eval_detect():
+    """``eval_detect.py`` beside this file (benchmarks/ is not a package): its sessions'
+    options are declared there once."""
+    spec = importlib.util.spec_from_file_location(
+        "turnbench_eval_detect", Path(__file__).with_name("eval_detect.py")
+    )
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
     parser.add_argument("--pairs", type=int, default=8)
     parser.add_argument("--duration", type=float, default=600.0)
-    parser.add_argument(
-        "--plain", action="store_true", help="sessions without the movements of real life"
-    )
-    parser.add_argument(
-        "--white-depth-mm",
-        type=float,
-        default=ArtefactParams.white_depth_sd_mm,
-        help="the estimator's white depth error per joint, facing the camera (doubled with "
-        "the back to it), mm",
-    )
+    eval_detect = _eval_detect()
+    eval_detect.add_session_options(parser)
     args = parser.parse_args()
-    movement = PLAIN_MOVEMENT if args.plain else REAL_MOVEMENT
-    artefacts = ArtefactParams(white_depth_sd_mm=args.white_depth_mm)
+    movement, artefacts = eval_detect.session_settings(args)
     with tempfile.TemporaryDirectory() as tmp:
         rows = [
             r

@@ -142,6 +142,20 @@ def test_a_jittering_foot_makes_no_step():
     assert foot_swings(seq.positions, H36M32, seq.fps) == []
 
 
+def _monocular(seq, seed: int, **degrade) -> np.ndarray:
+    """``seq`` as the synthetic home sessions' estimator sees it: 30 mm of white depth error
+    per joint (60 mm with the back to the camera) and 8 mm of jitter, besides ``degrade``."""
+    return degrade_skeleton(
+        seq.positions,
+        H36M32,
+        seed=seed,
+        fps=seq.fps,
+        white_depth_sd_mm=30.0,
+        joint_noise_mm=8.0,
+        **degrade,
+    ).positions
+
+
 def test_steps_under_a_monocular_depth_error():
     """A white depth error of 30 mm per joint and frame along the camera ray (60 mm with the
     back to it) and 8 mm of jitter, at 30 fps, as the synthetic home sessions plant it: a
@@ -153,15 +167,7 @@ def test_steps_under_a_monocular_depth_error():
         seq = sm.generate_sequence(
             seed=seed, segments=_segments(seed), noise_mm=0.0, footsteps=True, fps_hz=30.0
         )
-        deg = degrade_skeleton(
-            seq.positions,
-            H36M32,
-            seed=seed,
-            fps=seq.fps,
-            white_depth_sd_mm=30.0,
-            joint_noise_mm=8.0,
-        )
-        got = _measure(seq, deg.positions, H36M32)
+        got = _measure(seq, _monocular(seq, seed), H36M32)
         planted = seq.planted
         diff = got["steps"].to_numpy() - planted["steps"].to_numpy()
         assert np.mean(np.abs(diff) <= 1) >= 0.85, seed
@@ -172,17 +178,8 @@ def test_steps_under_a_monocular_depth_error():
         still = sm.generate_sequence(
             seed=seed, segments=[sm.Segment.stand(30.0)], noise_mm=0.0, footsteps=True, fps_hz=30.0
         )
-        deg = degrade_skeleton(
-            still.positions,
-            H36M32,
-            seed=seed,
-            fps=still.fps,
-            white_depth_sd_mm=30.0,
-            joint_noise_mm=8.0,
-            depth_sd_facing_mm=0.0,
-            depth_sd_away_mm=0.0,
-        )
-        assert foot_swings(deg.positions, H36M32, still.fps) == [], seed
+        deg = _monocular(still, seed, depth_sd_facing_mm=0.0, depth_sd_away_mm=0.0)
+        assert foot_swings(deg, H36M32, still.fps) == [], seed
 
 
 def test_pivot_rule_and_step_count_by_hand():
