@@ -24,8 +24,8 @@ ankles (Human3.6M's ``left_foot``/``right_foot`` joints are the ankles) they are
    estimator's depth error is not a step; turning steps in PD are short, so not more).
 3. **Steps** are the foot contacts during the turn: swings whose landing lies from the
    turn's first frame to ``landing_margin_s`` after its last. The landing is the run's last
-   frame less a quarter of the averaging window, for about that long the average still
-   moves after the foot has stopped: on the CMU captures of ``../shared/data/cmu-mocap``
+   frame less a quarter of the averaging window (the average still moves for about that
+   long after the foot has stopped): on the CMU captures of ``../shared/data/cmu-mocap``
    (56 landings) it then falls a median 0.01 s before the frame where the unaveraged speed
    drops under the threshold (0.04 s after it taken as it is, 0.06 s before it less half
    the window). The heading stops changing as the last foot lands, and a turn's end is
@@ -179,8 +179,8 @@ def _pinned(p: np.ndarray, layout: Layout, leg: float) -> bool:
 def foot_swings(
     positions: np.ndarray, layout: Layout, fps_hz: float, params: StepParams | None = None
 ) -> list[tuple[int, int, int]]:
-    """Every swing of both feet: ``(foot, first_frame, last_frame)``, foot 0 right, 1 left,
-    in order of landing (module docstring, steps 1 and 2)."""
+    """Every swing of both feet: ``(foot, first_frame, landing_frame)``, foot 0 right, 1
+    left, in order of landing (module docstring, steps 1 to 3)."""
     prm = params or StepParams()
     p = np.asarray(positions, dtype=float)
     leg = _leg_length(p, layout)
