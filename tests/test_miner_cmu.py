@@ -99,14 +99,35 @@ def test_source_table_lists_every_trial_with_its_turns(cmu_dir) -> None:
     assert len(rows) == 9 and sum(c for c, _ in rows.values()) == 12
 
 
-def test_every_listed_trial_mined_against_the_roots_heading(cmu_dir) -> None:
+@pytest.fixture(scope="module")
+def mined(cmu_dir) -> dict:
+    """Every listed trial read and mined with no option: ``{file: (sequence, clips)}``."""
+    out = {}
+    for name, _, _ in source_table(cmu_dir):
+        (seq,) = readers.read_source(cmu_dir / name, skip_first_frame=True)
+        out[name] = (seq, mine_sequence(seq.positions, layout=seq.layout, fps_hz=seq.fps))
+    return out
+
+
+def readme_cmu_table() -> list[list[str]]:
+    """The cells of each row of the README's CMU table (the miner's rule section)."""
+    lines = (REPO / "README.md").read_text(encoding="utf-8").splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("| trial | CMU's"))
+    rows = []
+    for line in lines[start + 2 :]:
+        if not line.startswith("|"):
+            break
+        rows.append([c.strip() for c in line.strip("|").split("|")])
+    return rows
+
+
+def test_every_listed_trial_mined_against_the_roots_heading(cmu_dir, mined) -> None:
     """Each turn found with its direction, within 3° of the root's heading change; no clip on
     the walks; each clip's boundaries where the root's heading is still (or again) near its
     mean before (after) the turn, so the truth's windows are outside the turn."""
     report = []
     for name, count, side in source_table(cmu_dir):
-        (seq,) = readers.read_source(cmu_dir / name, skip_first_frame=True)
-        clips = mine_sequence(seq.positions, layout=seq.layout, fps_hz=seq.fps)
+        seq, clips = mined[name]
         assert len(clips) == count, (name, clips)
         if not count:
             continue
@@ -127,26 +148,19 @@ def test_every_listed_trial_mined_against_the_roots_heading(cmu_dir) -> None:
     assert len(report) >= 5
 
 
-def test_the_readmes_cmu_table_is_what_the_miner_gives(cmu_dir) -> None:
+def test_the_readmes_cmu_table_is_what_the_miner_gives(cmu_dir, mined) -> None:
     """Every row of the README's CMU table (mined angles, the root's heading change, the hip
     rotation, to 0.1°) is what the miner and the root's own rotation give now."""
-    lines = (REPO / "README.md").read_text(encoding="utf-8").splitlines()
-    start = next(i for i, line in enumerate(lines) if line.startswith("| trial | CMU's"))
-    rows = {}
-    for line in lines[start + 2 :]:
-        if not line.startswith("|"):
-            break
-        cells = [c.strip() for c in line.strip("|").split("|")]
-        rows[cells[0] + ".bvh"] = [
-            [float(x) for x in re.findall(r"\d+\.\d", c)] for c in cells[2:5]
-        ]
-    assert set(rows) == {name for name, _, _ in source_table(cmu_dir)}
-    for name, (mined, root, hip) in rows.items():
-        (seq,) = readers.read_source(cmu_dir / name, skip_first_frame=True)
-        clips = mine_sequence(seq.positions, layout=seq.layout, fps_hz=seq.fps)
+    rows = {
+        cells[0] + ".bvh": [[float(x) for x in re.findall(r"\d+\.\d", c)] for c in cells[2:5]]
+        for cells in readme_cmu_table()
+    }
+    assert set(rows) == set(mined)
+    for name, (angles, root, hip) in rows.items():
+        seq, clips = mined[name]
         starts, ends = clips.start_frame.tolist(), clips.end_frame.tolist()
         truth = np.abs(true_angles(root_heading_deg(cmu_dir / name), starts, ends, seq.fps))
-        assert clips.angle_deg.round(1).tolist() == mined, name
+        assert clips.angle_deg.round(1).tolist() == angles, name
         assert truth.round(1).tolist() == root, name
         assert clips.hip_rotation_deg.round(1).tolist() == hip, name
 
@@ -156,26 +170,17 @@ def _signed(value: float) -> str:
     return f"{value:+.1f}°".replace("-", "\u2212")
 
 
-def test_the_readmes_hip_rotation_range_is_what_the_miner_gives(cmu_dir) -> None:
+def test_the_readmes_hip_rotation_range_is_what_the_miner_gives(mined) -> None:
     """The miner's rule section: how far ``hip_rotation_deg`` is off the heading change
     (``angle_deg``) on the CMU table's walking turns (the trials CMU describes as walks), from
     its lowest to its highest, is what the miner gives now."""
-    lines = (REPO / "README.md").read_text(encoding="utf-8").splitlines()
-    start = next(i for i, line in enumerate(lines) if line.startswith("| trial | CMU's"))
-    walks = []
-    for line in lines[start + 2 :]:
-        if not line.startswith("|"):
-            break
-        trial, description = (c.strip() for c in line.strip("|").split("|")[:2])
-        if description.startswith("walk"):
-            walks.append(trial + ".bvh")
+    walks = [cells[0] + ".bvh" for cells in readme_cmu_table() if cells[1].startswith("walk")]
     off = []
     for name in walks:
-        (seq,) = readers.read_source(cmu_dir / name, skip_first_frame=True)
-        clips = mine_sequence(seq.positions, layout=seq.layout, fps_hz=seq.fps)
+        clips = mined[name][1]
         off += (clips.hip_rotation_deg.abs() - clips.angle_deg.abs()).tolist()
     assert len(off) >= 5  # four corners and the curved walk
-    text = " ".join(" ".join(lines).split())
+    text = " ".join((REPO / "README.md").read_text(encoding="utf-8").split())
     claim = (
         f"it is off by {_signed(min(off))} to {_signed(max(off))} on the CMU walking turns below"
     )
