@@ -22,6 +22,7 @@ from turn_datasets.skeleton import H36M17
 from turn_eval.detect.mapping import detect_files
 from turn_eval.detect.rule import MinerRule
 from turn_eval.mapping import Failure, files
+from turn_eval.mapping.cluster import noting_interrupts
 
 BASE = ["--layout", "h36m17", "--up-axis", "-y", "--fps", "30", "--min-turn-deg", "67.5"]
 KW = {"detector": MinerRule(), "layout": H36M17, "up_axis": "-y", "fps_hz": 30.0}
@@ -250,22 +251,27 @@ def test_a_ctrl_c_that_something_swallows_is_still_noted() -> None:
     # (exit 2). The Ctrl-C is noted as well as raised, and the handler put back after.
     pressed: list[int] = []
     before = signal.getsignal(signal.SIGINT)
-    with files._noting_interrupts(pressed):
+    with noting_interrupts(pressed, then_raise=True):
         with pytest.raises(KeyboardInterrupt):
             os.kill(os.getpid(), signal.SIGINT)
             time.sleep(1.0)  # the handler runs at the next bytecode, well within this
         assert pressed == [signal.SIGINT]
     assert signal.getsignal(signal.SIGINT) is before
+    # while a local cluster starts: noted only (the caller stops once it can close it)
+    with noting_interrupts(pressed, then_raise=False):
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.2)
+    assert pressed == [signal.SIGINT, signal.SIGINT]
     # ignored before (a job started in the background), ignored inside: neither noted nor
     # raised
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
-        with files._noting_interrupts(pressed):
+        with noting_interrupts(pressed, then_raise=True):
             os.kill(os.getpid(), signal.SIGINT)
             time.sleep(0.2)
     finally:
         signal.signal(signal.SIGINT, before)
-    assert pressed == [signal.SIGINT]
+    assert pressed == [signal.SIGINT, signal.SIGINT]
 
 
 def test_runs_of_files_are_cut_into_about_equal_tasks_in_order() -> None:

@@ -41,6 +41,7 @@ __all__ = [
     "check_scheduler_address",
     "connect",
     "local_cluster",
+    "noting_interrupts",
     "open_files_needed",
 ]
 
@@ -118,22 +119,45 @@ def _starting_workers(pressed: list[int]) -> Iterator[None]:
     would print its own tracebacks at exit); the caller stops once the cluster is up.
     Signal handlers can only be set in the main thread; elsewhere Ctrl-C is not ours.
     """
-    main = threading.current_thread() is threading.main_thread()
-    previous = (
-        signal.signal(signal.SIGINT, lambda signum, frame: pressed.append(signum)) if main else None
-    )
-    sys.stderr.flush()
-    saved = os.dup(2)
-    null = os.open(os.devnull, os.O_WRONLY)
-    os.dup2(null, 2)
-    os.close(null)
+    with noting_interrupts(pressed, then_raise=False):
+        sys.stderr.flush()
+        saved = os.dup(2)
+        null = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(null, 2)
+        os.close(null)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+
+
+@contextlib.contextmanager
+def noting_interrupts(pressed: list[int], *, then_raise: bool) -> Iterator[None]:
+    """Inside the block, Ctrl-C is noted in ``pressed`` and, with ``then_raise``, raised as
+    before; without, only noted (for a caller that stops at a point of its own choosing).
+
+    Signal handlers can only be set in the main thread: elsewhere Ctrl-C is not ours. An
+    ignored SIGINT (a job started in the background) stays ignored."""
+    previous = signal.getsignal(signal.SIGINT)
+    if threading.current_thread() is not threading.main_thread() or previous == signal.SIG_IGN:
+        yield
+        return
+
+    def note(signum: int, frame: Any) -> None:
+        pressed.append(signum)
+        if not then_raise:
+            return
+        if callable(previous):
+            previous(signum, frame)
+        else:
+            raise KeyboardInterrupt
+
+    signal.signal(signal.SIGINT, note)
     try:
         yield
     finally:
-        os.dup2(saved, 2)
-        os.close(saved)
-        if main:
-            signal.signal(signal.SIGINT, previous)
+        signal.signal(signal.SIGINT, previous)
 
 
 @contextlib.contextmanager

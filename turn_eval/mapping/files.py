@@ -29,14 +29,11 @@ Progress: with ``on_progress``, ``fn`` is also given ``on_progress(n)`` to call 
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import os
-import signal
-import threading
 import time
 import uuid
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -182,35 +179,6 @@ def _batches(indices: list[int], n_tasks: int) -> list[list[int]]:
     return [indices[a:b] for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
 
 
-@contextlib.contextmanager
-def _noting_interrupts(pressed: list[int]) -> Iterator[None]:
-    """Ctrl-C is noted in ``pressed`` and then raised as before.
-
-    Ctrl-C at a terminal signals the workers too: they die, and the client may hear of
-    their deaths before its own ``KeyboardInterrupt`` surfaces (a Dask call into its event
-    loop can swallow it). A task that ends after a noted Ctrl-C, or dies as it arrives, is
-    the user's interrupt, not a file that killed its worker: a run once reported "the
-    worker process died" and exit 2 for a Ctrl-C. Signal handlers can only be set in the
-    main thread, and an ignored SIGINT stays ignored."""
-    previous = signal.getsignal(signal.SIGINT)
-    if threading.current_thread() is not threading.main_thread() or previous == signal.SIG_IGN:
-        yield  # not ours to handle, or ignored (a job started in the background)
-        return
-
-    def note(signum: int, frame: Any) -> None:
-        pressed.append(signum)
-        if callable(previous):
-            previous(signum, frame)
-        else:
-            raise KeyboardInterrupt
-
-    signal.signal(signal.SIGINT, note)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
-
-
 def _distributed(
     fn: Callable[..., Any],
     files: Sequence[str],
@@ -227,14 +195,21 @@ def _distributed(
     from dask.distributed import as_completed
     from distributed import KilledWorker
 
-    from turn_eval.mapping.cluster import connect
+    from turn_eval.mapping.cluster import connect, noting_interrupts
 
     results: list[Any] = [None] * len(files)
     token = uuid.uuid4().hex
     name = getattr(fn, "__name__", "task")
     logging.getLogger("distributed.scheduler").addFilter(_NO_DEATH_NOTICE)
+    # Ctrl-C at a terminal signals the workers too: they die, and this process may hear of
+    # their deaths before its own KeyboardInterrupt surfaces (a Dask call into its event loop
+    # can swallow it), which once made a Ctrl-C "the worker process died" and exit 2. A task
+    # that ends after a noted Ctrl-C, or dies as it arrives, is the interrupt.
     pressed: list[int] = []
-    with connect(workers=workers, scheduler=scheduler) as client, _noting_interrupts(pressed):
+    with (
+        connect(workers=workers, scheduler=scheduler) as client,
+        noting_interrupts(pressed, then_raise=True),
+    ):
         on_start()
         topic = None
         if on_progress is not None:
